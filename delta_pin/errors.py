@@ -1,0 +1,50 @@
+"""One exception hierarchy for delta-pin, rooted at :class:`DeltaPinError`.
+
+Every error message names the offending value (the point, the argument, the time), so that a
+failing script says what to change without a debugger.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "AssemblyError",
+    "DeltaPinError",
+    "ForwardKinematicsError",
+    "InvalidParameterError",
+    "NonFiniteError",
+    "URDFConventionError",
+    "UnreachablePoseError",
+    "XacroArgumentError",
+]
+
+
+class DeltaPinError(Exception):
+    """Base class of every error raised on purpose by delta-pin."""
+
+
+class InvalidParameterError(DeltaPinError, ValueError):
+    """A parameter (length, mass, gain, option) has a value outside its domain."""
+
+
+class XacroArgumentError(InvalidParameterError):
+    """An unknown xacro argument, or a value that is not valid for a known one."""
+
+
+class NonFiniteError(DeltaPinError, ValueError):
+    """A NaN or infinite number where a finite one is required."""
+
+
+class URDFConventionError(DeltaPinError):
+    """The URDF does not follow delta-pin's Delta convention (DESIGN.md section 3)."""
+
+
+class AssemblyError(DeltaPinError):
+    """The geometry cannot close its three loops (e.g. forearms too short to meet)."""
+
+
+class UnreachablePoseError(DeltaPinError, ValueError):
+    """A platform position outside the workspace (or outside the elbow-out IK branch)."""
+
+
+class ForwardKinematicsError(DeltaPinError, ValueError):
+    """Active joint angles for which no platform position closes the three loops."""

@@ -1,0 +1,212 @@
+"""The Delta as a Pinocchio model: the kinematic tree plus one point constraint per loop.
+
+The tree (12 joints: 3 active, 3 x 2 elbow, 3 platform slides) comes from the same URDF as the
+analytic model; each ``<constraint>`` becomes a ``pin.RigidConstraintModel`` (CONTACT_3D). This
+module gives the closure-consistent configuration q(alpha) and velocity v(alpha, alpha_dot), and
+the reduced dynamics obtained by projecting the tree's dynamics onto the active joints:
+
+    S = dq/dalpha (constraint null space, active rows = I),
+    M_red = S^T M S,   G_red = S^T g(q),   C alpha_dot_red = S^T (nle(q, v) - g(q)) + S^T M S_dot alpha_dot,
+
+which is an independent route to the paper's eqs. 7-9 (DESIGN.md section 5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from .description import DeltaDescription
+from .dynamics import ReducedDynamics
+from .errors import AssemblyError
+from .kinematics import as_vector3, forward_kinematics
+
+__all__ = ["DeltaPinocchioModel"]
+
+_WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class DeltaPinocchioModel:
+    """Pinocchio model, data and loop-closure constraints of a Delta description.
+
+    Attributes:
+        model: the ``pin.Model`` of the tree, gravity set to [0, 0, -g].
+        data: its ``pin.Data``.
+        constraint_models: ``StdVec_RigidConstraintModel``, one CONTACT_3D per closure (LOCAL).
+        constraint_datas: matching ``StdVec_RigidConstraintData``.
+        active_indices: indices of alpha_1..3 in q and v (all joints are 1-DOF: nq = nv).
+        passive_indices: indices of the elbow and platform coordinates.
+        platform_indices: indices of the platform's x, y, z slides in q.
+    """
+
+    def __init__(self, description: DeltaDescription) -> None:
+        self.description = description
+        params = description.params
+        model = pin.buildModelFromXML(description.urdf)
+        model.gravity.linear = np.array([0.0, 0.0, -params.g])
+        if model.nq != model.nv:
+            raise AssemblyError("delta-pin expects 1-DOF joints only (nq == nv)")
+        self.active_indices = np.array(
+            [model.idx_vs[model.getJointId(name)] for name in description.active_joints]
+        )
+        self.platform_indices = np.array(
+            [model.idx_vs[model.getJointId(name)] for name in description.platform_joints]
+        )
+        self.passive_indices = np.setdiff1d(np.arange(model.nv), self.active_indices)
+        self.platform_joint = model.getJointId(description.platform_joints[-1])
+        self._elbow_joints = [
+            (model.getJointId(f"elbow_{i}_pitch"), model.getJointId(f"elbow_{i}_roll")) for i in range(1, 4)
+        ]
+        self._constraint_models = []
+        self._closure_frames = []
+        for closure in description.closures:
+            anchors = []
+            for link, origin, tag in (
+                (closure.parent_link, closure.parent_origin, "parent"),
+                (closure.child_link, closure.child_origin, "child"),
+            ):
+                body = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+                placement = body.placement * pin.SE3(np.eye(3), np.asarray(origin, dtype=float))
+                frame = pin.Frame(
+                    f"{closure.name}_{tag}",
+                    body.parentJoint,
+                    model.getFrameId(link, pin.FrameType.BODY),
+                    placement,
+                    pin.FrameType.OP_FRAME,
+                )
+                anchors.append((body.parentJoint, placement, model.addFrame(frame)))
+            (j1, P1, f1), (j2, P2, f2) = anchors
+            constraint = pin.RigidConstraintModel(
+                pin.ContactType.CONTACT_3D, model, j1, P1, j2, P2, pin.ReferenceFrame.LOCAL
+            )
+            constraint.name = closure.name
+            self._constraint_models.append(constraint)
+            self._closure_frames.append((f1, f2))
+        self.model = model
+        self.data = model.createData()
+        self.constraint_models = pin.StdVec_RigidConstraintModel()
+        self.constraint_datas = pin.StdVec_RigidConstraintData()
+        for cm in self._constraint_models:
+            self.constraint_models.append(cm)
+            self.constraint_datas.append(cm.createData())
+
+    # ----------------------------------------------------------------------------- kinematics
+    def closure_residual(self, q: np.ndarray) -> np.ndarray:
+        """Stacked world-frame gaps p_parent - p_child of the closures at q [m] (3 n_closures,)."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return np.concatenate(
+            [self.data.oMf[f1].translation - self.data.oMf[f2].translation for f1, f2 in self._closure_frames]
+        )
+
+    def _closure_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """d(closure_residual)/dq (3 n_closures, nv); needs kinematics at q already computed."""
+        pin.computeJointJacobians(self.model, self.data, q)
+        return np.vstack(
+            [
+                pin.getFrameJacobian(self.model, self.data, f1, _WORLD)[:3]
+                - pin.getFrameJacobian(self.model, self.data, f2, _WORLD)[:3]
+                for f1, f2 in self._closure_frames
+            ]
+        )
+
+    def analytic_configuration(self, alpha: np.ndarray) -> np.ndarray:
+        """q with the analytic FK for the platform and each forearm pointing from B_i to C_i.
+
+        Its closure residual measures how well the analytic FK closes Pinocchio's loops.
+        """
+        q = pin.neutral(self.model)
+        q[self.active_indices] = alpha
+        q[self.platform_indices] = forward_kinematics(self.description.params, alpha)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        for (pitch, roll), (_f1, f2) in zip(self._elbow_joints, self._closure_frames):
+            parent = self.data.oMi[self.model.parents[pitch]] * self.model.jointPlacements[pitch]
+            target = self.data.oMf[f2].translation - parent.translation
+            d = parent.rotation.T @ (target / np.linalg.norm(target))
+            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (DESIGN.md section 3)
+            q[self.model.idx_qs[roll]] = math.asin(float(np.clip(d[1], -1.0, 1.0)))
+            q[self.model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
+        return q
+
+    def configuration(self, alpha: np.ndarray, tol: float = 1e-13, max_iterations: int = 30) -> np.ndarray:
+        """Closure-consistent configuration q(alpha) (nq,) with the active joints at ``alpha``.
+
+        Newton iterations on the closure residual over the passive coordinates, started from
+        the analytic FK with each forearm pointing from B_i towards C_i.
+
+        Raises:
+            AssemblyError: no configuration closes the loops to ``tol`` [m].
+        """
+        alpha = as_vector3(alpha, "alpha")
+        q = self.analytic_configuration(alpha)
+        for _ in range(max_iterations):
+            residual = self.closure_residual(q)
+            if np.abs(residual).max() <= tol:
+                return q
+            jacobian = self._closure_jacobian(q)[:, self.passive_indices]
+            q[self.passive_indices] -= np.linalg.lstsq(jacobian, residual, rcond=None)[0]
+        raise AssemblyError(
+            f"the loops do not close at alpha={alpha.tolist()} rad: residual "
+            f"{np.abs(residual).max():.3e} m after {max_iterations} Newton steps"
+        )
+
+    def velocity_map(self, q: np.ndarray) -> np.ndarray:
+        """S = dq/dalpha (nv, 3): v = S alpha_dot satisfies the closures' velocity constraint."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        jacobian = self._closure_jacobian(q)
+        S = np.zeros((self.model.nv, 3))
+        S[self.active_indices] = np.eye(3)
+        S[self.passive_indices] = -np.linalg.solve(
+            jacobian[:, self.passive_indices], jacobian[:, self.active_indices]
+        )
+        return S
+
+    def _velocity_map_rate(self, q: np.ndarray, v: np.ndarray, S: np.ndarray) -> np.ndarray:
+        """S_dot alpha_dot (nv,): the passive acceleration when alpha_ddot = 0.
+
+        From J_c v_dot + J_c_dot v = 0; J_c_dot v is the gap between the closure points'
+        classical accelerations at zero joint acceleration.
+        """
+        pin.forwardKinematics(self.model, self.data, q, v, np.zeros(self.model.nv))
+        drift = np.concatenate(
+            [
+                pin.getFrameClassicalAcceleration(self.model, self.data, f1, _WORLD).linear
+                - pin.getFrameClassicalAcceleration(self.model, self.data, f2, _WORLD).linear
+                for f1, f2 in self._closure_frames
+            ]
+        )
+        jacobian = self._closure_jacobian(q)
+        rate = np.zeros(self.model.nv)
+        rate[self.passive_indices] = -np.linalg.solve(jacobian[:, self.passive_indices], drift)
+        return rate
+
+    def state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Closure-consistent (q, v) for active angles [rad] and velocities [rad/s]."""
+        q = self.configuration(alpha)
+        return q, self.velocity_map(q) @ as_vector3(alpha_dot, "alpha_dot")
+
+    def platform_position(self, q: np.ndarray) -> np.ndarray:
+        """Platform position xyz [m] read from the slides of q."""
+        return np.asarray(q)[self.platform_indices].copy()
+
+    # ----------------------------------------------------------------------------- dynamics
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """Full symmetric joint-space inertia matrix of the tree (nv, nv) [SI]."""
+        M = pin.crba(self.model, self.data, q)
+        return np.triu(M) + np.triu(M, 1).T
+
+    def reduced_dynamics(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> ReducedDynamics:
+        """M_red, C alpha_dot_red, G_red on the active joints by projection (see module doc)."""
+        q = self.configuration(alpha)
+        S = self.velocity_map(q)
+        v = S @ as_vector3(alpha_dot, "alpha_dot")
+        M = self.mass_matrix(q)
+        gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
+        nle = pin.nonLinearEffects(self.model, self.data, q, v).copy()
+        rate = self._velocity_map_rate(q, v, S)
+        return ReducedDynamics(
+            M=S.T @ M @ S,
+            G=S.T @ gravity,
+            coriolis=S.T @ (nle - gravity) + S.T @ (M @ rate),
+        )

@@ -1,0 +1,144 @@
+"""The user-facing robot object: :func:`load_delta` and :class:`Delta`."""
+
+from __future__ import annotations
+
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from . import kinematics
+from .description import GRAVITY, DeltaDescription, compile_urdf, read_description
+from .dynamics import ReducedDynamics, analytic_dynamics
+from .errors import AssemblyError, DeltaPinError, ForwardKinematicsError, URDFConventionError
+from .friction import stribeck_torque
+from .pinocchio_model import DeltaPinocchioModel
+
+__all__ = ["Delta", "load_delta"]
+
+# common active angles tried to show that a geometry can close its loops at all [rad]
+_ASSEMBLY_PROBES = np.linspace(-1.2, 1.4, 27)
+
+
+class Delta:
+    """A Delta robot: parameters read from its URDF, analytic and Pinocchio models.
+
+    Build one with :func:`load_delta`. All methods take and return SI units.
+    """
+
+    def __init__(self, description: DeltaDescription, xacro_args: dict | None = None) -> None:
+        self.description = description
+        self.xacro_args = dict(xacro_args or {})
+        self._check_assembly()
+
+    @property
+    def params(self):
+        """The :class:`~delta_pin.description.DeltaParameters` read from the URDF."""
+        return self.description.params
+
+    @property
+    def urdf(self) -> str:
+        """The URDF text every model of this robot is built from."""
+        return self.description.urdf
+
+    @cached_property
+    def pinocchio(self) -> DeltaPinocchioModel:
+        """The constrained Pinocchio model (built on first use)."""
+        return DeltaPinocchioModel(self.description)
+
+    def _check_assembly(self) -> None:
+        for angle in _ASSEMBLY_PROBES:
+            try:
+                kinematics.forward_kinematics(self.params, np.full(3, angle))
+                return
+            except ForwardKinematicsError:
+                continue
+        p = self.params
+        raise AssemblyError(
+            f"the geometry R={p.R}, r={p.r}, l_a={p.l_a}, l_b={p.l_b} m cannot close its loops for "
+            f"any common arm angle in [{_ASSEMBLY_PROBES[0]}, {_ASSEMBLY_PROBES[-1]}] rad "
+            "(forearms too short or too long for the platforms?)"
+        )
+
+    # -------------------------------------------------------------------- kinematics (eqs. 1-5, 10)
+    def inverse_kinematics(self, xyz: np.ndarray) -> np.ndarray:
+        """Active angles alpha (3,) [rad] of the elbow-out branch for platform position xyz [m]."""
+        return kinematics.inverse_kinematics(self.params, xyz)
+
+    def forward_kinematics(self, alpha: np.ndarray) -> np.ndarray:
+        """Platform position xyz (3,) [m] below the base for active angles alpha [rad]."""
+        return kinematics.forward_kinematics(self.params, alpha)
+
+    def jacobian(self, alpha: np.ndarray) -> np.ndarray:
+        """J (3, 3) [m/rad] with xyz_dot = J alpha_dot (eq. 10)."""
+        return kinematics.jacobian(self.params, kinematics.as_vector3(alpha, "alpha"))
+
+    def jacobian_derivative_times_velocity(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
+        """J_dot alpha_dot (3,) [m/s^2]: platform acceleration at zero joint acceleration."""
+        return kinematics.jacobian_derivative_times_velocity(
+            self.params, kinematics.as_vector3(alpha, "alpha"), kinematics.as_vector3(alpha_dot, "alpha_dot")
+        )
+
+    # -------------------------------------------------------------------- dynamics (eqs. 7-9, 12)
+    def analytic_dynamics(
+        self, alpha: np.ndarray, alpha_dot: np.ndarray, platform_mass: float | None = None
+    ) -> ReducedDynamics:
+        """The paper's M, C, G (eqs. 7-9, G with the corrected sign); ``.coriolis = C @ alpha_dot``."""
+        return analytic_dynamics(self.params, alpha, alpha_dot, platform_mass)
+
+    def pinocchio_dynamics(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> ReducedDynamics:
+        """M, C alpha_dot, G of the constrained Pinocchio model projected on the active joints."""
+        return self.pinocchio.reduced_dynamics(alpha, alpha_dot)
+
+    def friction_torque(
+        self, alpha_dot: np.ndarray, normal_force: np.ndarray | float, sign_velocity_scale: float = 0.0
+    ) -> np.ndarray:
+        """Stribeck friction torque M_f (3,) [N m] of eq. 12 for normal forces F_n [N]."""
+        if self.params.friction is None:
+            raise DeltaPinError("this URDF carries no <delta_pin_friction> element")
+        return stribeck_torque(self.params.friction, alpha_dot, normal_force, sign_velocity_scale)
+
+    def __repr__(self) -> str:
+        p = self.params
+        return (
+            f"Delta(R={p.R:g}, r={p.r:g}, l_a={p.l_a:g}, l_b={p.l_b:g}, m_a={p.m_a:g}, "
+            f"m_b={p.m_b:g}, m_o={p.m_o:g}, forearm_inertia={p.forearm_inertia!r})"
+        )
+
+
+def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_args: float | str) -> Delta:
+    """Load a Delta robot.
+
+    Args:
+        urdf: path of a URDF (or xacro) file that follows DESIGN.md section 3; ``None`` compiles
+            the packaged ``delta.urdf.xacro`` (the paper's Table 1 robot by default).
+        g: gravity acceleration [m/s^2] (9.8, the paper's, by default).
+        **xacro_args: arguments of the packaged xacro, SI units: ``R, r, l_a, l_b, m_a, m_b,
+            m_o`` [m, kg], ``forearm_inertia`` (``"lumped"`` or ``"rod"``), friction ``r_a, v_s,
+            mu_s, mu_d, mu_v``.
+
+    Examples:
+        >>> robot = load_delta()                      # Table 1
+        >>> robot = load_delta(l_a=0.25, m_o=0.5)     # swap dimensions and masses
+
+    Raises:
+        XacroArgumentError: unknown argument or invalid value.
+        URDFConventionError: the URDF does not follow the convention.
+        AssemblyError: the geometry cannot close its loops.
+    """
+    if urdf is None:
+        text = compile_urdf(**xacro_args)
+    else:
+        if xacro_args:
+            raise URDFConventionError(
+                f"xacro arguments {sorted(xacro_args)} apply to the packaged xacro only, not to urdf={urdf!s}"
+            )
+        path = Path(urdf)
+        if not path.is_file():
+            raise URDFConventionError(f"URDF file {str(path)!r} does not exist")
+        text = path.read_text()
+        if path.suffix == ".xacro":
+            from xacrodoc import XacroDoc
+
+            text = XacroDoc.from_file(str(path)).to_urdf_string()
+    return Delta(read_description(text, g=g), xacro_args)

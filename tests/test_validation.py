@@ -1,0 +1,74 @@
+"""``validate`` and the ``delta-pin urdf | validate`` commands."""
+
+import subprocess
+import sys
+
+import pytest
+
+import delta_pin as dp
+from delta_pin.cli import main
+from delta_pin.validation import validate
+
+from .conftest import OTHER_ROBOTS
+
+
+def test_default_robot_validates(robot):
+    report = validate(robot, samples=30, seed=0)
+    assert report.passed, report.table()
+    errors = {check.name: check.max_rel for check in report.checks}
+    assert errors["M"] < 1e-12 and errors["G"] < 1e-12 and errors["C a_dot"] < 1e-11
+
+
+@pytest.mark.parametrize("name", sorted(OTHER_ROBOTS))
+def test_other_dimension_and_mass_sets_validate(name):
+    report = validate(dp.load_delta(**OTHER_ROBOTS[name]), samples=15, seed=1)
+    assert report.passed, report.table()
+
+
+def test_rod_forearm_fails_with_the_real_model_error():
+    report = validate(dp.load_delta(forearm_inertia="rod"), samples=15, seed=0)
+    assert not report.passed
+    failed = {check.name for check in report.checks if not check.passed}
+    assert failed == {"M", "C a_dot"}  # gravity is unchanged: same masses, same centres
+    m_check = next(c for c in report.checks if c.name == "M")
+    assert 0.01 < m_check.max_rel < 1.0
+
+
+def test_tolerance_and_samples_are_checked(robot):
+    with pytest.raises(dp.InvalidParameterError, match="tol=0"):
+        validate(robot, tol=0)
+    with pytest.raises(dp.InvalidParameterError, match="samples=0"):
+        validate(robot, samples=0)
+
+
+def test_cli_validate_exit_codes(capsys):
+    assert main(["validate", "--samples", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "all checks passed" in out and "M_dot - 2C skew" in out
+    assert main(["validate", "--samples", "5", "--set", "forearm_inertia=rod"]) == 1
+    assert "FAIL" in capsys.readouterr().out
+
+
+def test_cli_urdf_writes_a_loadable_file(tmp_path):
+    out = tmp_path / "sub" / "delta.urdf"
+    assert main(["urdf", "--set", "l_a=0.25", "--set", "m_o=0.5", "-o", str(out)]) == 0
+    robot = dp.load_delta(urdf=out)
+    assert (robot.params.l_a, robot.params.m_o) == (0.25, 0.5)
+    assert main(["validate", "--urdf", str(out), "--samples", "3"]) == 0
+
+
+def test_cli_bad_argument_is_a_clear_error(capsys):
+    assert main(["urdf", "--set", "l_a=-1"]) == 2
+    assert "l_a='-1'" in capsys.readouterr().err
+    assert main(["validate", "--set", "wingspan=3"]) == 2
+    assert "unknown xacro argument 'wingspan'" in capsys.readouterr().err
+
+
+def test_console_script_is_installed():
+    result = subprocess.run(
+        [sys.executable, "-m", "delta_pin.cli", "validate", "--samples", "2"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
