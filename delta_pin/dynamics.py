@@ -45,20 +45,23 @@ def analytic_dynamics(
     alpha_dot: np.ndarray,
     platform_mass: float | None = None,
 ) -> ReducedDynamics:
-    """M, C, G of eqs. 7-9 at (alpha [rad], alpha_dot [rad/s]).
+    """M, C, G of eqs. 7-9 at (alpha [rad], alpha_dot [rad/s]), one state (3,) or a batch (..., 3).
 
     Args:
         params: the robot.
-        platform_mass: m_o [kg] to use instead of ``params.m_o`` (time-varying payload).
+        platform_mass: m_o [kg] (scalar or per batch element) instead of ``params.m_o``
+            (time-varying payload).
     """
     alpha = as_vector3(alpha, "alpha")
     alpha_dot = as_vector3(alpha_dot, "alpha_dot")
-    m_o = params.m_o if platform_mass is None else platform_mass
-    m_eq = m_o + 1.5 * params.m_b
+    m_o = params.m_o if platform_mass is None else np.asarray(platform_mass, dtype=float)
+    m_eq = np.asarray(m_o + 1.5 * params.m_b)[..., None, None]
     xyz = forward_kinematics(params, alpha)
     J = jacobian(params, alpha, xyz)
-    J_dot = jacobian_derivative(params, alpha, alpha_dot, xyz)
-    M = params.arm_equivalent_inertia * np.eye(3) + m_eq * (J.T @ J)
-    C = m_eq * (J.T @ J_dot)
-    G = -0.5 * (params.m_a + params.m_b) * params.g * params.l_a * np.cos(alpha) + m_eq * params.g * J[2]
-    return ReducedDynamics(M=M, G=G, coriolis=C @ alpha_dot, C=C)
+    J_T = np.swapaxes(J, -1, -2)
+    M = params.arm_equivalent_inertia * np.eye(3) + m_eq * (J_T @ J)
+    C = m_eq * (J_T @ jacobian_derivative(params, alpha, alpha_dot, xyz))
+    G = -0.5 * (params.m_a + params.m_b) * params.g * params.l_a * np.cos(alpha) + (
+        m_eq[..., 0] * params.g * J[..., 2, :]
+    )
+    return ReducedDynamics(M=M, G=G, coriolis=(C @ alpha_dot[..., None])[..., 0], C=C)
