@@ -12,6 +12,7 @@ __all__ = [
     "ForwardKinematicsError",
     "InvalidParameterError",
     "NonFiniteError",
+    "SimulationError",
     "URDFConventionError",
     "UnreachablePoseError",
     "XacroArgumentError",
@@ -48,3 +49,15 @@ class UnreachablePoseError(DeltaPinError, ValueError):
 
 class ForwardKinematicsError(DeltaPinError, ValueError):
     """Active joint angles for which no platform position closes the three loops."""
+
+
+class SimulationError(DeltaPinError):
+    """A simulation that cannot go on: the message gives the time [s] at which it stopped.
+
+    Attributes:
+        time: simulated time [s] of the failure.
+    """
+
+    def __init__(self, message: str, time: float) -> None:
+        super().__init__(f"{message} (at t={time:.6g} s)")
+        self.time = time

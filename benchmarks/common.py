@@ -1,0 +1,67 @@
+"""Shared timing helpers: repeat a callable, report median / min / max, print a table."""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+
+@dataclass
+class Timing:
+    """Wall times [s] of repeated calls of one benchmark case."""
+
+    name: str
+    times: list[float]
+    note: str = ""
+
+    @property
+    def median(self) -> float:
+        return statistics.median(self.times)
+
+
+def measure(name: str, function: Callable[[], object], repeats: int = 5, note: str = "") -> Timing:
+    """Call ``function`` ``repeats`` times (after one warm-up call) and keep the wall times."""
+    function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return Timing(name, times, note)
+
+
+def _format(seconds: float) -> str:
+    if seconds < 1e-3:
+        return f"{seconds * 1e6:.1f} us"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.1f} ms"
+    return f"{seconds:.2f} s"
+
+
+def machine_info() -> str:
+    return (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}"
+    )
+
+
+def print_table(title: str, timings: list[Timing], reference: Timing | None = None) -> None:
+    """Median, min and max per case; the ratio to ``reference`` (measured in the same run)."""
+    print(f"\n## {title}\n")
+    header = (
+        "| case | median | min | max | repeats |" + (" time / reference |" if reference else "") + " note |"
+    )
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    for timing in timings:
+        ratio = f" {timing.median / reference.median:.2f} |" if reference else ""
+        if reference is timing:
+            ratio = " reference |"
+        print(
+            f"| {timing.name} | {_format(timing.median)} | {_format(min(timing.times))} | "
+            f"{_format(max(timing.times))} | {len(timing.times)} |{ratio} {timing.note} |"
+        )

@@ -1,0 +1,335 @@
+"""Plants: the simulated "true" robot, driven by torques on the three active joints.
+
+Both plants integrate eq. 13 of the paper,
+
+    M(alpha, m_o(t)) alpha_ddot + C alpha_dot + G + F(t) + M_f(alpha_dot, F_n(t)) = tau,
+
+with the plant's truth (friction, time-varying platform mass m_o(t), normal force F_n(t) and
+joint disturbance F(t)) kept apart from what a controller knows:
+
+* :class:`PinocchioPlant` -- the full 12-joint tree with its three point closures, integrated
+  with ``pin.constraintDynamics`` (exact KKT solve, mu = 0). Baumgarte stabilisation
+  (omega = 20 rad/s, critically damped) damps closure drift; should the closure gap still exceed
+  ``projection_tolerance`` after a step, the passive coordinates are projected back onto the
+  constraint manifold (positions by Newton, velocities through the null space). The platform
+  mass changes during the run by rewriting the platform body's inertia (its rotational inertia
+  scales with the mass);
+* :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G) through the fast
+  kernels of :mod:`delta_pin.fast_model`.
+
+A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
+
+Friction: eq. 12 with sgn replaced by tanh(alpha_dot / sign_velocity_scale) -- 0.01 rad/s by
+default -- so that the ODE right-hand side stays Lipschitz and RK4 at 1 kHz resolves it (the
+friction slope near zero is then mu_d F_n r_a / 0.01 = 6 N m s/rad on the Table 1 robot).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .description import StribeckParameters
+from .errors import AssemblyError, InvalidParameterError, SimulationError
+from .fast_model import (
+    chain_trigonometry,
+    delta_terms,
+    friction_kernel_arguments,
+    pack_geometry,
+    solve3,
+    stribeck_kernel,
+)
+from .robot import Delta
+
+__all__ = ["AnalyticPlant", "Friction", "PinocchioPlant", "Plant", "make_plant"]
+
+PLANTS = ("pinocchio", "analytic")
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Joint friction of the plant (eqs. 11-12).
+
+    Attributes:
+        stribeck: Stribeck parameters; ``None`` takes the robot's (from its URDF).
+        normal_force: nominal normal force F̄_n per joint [N] (15 N in the paper); an
+            uncertainty profile varies it in time.
+        sign_velocity_scale: smoothing of sgn by tanh(alpha_dot / scale) [rad/s].
+    """
+
+    stribeck: StribeckParameters | None = None
+    normal_force: float = 15.0
+    sign_velocity_scale: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not self.normal_force >= 0.0:
+            raise InvalidParameterError(f"normal_force={self.normal_force} must be >= 0")
+        if not self.sign_velocity_scale > 0.0:
+            raise InvalidParameterError(f"sign_velocity_scale={self.sign_velocity_scale} must be > 0")
+
+
+class Plant(ABC):
+    """A simulated robot with state ``x``; torques act on the three active joints.
+
+    Args:
+        robot: the robot (its URDF sets every number).
+        friction: joint friction, ``True`` for :class:`Friction` defaults, or ``None``.
+        uncertainty: time-varying truth (:mod:`delta_pin.uncertainty`), or ``None`` for nominal.
+    """
+
+    name: str = "plant"
+
+    def __init__(self, robot: Delta, friction: Friction | bool | None = None, uncertainty=None) -> None:
+        self.robot = robot
+        if friction is True:
+            friction = Friction()
+        self.friction = friction or None
+        self.stribeck = None
+        if self.friction is not None:
+            self.stribeck = self.friction.stribeck or robot.params.friction
+            if self.stribeck is None:
+                raise InvalidParameterError(
+                    "friction requested but the robot's URDF carries no Stribeck data"
+                )
+            self._friction_arguments = friction_kernel_arguments(self.stribeck)
+        self.uncertainty = uncertainty
+
+    # ------------------------------------------------------------------ truth shared by both plants
+    def _nominal_normal_force(self) -> float:
+        return 0.0 if self.friction is None else self.friction.normal_force
+
+    def _evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(m_o, F_n, F) at a time or an array of times, straight from the uncertainty profile."""
+        nominal_mass = self.robot.params.m_o
+        if self.uncertainty is None:
+            shape = np.shape(t)
+            return (
+                np.full(shape, nominal_mass),
+                np.full((*shape, 3), self._nominal_normal_force()),
+                np.zeros((*shape, 3)),
+            )
+        return (
+            self.uncertainty.platform_mass(t, nominal_mass),
+            self.uncertainty.normal_force(t, self._nominal_normal_force()),
+            self.uncertainty.disturbance(t),
+        )
+
+    def precompute_truth(self, step: float, count: int) -> None:
+        """Tabulate m_o, F_n, F at t = k step, k < count [s] (one vectorised call): the
+        integrator's stage times then read the table instead of calling the profile."""
+        self._table_step = step
+        self._table = self._evaluate_truth(np.arange(count) * step)
+
+    def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """(m_o(t) [kg], F_n(t) (3,) [N], F(t) (3,) [N m]): the plant's time-varying truth."""
+        table = getattr(self, "_table", None)
+        if table is not None:
+            k = round(t / self._table_step)
+            if k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
+                return table[0][k], table[1][k], table[2][k]
+        mass, normal, disturbance = self._evaluate_truth(t)
+        return float(mass), normal, disturbance
+
+    def platform_mass(self, t: float) -> float:
+        """m_o(t) [kg]."""
+        return self.truth(t)[0]
+
+    def passive_torque(self, t: float, alpha_dot: np.ndarray) -> np.ndarray:
+        """F(t) + M_f(alpha_dot, F_n(t)) [N m]: what eq. 13 adds to the left-hand side."""
+        return self.acceleration_terms(t, alpha_dot)[1]
+
+    def acceleration_terms(self, t: float, alpha_dot: np.ndarray) -> tuple[float, np.ndarray]:
+        """(m_o(t), F(t) + M_f(alpha_dot, F_n(t))) in one lookup of the truth."""
+        mass, normal, disturbance = self.truth(t)
+        if self.friction is None:
+            return mass, disturbance
+        friction = stribeck_kernel(
+            *self._friction_arguments, alpha_dot, normal, self.friction.sign_velocity_scale
+        )
+        return mass, disturbance + friction
+
+    # ------------------------------------------------------------------ state interface
+    @abstractmethod
+    def initial_state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
+        """Plant state for active angles [rad] and velocities [rad/s]."""
+
+    @abstractmethod
+    def derivative(self, t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """dx/dt at time t [s] under active-joint torques tau [N m]."""
+
+    @abstractmethod
+    def joint_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(alpha [rad], alpha_dot [rad/s]) of a plant state."""
+
+    @abstractmethod
+    def platform_position(self, x: np.ndarray) -> np.ndarray:
+        """Platform position xyz [m] of a plant state."""
+
+    def closure_residual(self, x: np.ndarray) -> float:
+        """Largest loop-closure gap [m] (0 for plants without closures)."""
+        return 0.0
+
+    def finish_step(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Correction applied after each integration step (none by default)."""
+        return x
+
+    def metadata(self) -> dict:
+        return {
+            "plant": self.name,
+            "friction": None
+            if self.friction is None
+            else {**asdict(self.friction), "stribeck": asdict(self.stribeck)},
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.metadata(),
+        }
+
+
+class AnalyticPlant(Plant):
+    """The paper's reduced model M alpha_ddot + C alpha_dot + G + F + M_f = tau; x = [alpha, alpha_dot]."""
+
+    name = "analytic"
+
+    def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
+        super().__init__(robot, friction, uncertainty)
+        self._geometry = pack_geometry(robot.params)
+        self._cos, self._sin = chain_trigonometry()
+        self._last_xyz = np.full(3, np.nan)
+
+    def initial_state(self, alpha, alpha_dot):
+        return np.concatenate([alpha, alpha_dot]).astype(float)
+
+    def derivative(self, t, x, tau):
+        alpha, alpha_dot = x[:3], x[3:]
+        mass, passive = self.acceleration_terms(t, alpha_dot)
+        m_eq = mass + 1.5 * self.robot.params.m_b
+        ok, _, _, _, M, C, G = delta_terms(self._geometry, self._cos, self._sin, m_eq, alpha, alpha_dot)
+        if not ok:
+            raise SimulationError(f"alpha={alpha.tolist()} rad has no forward kinematics", t)
+        rhs = tau - C @ alpha_dot - G - passive
+        return np.concatenate([alpha_dot, solve3(M, rhs)])
+
+    def joint_state(self, x):
+        return x[:3], x[3:]
+
+    def platform_position(self, x):
+        ok, xyz, *_ = delta_terms(self._geometry, self._cos, self._sin, 1.0, x[:3], x[3:])
+        return xyz if ok else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha
+
+
+class PinocchioPlant(Plant):
+    """The full tree with point closures through ``pin.constraintDynamics``; x = [q, v] (nq + nv).
+
+    Args:
+        baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
+        projection_tolerance: closure gap [m] above which a step is projected back.
+        failure_tolerance: closure gap [m] that aborts the run.
+    """
+
+    name = "pinocchio"
+
+    def __init__(
+        self,
+        robot: Delta,
+        friction=None,
+        uncertainty=None,
+        *,
+        baumgarte_frequency: float = 20.0,
+        projection_tolerance: float = 1e-10,
+        failure_tolerance: float = 1e-6,
+    ) -> None:
+        super().__init__(robot, friction, uncertainty)
+        source = robot.pinocchio
+        self._source = source
+        self.model = pin.Model(source.model)  # own copy: the platform inertia changes in time
+        self.data = self.model.createData()
+        self.constraint_models = pin.StdVec_RigidConstraintModel()
+        self.constraint_datas = pin.StdVec_RigidConstraintData()
+        gains = pin.BaumgarteCorrectorParameters(baumgarte_frequency**2, 2.0 * baumgarte_frequency)
+        for cm in source.constraint_models:
+            copy = pin.RigidConstraintModel(cm)
+            copy.setBaumgarteCorrectorParameters(gains)
+            self.constraint_models.append(copy)
+            self.constraint_datas.append(copy.createData())
+        pin.initConstraintDynamics(self.model, self.data, self.constraint_models, self.constraint_datas)
+        self.settings = pin.ProximalSettings(1e-12, 0.0, 1)  # mu = 0: exact KKT solve
+        self.nq = self.model.nq
+        self.active = source.active_indices
+        self.projection_tolerance = projection_tolerance
+        self.failure_tolerance = failure_tolerance
+        self.projections = 0
+        self._platform_joint = source.platform_joint
+        self._nominal_inertia = pin.Inertia(self.model.inertias[self._platform_joint])
+        self._mass = self._nominal_inertia.mass
+        self._tau = np.zeros(self.model.nv)
+        self.metadata_extra = {
+            "baumgarte_frequency": baumgarte_frequency,
+            "projection_tolerance": projection_tolerance,
+        }
+
+    def _set_platform_mass(self, mass: float) -> None:
+        if mass != self._mass:
+            scale = mass / self._nominal_inertia.mass
+            nominal = self._nominal_inertia
+            self.model.inertias[self._platform_joint] = pin.Inertia(
+                mass, nominal.lever, nominal.inertia * scale
+            )
+            self._mass = mass
+
+    def initial_state(self, alpha, alpha_dot):
+        q, v = self._source.state(alpha, alpha_dot)
+        return np.concatenate([q, v])
+
+    def derivative(self, t, x, tau):
+        q, v = x[: self.nq], x[self.nq :]
+        mass, passive = self.acceleration_terms(t, v[self.active])
+        self._set_platform_mass(mass)
+        self._tau[self.active] = tau - passive
+        ddq = pin.constraintDynamics(
+            self.model,
+            self.data,
+            q,
+            v,
+            self._tau,
+            self.constraint_models,
+            self.constraint_datas,
+            self.settings,
+        )
+        return np.concatenate([v, ddq])
+
+    def joint_state(self, x):
+        return x[self.active], x[self.nq + self.active]
+
+    def platform_position(self, x):
+        return self._source.platform_position(x[: self.nq])
+
+    def closure_residual(self, x):
+        return float(np.abs(self._source.closure_residual(x[: self.nq])).max())
+
+    def finish_step(self, x, t):
+        gap = self.closure_residual(x)
+        if not gap <= self.failure_tolerance:
+            raise SimulationError(f"the loop-closure gap exploded to {gap:.3e} m", t)
+        if gap > self.projection_tolerance:
+            alpha, alpha_dot = self.joint_state(x)
+            try:
+                x = self.initial_state(alpha, alpha_dot)
+            except AssemblyError as exc:
+                raise SimulationError(f"cannot re-close the loops: {exc}", t) from None
+            self.projections += 1
+        return x
+
+    def metadata(self):
+        return {**super().metadata(), **self.metadata_extra}
+
+
+def make_plant(plant: str | Plant, robot: Delta, friction=None, uncertainty=None) -> Plant:
+    """A plant by name (``"pinocchio"`` or ``"analytic"``), or the given :class:`Plant` itself."""
+    if isinstance(plant, Plant):
+        return plant
+    if plant == "pinocchio":
+        return PinocchioPlant(robot, friction, uncertainty)
+    if plant == "analytic":
+        return AnalyticPlant(robot, friction, uncertainty)
+    raise InvalidParameterError(f"plant={plant!r} must be one of {', '.join(PLANTS)} or a Plant")
