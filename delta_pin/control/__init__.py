@@ -1,0 +1,24 @@
+"""Controllers: one shared base (:mod:`.base`), one module per control law."""
+
+from .adaptive_robust import AdaptiveRobustController, AdaptiveRobustGains, design1, design2
+from .base import CallableController, Controller, ControlOutput, Reference, as_controller
+from .baselines import LQR, ComputedTorque, PDGravity
+from .nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
+
+__all__ = [
+    "LQR",
+    "AdaptiveRobustController",
+    "AdaptiveRobustGains",
+    "CallableController",
+    "ComputedTorque",
+    "ControlOutput",
+    "Controller",
+    "DeltaNominalModel",
+    "NominalModel",
+    "PDGravity",
+    "PinocchioNominalModel",
+    "Reference",
+    "as_controller",
+    "design1",
+    "design2",
+]

@@ -1,0 +1,244 @@
+"""The paper's adaptive robust controllers: design I (eq. 33) and design II (eq. 54).
+
+With r = alpha - alpha^d (eq. 14), s = r_dot + D r and the nominal model (M̄, C̄, Ḡ, F̄, M̄_f):
+
+    C1 = M̄ (alpha_ddot^d - D r_dot) + C̄ (alpha_dot^d - D r) + Ḡ + F̄ + M̄_f       (eq. 23)
+    C2 = -T_p r - T_v r_dot                                                    (eq. 26)
+    Lambda = rho_hat (||alpha_ddot^d - D r_dot|| + ||alpha_dot^d - D r|| + 1)   (eq. 67, scalar rho)
+    omega = s Lambda                                                           (eqs. 32, 57)
+    C3 = C4 = -phi omega Lambda                                                (eqs. 30, 55; erratum 2)
+    design I:  phi = 1/||omega|| if ||omega|| > xi, else 1/xi                   (eq. 31)
+    design II: phi = ||omega|| / (||omega||^2 + ||omega|| xi + xi^2)            (eq. 56; erratum 3)
+
+and the bound estimate follows the adaptive law with exponential leakage and dead-zone (eq. 24):
+
+    rho_hat_dot = beta [b1 dLambda/drho^T ||s|| - (b2 exp(-||s||) + b3) rho_hat]
+                                                   if ||s|| ||dLambda/drho|| > epsilon,
+    rho_hat_dot = -beta (b2 exp(-||s||) + b3) rho_hat     otherwise (the dead-zone, eq. 25).
+
+Signs: the paper prints C3 = +phi omega Lambda; its own proof (eq. 39) needs the minus sign, and
+the printed sign destabilises (DESIGN.md erratum 2). With ``vector_rho=True`` Lambda is
+rho_1 ||alpha_ddot^d - D r_dot|| + rho_2 ||alpha_dot^d - D r|| + rho_3 with a 3-vector rho_hat
+(the first line of eq. 67; erratum 7).
+
+Sampling-aware option. In the boundary layer the robust term is a linear damper on s with gain
+k = phi Lambda^2 (up to Lambda^2 / xi = 2000 N m s/rad for xi = 1e-3 and Lambda ~ 1.4). A
+zero-order-hold loop with period T acting on an inertia m is stable only while k T / m < 2
+(s_{k+1} = (1 - k T / m) s_k), so with m ~ 0.03 kg m^2 and T = 1 ms the paper's gains put the
+discrete pole near -65: the sampled loop loses stability. Given ``sampling_period=T`` the robust
+gain is capped so that the total damping on s stays inside the stable, well-damped region:
+
+    (T_v + k) T / lambda_min(M̄) <= sampling_margin  (0.5 by default: discrete pole at >= 0.5).
+
+The cap is the same as widening the boundary layer to xi_eff = Lambda^2 / k_max >= xi; the proof
+of Theorem 1 then holds with xi_eff in gamma_4 = xi_eff/4 + ..., i.e. uniform ultimate
+boundedness with a larger ball, now actually reachable by a digital drive.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from .base import Controller, ControlOutput, Reference
+from .nominal import NominalModel
+
+__all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
+
+DESIGNS = ("I", "II")
+
+
+@dataclass(frozen=True)
+class AdaptiveRobustGains:
+    """Gains of designs I and II; defaults are the paper's Section V values.
+
+    Attributes:
+        T_v: derivative gain [N m s/rad] (scalar or per joint, T_v = diag(9, 9, 9)).
+        T_p: proportional gain [N m/rad] (T_p = diag(3, 3, 3)).
+        D: error-surface gain [1/s] (D = diag(9, 9, 9)).
+        beta: adaptation rate beta [-] (0.1).
+        xi: boundary layer of phi [N m] (0.001).
+        epsilon: dead-zone of the adaptive law (0.05).
+        b1, b2, b3: adaptation sensitivity and leakage gains (10, 2, 0.3).
+        rho0: initial estimate rho_hat(0) (2; the paper's text also says 0.02, erratum 5).
+    """
+
+    T_v: float | tuple = 9.0
+    T_p: float | tuple = 3.0
+    D: float | tuple = 9.0
+    beta: float = 0.1
+    xi: float = 0.001
+    epsilon: float = 0.05
+    b1: float = 10.0
+    b2: float = 2.0
+    b3: float = 0.3
+    rho0: float = 2.0
+
+    def __post_init__(self) -> None:
+        for field in fields(self):
+            value = np.asarray(getattr(self, field.name), dtype=float)
+            if not np.all(np.isfinite(value)) or np.any(value <= 0.0):
+                raise InvalidParameterError(
+                    f"gain {field.name}={getattr(self, field.name)!r} must be finite and > 0"
+                )
+
+
+def _diagonal(value, dof: int, name: str) -> np.ndarray:
+    array = (
+        np.broadcast_to(np.asarray(value, dtype=float), (dof,)).copy()
+        if np.ndim(value) == 0
+        else (np.asarray(value, dtype=float))
+    )
+    if array.shape != (dof,):
+        raise InvalidParameterError(f"gain {name}={value!r} must be a scalar or have {dof} entries")
+    return array
+
+
+class AdaptiveRobustController(Controller):
+    """Design I or II on any nominal model (see the module docstring for the law).
+
+    Args:
+        nominal: what the controller knows (:class:`~delta_pin.control.nominal.NominalModel`).
+        design: ``"I"`` (eq. 33) or ``"II"`` (eq. 54).
+        gains: :class:`AdaptiveRobustGains` (the paper's by default).
+        friction_compensation: include M̄_f in C1 (eq. 23).
+        vector_rho: Lambda with a 3-vector rho_hat instead of the scalar bound of eq. 67.
+        sampling_period: control period T [s] of a digital drive: caps the robust gain (the
+            sampling-aware option); ``None`` applies the paper's law unchanged.
+        sampling_margin: bound on (T_v + k) T / lambda_min(M̄) for the cap (0 < margin < 2).
+    """
+
+    def __init__(
+        self,
+        nominal: NominalModel,
+        design: str = "I",
+        gains: AdaptiveRobustGains | None = None,
+        *,
+        friction_compensation: bool = True,
+        vector_rho: bool = False,
+        sampling_period: float | None = None,
+        sampling_margin: float = 1.0,
+    ) -> None:
+        if design not in DESIGNS:
+            raise InvalidParameterError(f"design={design!r} must be one of {', '.join(DESIGNS)}")
+        if sampling_period is not None and not sampling_period > 0.0:
+            raise InvalidParameterError(f"sampling_period={sampling_period!r} must be > 0")
+        if not 0.0 < sampling_margin < 2.0:
+            raise InvalidParameterError(f"sampling_margin={sampling_margin!r} must lie in (0, 2)")
+        self.nominal = nominal
+        self.design = design
+        self.gains = gains or AdaptiveRobustGains()
+        self.friction_compensation = friction_compensation
+        self.vector_rho = vector_rho
+        self.sampling_period = sampling_period
+        self.sampling_margin = sampling_margin
+        n = nominal.dof
+        self.T_v = _diagonal(self.gains.T_v, n, "T_v")
+        self.T_p = _diagonal(self.gains.T_p, n, "T_p")
+        self.D = _diagonal(self.gains.D, n, "D")
+        self.name = f"design{design}"
+        self.reset()
+
+    def initial_state(self) -> np.ndarray:
+        return np.full(3 if self.vector_rho else 1, self.gains.rho0)
+
+    # ----------------------------------------------------------------------- the law's pieces
+    def bound(self, rho_hat: np.ndarray, a_ref: np.ndarray, v_ref: np.ndarray) -> tuple[float, np.ndarray]:
+        """Lambda(rho_hat, ...) of eq. 67 and dLambda/drho (constant: Lambda is linear in rho)."""
+        kappa = np.array([math.sqrt(a_ref @ a_ref), math.sqrt(v_ref @ v_ref), 1.0])
+        gradient = kappa if self.vector_rho else np.array([kappa.sum()])
+        return float(gradient @ rho_hat), gradient
+
+    def robust_gain_factor(self, omega_norm: float) -> float:
+        """phi of eq. 31 (design I) or eq. 56 (design II) for ||omega||."""
+        xi = self.gains.xi
+        if self.design == "I":
+            return 1.0 / omega_norm if omega_norm > xi else 1.0 / xi
+        return omega_norm / (omega_norm * omega_norm + omega_norm * xi + xi * xi)
+
+    def adaptation_rate(
+        self, rho_hat: np.ndarray, s_norm: float, gradient: np.ndarray
+    ) -> tuple[np.ndarray, bool]:
+        """rho_hat_dot of eq. 24 and whether the estimate is outside the dead-zone (eq. 25)."""
+        g = self.gains
+        leak = (g.b2 * math.exp(-s_norm) + g.b3) * rho_hat
+        active = s_norm * math.sqrt(gradient @ gradient) > g.epsilon
+        if active:
+            return g.beta * (g.b1 * gradient * s_norm - leak), True
+        return -g.beta * leak, False
+
+    def evaluate(
+        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
+    ) -> ControlOutput:
+        r = alpha - reference.alpha
+        r_dot = alpha_dot - reference.alpha_dot
+        s = r_dot + self.D * r
+        a_ref = reference.alpha_ddot - self.D * r_dot
+        v_ref = reference.alpha_dot - self.D * r
+        M, C, G = self.nominal.terms(alpha, alpha_dot)
+        c1 = M @ a_ref + C @ v_ref + G + self.nominal.disturbance()
+        if self.friction_compensation:
+            c1 = c1 + self.nominal.friction(alpha_dot)
+        c2 = -self.T_p * r - self.T_v * r_dot
+        Lambda, gradient = self.bound(state, a_ref, v_ref)
+        s_norm = math.sqrt(s @ s)
+        omega_norm = s_norm * Lambda
+        gain = self.robust_gain_factor(omega_norm) * Lambda * Lambda  # phi Lambda^2 [N m s/rad]
+        if self.sampling_period is None:
+            c3 = -gain * s
+        else:  # per inertia direction: k_j = min(gain, margin mu_j / T - T_v)
+            inertia, directions = np.linalg.eigh(M)
+            caps = np.maximum(
+                self.sampling_margin * inertia / self.sampling_period - float(self.T_v.max()), 0.0
+            )
+            gains = np.minimum(gain, caps)
+            c3 = -(directions @ (gains * (directions.T @ s)))
+            gain = float(gains.min())
+        rate, active = self.adaptation_rate(state, s_norm, gradient)
+        return ControlOutput(
+            tau=c1 + c2 + c3,
+            state_derivative=rate,
+            internals={
+                "rho_hat": state.copy(),
+                "Lambda": Lambda,
+                "robust_gain": gain,
+                "omega_norm": omega_norm,
+                "robust_torque": c3,
+                "adaptation_active": float(active),
+            },
+        )
+
+    def metadata(self) -> dict:
+        gains = {k: (np.asarray(v).tolist()) for k, v in asdict(self.gains).items()}
+        return {
+            "name": self.name,
+            "design": self.design,
+            "gains": gains,
+            "friction_compensation": self.friction_compensation,
+            "vector_rho": self.vector_rho,
+            "sampling_period": self.sampling_period,
+            "sampling_margin": self.sampling_margin,
+            "nominal": self.nominal.metadata(),
+        }
+
+
+def design1(nominal: NominalModel, **options) -> AdaptiveRobustController:
+    """Design I (C1 + C2 + C3, eq. 33); ``options`` as :class:`AdaptiveRobustController`, gains by name."""
+    return _make("I", nominal, options)
+
+
+def design2(nominal: NominalModel, **options) -> AdaptiveRobustController:
+    """Design II (C1 + C2 + C4, eq. 54); ``options`` as :class:`AdaptiveRobustController`, gains by name."""
+    return _make("II", nominal, options)
+
+
+def _make(design: str, nominal: NominalModel, options: dict) -> AdaptiveRobustController:
+    gain_names = {f.name for f in fields(AdaptiveRobustGains)}
+    gains = {k: options.pop(k) for k in list(options) if k in gain_names}
+    base = options.pop("gains", None) or AdaptiveRobustGains()
+    return AdaptiveRobustController(
+        nominal, design, AdaptiveRobustGains(**{**asdict(base), **gains}), **options
+    )

@@ -1,0 +1,151 @@
+"""Nominal models: what a controller knows of the robot (M̄, C̄, Ḡ, F̄, M̄_f of eqs. 16-20).
+
+* :class:`DeltaNominalModel` -- the Delta's analytic model (eqs. 7-9, corrected G) with the
+  nominal platform mass m̄_o, the nominal disturbance F̄ and the nominal Stribeck friction
+  (eq. 12 with F̄_n; sgn smoothed like the plant's, so that the compensation does not chatter);
+* :class:`PinocchioNominalModel` -- any serial (tree) Pinocchio model: M̄ by CRBA, C̄ by
+  ``computeCoriolisMatrix`` and Ḡ by ``computeGeneralizedGravity``, so the controllers run on
+  robots from example-robot-data too.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InvalidParameterError
+from ..fast_model import (
+    chain_trigonometry,
+    delta_terms,
+    friction_kernel_arguments,
+    pack_geometry,
+    stribeck_kernel,
+)
+from ..plant import Friction
+
+__all__ = ["DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
+
+
+class NominalModel(ABC):
+    """M̄(q) [kg m^2], C̄(q, q_dot) [kg m^2/s], Ḡ(q) [N m], F̄ [N m] and M̄_f(q_dot) [N m]."""
+
+    dof: int
+
+    @abstractmethod
+    def terms(self, q: np.ndarray, q_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(M̄, C̄, Ḡ) at a state: inertia (n, n), Coriolis MATRIX (n, n), gravity (n,)."""
+
+    def disturbance(self) -> np.ndarray:
+        """Nominal disturbance torque F̄ (n,) [N m] (zero by default)."""
+        return np.zeros(self.dof)
+
+    def friction(self, q_dot: np.ndarray) -> np.ndarray:
+        """Nominal friction torque M̄_f (n,) [N m] (zero by default)."""
+        return np.zeros(self.dof)
+
+    def metadata(self) -> dict:
+        return {"kind": type(self).__name__}
+
+
+class DeltaNominalModel(NominalModel):
+    """The Delta's analytic model as a controller's nominal model.
+
+    Args:
+        robot: the robot (its URDF sets every number).
+        platform_mass: m̄_o [kg]; the URDF's ``m_o`` by default (0.3 kg, the paper's m̄_o).
+        nominal_disturbance: F̄ (3,) [N m] (the paper: [2, 4, 6]).
+        friction: nominal friction (:class:`~delta_pin.plant.Friction`, its F̄_n = 15 N by
+            default), ``True`` for the defaults, or ``None`` for none.
+    """
+
+    dof = 3
+
+    def __init__(
+        self,
+        robot,
+        platform_mass: float | None = None,
+        nominal_disturbance=(0.0, 0.0, 0.0),
+        friction: Friction | bool | None = True,
+    ) -> None:
+        self.robot = robot
+        m_o = robot.params.m_o if platform_mass is None else float(platform_mass)
+        if not m_o > 0.0:
+            raise InvalidParameterError(f"platform_mass={platform_mass} must be > 0")
+        self.platform_mass = m_o
+        self._m_eq = m_o + 1.5 * robot.params.m_b
+        self._geometry = pack_geometry(robot.params)
+        self._cos, self._sin = chain_trigonometry()
+        self._disturbance = np.asarray(nominal_disturbance, dtype=float).reshape(3)
+        if friction is True:
+            friction = Friction()
+        self.friction_model = friction or None
+        self._friction_arguments = None
+        if self.friction_model is not None:
+            stribeck = self.friction_model.stribeck or robot.params.friction
+            self._friction_arguments = friction_kernel_arguments(stribeck)
+            self._normal_force = np.full(3, float(self.friction_model.normal_force))
+
+    def terms(self, q, q_dot):
+        ok, _, _, _, M, C, G = delta_terms(self._geometry, self._cos, self._sin, self._m_eq, q, q_dot)
+        if not ok:
+            raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
+        return M, C, G
+
+    def disturbance(self):
+        return self._disturbance
+
+    def friction(self, q_dot):
+        if self._friction_arguments is None:
+            return np.zeros(3)
+        return stribeck_kernel(
+            *self._friction_arguments,
+            np.asarray(q_dot, dtype=float),
+            self._normal_force,
+            self.friction_model.sign_velocity_scale,
+        )
+
+    def metadata(self):
+        return {
+            "kind": "delta_analytic",
+            "platform_mass": self.platform_mass,
+            "nominal_disturbance": self._disturbance.tolist(),
+            "nominal_normal_force": None if self.friction_model is None else self.friction_model.normal_force,
+        }
+
+
+class PinocchioNominalModel(NominalModel):
+    """Nominal model of a serial Pinocchio model with 1-DOF joints (nq == nv).
+
+    Args:
+        model: a ``pin.Model`` (copied: later changes to the caller's model do not leak in).
+        nominal_disturbance: F̄ (nv,) [N m], zero by default.
+    """
+
+    def __init__(self, model: pin.Model, nominal_disturbance=None) -> None:
+        if model.nq != model.nv:
+            raise InvalidParameterError(
+                f"PinocchioNominalModel needs nq == nv (1-DOF joints), got nq={model.nq}, nv={model.nv}"
+            )
+        self.model = pin.Model(model)
+        self.data = self.model.createData()
+        self.dof = model.nv
+        self._disturbance = (
+            np.zeros(self.dof)
+            if nominal_disturbance is None
+            else np.asarray(nominal_disturbance, dtype=float).reshape(self.dof)
+        )
+
+    def terms(self, q, q_dot):
+        M = pin.crba(self.model, self.data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        C = pin.computeCoriolisMatrix(self.model, self.data, q, q_dot).copy()
+        G = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
+        return M, C, G
+
+    def disturbance(self):
+        return self._disturbance
+
+    def metadata(self):
+        return {"kind": "pinocchio_serial", "name": self.model.name, "nv": self.dof}
