@@ -170,3 +170,27 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
 def chain_trigonometry() -> tuple[np.ndarray, np.ndarray]:
     """(cos phi_i, sin phi_i) arrays to pass to :func:`delta_terms`."""
     return _COS.copy(), _SIN.copy()
+
+
+@njit(cache=True)
+def stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, sign_velocity_scale):
+    """Eq. 12 for three joints, like :func:`delta_pin.friction.stribeck_torque` [N m].
+
+    ``normal_force`` is (3,) [N]; ``sign_velocity_scale`` > 0 smooths sgn by tanh [rad/s].
+    """
+    torque = np.empty(3)
+    for i in range(3):
+        v = alpha_dot[i]
+        sliding = v * r_a / v_s
+        if sign_velocity_scale > 0.0:
+            sign = math.tanh(v / sign_velocity_scale)
+        else:
+            sign = 0.0 if v == 0.0 else math.copysign(1.0, v)
+        level = mu_d * normal_force[i] + (mu_s - mu_d) * normal_force[i] * math.exp(-(sliding * sliding))
+        torque[i] = level * sign * r_a + mu_v * v * r_a
+    return torque
+
+
+def friction_kernel_arguments(stribeck) -> tuple[float, float, float, float, float]:
+    """(r_a, v_s, mu_s, mu_d, mu_v) of a :class:`~delta_pin.description.StribeckParameters`."""
+    return (stribeck.r_a, stribeck.v_s, stribeck.mu_s, stribeck.mu_d, stribeck.mu_v)
