@@ -1,0 +1,153 @@
+"""The paper's Section V scenario as data: a :class:`RunSpec` names a controller, a path and the
+conditions; :func:`run_spec` builds everything from it and simulates. ``delta-pin run``,
+``compare``, ``sweep`` and ``reproduce`` are all made of this one piece.
+
+Section V defaults: Table 1 robot, Stribeck friction with F̄_n = 15 N, uncertainty magnitudes
+Delta_m = Delta_fc = Delta_f = 0.3 (sinusoids of the paper, or seeded band-limited noise when a
+seed is given), F̄ = [2, 4, 6] N m known to the controllers, alpha_0 = 0.3322 rad on every joint
+(the paper's initial deviation: path I starts at 0.2492 rad, erratum 4), alpha_dot_0 = 0,
+Pinocchio plant, continuous mode, 15 s for path I and 10 s for path II.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from .control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
+from .errors import InvalidParameterError
+from .plant import Friction
+from .robot import Delta, load_delta
+from .simulate import MODES, Run, simulate
+from .trajectory import AdeptCycle, PathI, PathII, Trajectory
+from .uncertainty import PAPER_NOMINAL_DISTURBANCE, NoUncertainty, PaperUncertainty, RandomUncertainty
+
+__all__ = ["CONTROLLERS", "PATHS", "RunSpec", "build_controller", "build_trajectory", "run_spec"]
+
+CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd")
+PATHS = ("I", "II", "adept")
+DEFAULT_T_END = {"I": 15.0, "II": 10.0, "adept": 3.0}  # [s]
+PAPER_ALPHA0 = 0.3322  # [rad] on every joint (Section V)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One simulation of the Section V study (SI units).
+
+    Attributes:
+        controller: one of :data:`CONTROLLERS`.
+        path: ``"I"`` (eq. 66), ``"II"`` (eq. 69) or ``"adept"`` (pick-and-place cycle).
+        plant: ``"pinocchio"`` or ``"analytic"``.
+        mode: ``"continuous"`` or ``"sampled"``.
+        t_end: duration [s]; ``None`` for the path's default (15 s, 10 s, 3 s).
+        dt: sample / control period [s].
+        friction_compensation: include M̄_f in the controller.
+        sampling_aware: cap the robust gain for a zero-order-hold loop of period dt.
+        delta_m, delta_fc, delta_f: uncertainty magnitudes Delta_m, Delta_fc, Delta_f [-].
+        seed: ``None`` for the paper's sinusoids, an integer for seeded band-limited noise.
+        friction: Stribeck friction in the plant.
+        alpha0: initial angle of every joint [rad]; ``None`` starts on the path.
+        gains: gain overrides by name (e.g. ``{"xi": 0.01}``).
+    """
+
+    controller: str = "design1"
+    path: str = "I"
+    plant: str = "pinocchio"
+    mode: str = "continuous"
+    t_end: float | None = None
+    dt: float = 1e-3
+    friction_compensation: bool = True
+    sampling_aware: bool = False
+    delta_m: float = 0.3
+    delta_fc: float = 0.3
+    delta_f: float = 0.3
+    seed: int | None = None
+    friction: bool = True
+    alpha0: float | None = PAPER_ALPHA0
+    gains: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise InvalidParameterError(
+                f"controller={self.controller!r} must be one of {', '.join(CONTROLLERS)}"
+            )
+        if self.path not in PATHS:
+            raise InvalidParameterError(f"path={self.path!r} must be one of {', '.join(PATHS)}")
+        if self.mode not in MODES:
+            raise InvalidParameterError(f"mode={self.mode!r} must be one of {', '.join(MODES)}")
+
+    @property
+    def duration(self) -> float:
+        """t_end [s], or the path's default."""
+        return DEFAULT_T_END[self.path] if self.t_end is None else self.t_end
+
+    def label(self) -> str:
+        """A short, file-name-safe name, e.g. ``design1_I`` or ``design2_II_noFC``."""
+        return f"{self.controller}_{self.path}" + ("" if self.friction_compensation else "_noFC")
+
+    def with_(self, **changes) -> RunSpec:
+        """A copy with some fields changed."""
+        return replace(self, **changes)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def build_trajectory(path: str) -> Trajectory:
+    """Path I, path II or the Adept cycle by name."""
+    return {"I": PathI, "II": PathII, "adept": AdeptCycle}[path]()
+
+
+def build_uncertainty(spec: RunSpec):
+    """The plant's time-varying truth of ``spec``."""
+    if spec.delta_m == spec.delta_fc == spec.delta_f == 0.0:
+        return NoUncertainty()
+    if spec.seed is None:
+        return PaperUncertainty(spec.delta_m, spec.delta_fc, spec.delta_f, PAPER_NOMINAL_DISTURBANCE)
+    return RandomUncertainty(
+        spec.delta_m,
+        spec.delta_fc,
+        spec.delta_f,
+        seed=spec.seed,
+        nominal_disturbance=PAPER_NOMINAL_DISTURBANCE,
+    )
+
+
+def build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None = None) -> Controller:
+    """The controller of ``spec`` on the Delta's analytic nominal model (m̄_o from the URDF,
+    F̄ = [2, 4, 6] N m, F̄_n = 15 N)."""
+    nominal = DeltaNominalModel(robot, nominal_disturbance=PAPER_NOMINAL_DISTURBANCE)
+    fc = {"friction_compensation": spec.friction_compensation}
+    gains = dict(spec.gains)
+    if spec.controller in ("design1", "design2"):
+        make = design1 if spec.controller == "design1" else design2
+        return make(nominal, sampling_period=spec.dt if spec.sampling_aware else None, **fc, **gains)
+    if spec.controller == "ctc":
+        return ComputedTorque(nominal, **fc, **gains)
+    if spec.controller == "pd":
+        return PDGravity(nominal, **fc, **gains)
+    trajectory = trajectory or build_trajectory(spec.path)
+    start = robot.inverse_kinematics(trajectory.position(0.0))
+    return LQR(nominal, start, **fc, **gains)
+
+
+def run_spec(spec: RunSpec, robot: Delta | None = None) -> Run:
+    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given)."""
+    robot = robot or load_delta()
+    trajectory = build_trajectory(spec.path)
+    controller = build_controller(spec, robot, trajectory)
+    run = simulate(
+        robot,
+        controller,
+        trajectory,
+        plant=spec.plant,
+        t_end=spec.duration,
+        dt=spec.dt,
+        mode=spec.mode,
+        alpha0=None if spec.alpha0 is None else np.full(3, spec.alpha0),
+        friction=Friction() if spec.friction else None,
+        uncertainty=build_uncertainty(spec),
+    )
+    run.metadata["spec"] = spec.as_dict()
+    return run
