@@ -1,0 +1,1 @@
+"""Visualisation of runs: headless meshcat export to one standalone HTML file (and live viewing)."""
