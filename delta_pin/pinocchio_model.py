@@ -129,23 +129,34 @@ class DeltaPinocchioModel:
             q[self.model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
         return q
 
-    def configuration(self, alpha: np.ndarray, tol: float = 1e-13, max_iterations: int = 30) -> np.ndarray:
+    def configuration(
+        self,
+        alpha: np.ndarray,
+        tol: float = 1e-13,
+        max_iterations: int = 30,
+        initial_guess: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Closure-consistent configuration q(alpha) (nq,) with the active joints at ``alpha``.
 
         Newton iterations on the closure residual over the passive coordinates, started from
-        the analytic FK with each forearm pointing from B_i towards C_i.
+        ``initial_guess`` (a nearby configuration, e.g. the previous step's) or else from the
+        analytic FK with each forearm pointing from B_i towards C_i.
 
         Raises:
             AssemblyError: no configuration closes the loops to ``tol`` [m].
         """
         alpha = as_vector3(alpha, "alpha")
-        q = self.analytic_configuration(alpha)
+        if initial_guess is None:
+            q = self.analytic_configuration(alpha)
+        else:
+            q = np.array(initial_guess, dtype=float)
+            q[self.active_indices] = alpha
         for _ in range(max_iterations):
             residual = self.closure_residual(q)
             if np.abs(residual).max() <= tol:
                 return q
             jacobian = self._closure_jacobian(q)[:, self.passive_indices]
-            q[self.passive_indices] -= np.linalg.lstsq(jacobian, residual, rcond=None)[0]
+            q[self.passive_indices] -= np.linalg.solve(jacobian, residual)
         raise AssemblyError(
             f"the loops do not close at alpha={alpha.tolist()} rad: residual "
             f"{np.abs(residual).max():.3e} m after {max_iterations} Newton steps"

@@ -279,12 +279,16 @@ def simulate(
         raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
     if integrator == "auto":
         integrator = "lsoda" if mode == "continuous" else "rk4"
+    # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
+    # construction at every evaluation; a 7-dimensional state instead of 25)
+    plant = make_plant(
+        plant, robot, friction, uncertainty, **({"coordinates": "active"} if integrator == "lsoda" else {})
+    )
     if integrator not in INTEGRATORS or (integrator == "lsoda" and mode == "sampled"):
         raise InvalidParameterError(
             f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda'"
         )
     controller = as_controller(controller)
-    plant = make_plant(plant, robot, friction, uncertainty)
     steps = round(t_end / dt)
     if steps < 1:
         raise InvalidParameterError(f"t_end={t_end} s is shorter than one period dt={dt} s")
