@@ -81,6 +81,7 @@ class Plant(ABC):
     """
 
     name: str = "plant"
+    dof: int = 3  # actuated joints
 
     def __init__(self, robot: Delta, friction: Friction | bool | None = None, uncertainty=None) -> None:
         self.robot = robot

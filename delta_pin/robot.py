@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from functools import cached_property
 from pathlib import Path
 
@@ -97,6 +98,10 @@ class Delta:
         if self.params.friction is None:
             raise DeltaPinError("this URDF carries no <delta_pin_friction> element")
         return stribeck_torque(self.params.friction, alpha_dot, normal_force, sign_velocity_scale)
+
+    def metadata(self) -> dict:
+        """JSON-serialisable parameters (stored with every run)."""
+        return {**asdict(self.params), "xacro_args": self.xacro_args}
 
     def __repr__(self) -> str:
         p = self.params

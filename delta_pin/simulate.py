@@ -20,7 +20,7 @@ import platform
 import sys
 import tempfile
 import time as _time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -138,6 +138,18 @@ def _versions() -> dict:
     }
 
 
+def _joint_vector(value, name: str, dof: int) -> np.ndarray:
+    """``value`` as a finite (dof,) float array, or an error naming ``name``."""
+    if dof == 3:
+        return as_vector3(value, name)
+    array = np.asarray(value, dtype=float)
+    if array.shape != (dof,):
+        raise InvalidParameterError(f"{name} must have shape ({dof},), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise NonFiniteError(f"{name}={array.tolist()} holds a non-finite number")
+    return array
+
+
 class _Loop:
     """Evaluates the controller with checks that name the time of a bad output."""
 
@@ -149,9 +161,10 @@ class _Loop:
         alpha, alpha_dot = self.plant.joint_state(x)
         out = self.controller.evaluate(t, alpha, alpha_dot, reference, z)
         tau = np.asarray(out.tau, dtype=float)
-        if tau.shape != (3,):
+        if tau.shape != (self.plant.dof,):
             raise SimulationError(
-                f"controller {self.controller.name!r} returned a torque of shape {tau.shape}, expected (3,)",
+                f"controller {self.controller.name!r} returned a torque of shape {tau.shape}, "
+                f"expected ({self.plant.dof},)",
                 t,
             )
         if not np.all(np.isfinite(tau)):
@@ -294,6 +307,7 @@ def simulate(
         raise InvalidParameterError(f"t_end={t_end} s is shorter than one period dt={dt} s")
     h = dt / substeps
 
+    dof = plant.dof
     # the reference on a grid fine enough for the integrator: the samples in sampled mode, the RK4
     # stage times (half steps) or dt/4 for LSODA in continuous mode
     per_sample = 1 if mode == "sampled" else (2 * substeps if integrator == "rk4" else 4)
@@ -307,12 +321,12 @@ def simulate(
     else:
         if alpha0 is None:
             raise InvalidParameterError("alpha0 is required when no trajectory is given")
-        hold = as_vector3(alpha0, "alpha0")
-        zeros = np.zeros((len(grid), 3))
-        table = _ReferenceTable(dt / per_sample, np.broadcast_to(hold, (len(grid), 3)), zeros, zeros, zeros)
+        hold = _joint_vector(alpha0, "alpha0", dof)
+        zeros = np.zeros((len(grid), dof))
+        table = _ReferenceTable(dt / per_sample, np.broadcast_to(hold, (len(grid), dof)), zeros, zeros, zeros)
         sample_xyz = np.broadcast_to(robot.forward_kinematics(hold), (steps + 1, 3))
-    alpha0 = as_vector3(alpha0, "alpha0")
-    alpha_dot0 = np.zeros(3) if alpha_dot0 is None else as_vector3(alpha_dot0, "alpha_dot0")
+    alpha0 = _joint_vector(alpha0, "alpha0", dof)
+    alpha_dot0 = np.zeros(dof) if alpha_dot0 is None else _joint_vector(alpha_dot0, "alpha_dot0", dof)
 
     if integrator == "rk4":
         plant.precompute_truth(h / 2.0, 2 * steps * substeps + 1)
@@ -324,7 +338,8 @@ def simulate(
 
     n = steps + 1
     t = np.arange(n) * dt
-    record = {name: np.zeros((n, 3)) for name in ("alpha", "alpha_dot", "xyz", "tau")}
+    record = {name: np.zeros((n, dof)) for name in ("alpha", "alpha_dot", "tau")}
+    record["xyz"] = np.zeros((n, 3))
     residual = np.zeros(n)
     internals: dict[str, list] = {}
 
@@ -365,7 +380,7 @@ def simulate(
     wall = _time.perf_counter() - wall
 
     metadata = {
-        "robot": {**asdict(robot.params), "xacro_args": robot.xacro_args},
+        "robot": robot.metadata(),
         "urdf": robot.urdf,
         "controller": controller.metadata(),
         "trajectory": None if trajectory is None else trajectory.metadata(),

@@ -64,7 +64,9 @@ class JointReference:
     def __post_init__(self) -> None:
         for name in ("t", "xyz", "xyz_dot", "xyz_ddot", "alpha", "alpha_dot", "alpha_ddot"):
             array = np.array(getattr(self, name), dtype=float)
-            expected = (len(self.t),) if name == "t" else (len(self.t), 3)
+            # task space is 3-D; joint space has as many columns as the robot has joints
+            columns = 3 if name.startswith("xyz") else np.shape(self.alpha)[-1]
+            expected = (len(self.t),) if name == "t" else (len(self.t), columns)
             if array.shape != expected:
                 raise InvalidParameterError(f"JointReference.{name} has shape {array.shape}, not {expected}")
             array.setflags(write=False)

@@ -1,0 +1,174 @@
+"""The controllers on serial robots: a robot from example-robot-data, a joint-space reference and
+a Pinocchio forward-dynamics (ABA) plant with an uncertain payload.
+
+Everything else -- :func:`~delta_pin.simulate.simulate`, the controllers, the nominal-model
+adapter :class:`~delta_pin.control.nominal.PinocchioNominalModel` -- is shared with the Delta.
+example-robot-data ships its URDFs as data (``pip install example-robot-data``, in the ``[test]``
+and ``[serial]`` extras); the meshes are not needed.
+"""
+
+from __future__ import annotations
+
+import sysconfig
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import DeltaPinError, InvalidParameterError
+from .plant import Plant
+from .trajectory import JointReference
+
+__all__ = [
+    "EXAMPLE_ROBOTS",
+    "JointSinusoid",
+    "SerialPlant",
+    "SerialRobot",
+    "example_robot_urdf",
+    "load_example_robot",
+]
+
+# name -> (URDF path inside example-robot-data's robots/ folder, end-effector frame)
+EXAMPLE_ROBOTS = {
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
+    "ur3": ("ur_description/urdf/ur3_robot.urdf", "tool0"),
+    "ur10": ("ur_description/urdf/ur10_robot.urdf", "tool0"),
+}
+
+
+def example_robot_urdf(name: str) -> Path:
+    """Path of an example-robot-data URDF (looked up in the installed cmeel prefix)."""
+    if name not in EXAMPLE_ROBOTS:
+        raise InvalidParameterError(f"robot {name!r} is not one of {', '.join(EXAMPLE_ROBOTS)}")
+    relative = EXAMPLE_ROBOTS[name][0]
+    for root in {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}:
+        path = Path(root) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / relative
+        if path.is_file():
+            return path
+    raise DeltaPinError(f"example-robot-data's {relative} is not installed: pip install example-robot-data")
+
+
+class SerialRobot:
+    """A serial (tree) robot with 1-DOF joints: its Pinocchio model and an end-effector frame."""
+
+    def __init__(self, model: pin.Model, end_effector: str, urdf: str | None = None, name: str = "") -> None:
+        if model.nq != model.nv:
+            raise InvalidParameterError(f"SerialRobot needs 1-DOF joints (nq == nv), got nq={model.nq}")
+        if not model.existFrame(end_effector):
+            raise InvalidParameterError(f"the model has no frame {end_effector!r}")
+        self.model = model
+        self.data = model.createData()
+        self.end_effector = model.getFrameId(end_effector)
+        self.urdf = urdf
+        self.name = name or model.name
+        self.dof = model.nv
+
+    def forward_kinematics(self, q: np.ndarray) -> np.ndarray:
+        """End-effector position [m] (3,) for one configuration, or (N, 3) for (N, dof)."""
+        q = np.asarray(q, dtype=float)
+        if q.ndim == 2:
+            return np.array([self.forward_kinematics(row) for row in q])
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self.data.oMf[self.end_effector].translation.copy()
+
+    def metadata(self) -> dict:
+        return {"name": self.name, "dof": self.dof, "end_effector": self.model.frames[self.end_effector].name}
+
+
+def load_example_robot(name: str = "ur5") -> SerialRobot:
+    """A robot from example-robot-data (kinematics and inertias; gravity 9.81 m/s^2)."""
+    path = example_robot_urdf(name)
+    text = path.read_text()
+    return SerialRobot(pin.buildModelFromXML(text), EXAMPLE_ROBOTS[name][1], urdf=text, name=name)
+
+
+class JointSinusoid:
+    """q^d(t) = center + amplitude sin(2 pi frequency t + phase), per joint (rad, Hz)."""
+
+    name = "joint sinusoid"
+    duration = None
+
+    def __init__(self, center, amplitude, frequency, phase=0.0) -> None:
+        self.center = np.asarray(center, dtype=float)
+        shape = self.center.shape
+        self.amplitude = np.broadcast_to(np.asarray(amplitude, dtype=float), shape).copy()
+        self.frequency = np.broadcast_to(np.asarray(frequency, dtype=float), shape).copy()
+        self.phase = np.broadcast_to(np.asarray(phase, dtype=float), shape).copy()
+
+    def joint_reference(self, robot: SerialRobot, t: np.ndarray) -> JointReference:
+        """Analytic q^d, q_dot^d, q_ddot^d at times ``t`` (N,) [s]; xyz = end-effector FK."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))[:, None]
+        omega = 2.0 * np.pi * self.frequency
+        angle = omega * t + self.phase
+        q = self.center + self.amplitude * np.sin(angle)
+        zeros = np.zeros((len(t), 3))
+        return JointReference(
+            t=t[:, 0],
+            xyz=robot.forward_kinematics(q),
+            xyz_dot=zeros,
+            xyz_ddot=zeros,
+            alpha=q,
+            alpha_dot=self.amplitude * omega * np.cos(angle),
+            alpha_ddot=-self.amplitude * omega**2 * np.sin(angle),
+        )
+
+    def metadata(self) -> dict:
+        return {
+            "name": self.name,
+            "center": self.center.tolist(),
+            "amplitude": self.amplitude.tolist(),
+            "frequency": self.frequency.tolist(),
+            "phase": self.phase.tolist(),
+        }
+
+
+class SerialPlant(Plant):
+    """Forward dynamics (ABA) of a serial robot with a payload m(t) [kg] held at the end effector.
+
+    Args:
+        robot: the robot.
+        payload_mass: m(t) [kg] as a function of time (a point mass at the end-effector frame).
+    """
+
+    name = "pinocchio_serial"
+
+    def __init__(self, robot: SerialRobot, payload_mass: Callable[[float], float] | None = None) -> None:
+        self.robot = robot
+        self.friction = None
+        self.uncertainty = None
+        self.dof = robot.dof
+        self.model = pin.Model(robot.model)
+        self.data = self.model.createData()
+        frame = self.model.frames[robot.end_effector]
+        self._joint = frame.parentJoint
+        self._base_inertia = pin.Inertia(self.model.inertias[self._joint])
+        self._payload_placement = frame.placement
+        self.payload_mass = payload_mass
+
+    def _set_payload(self, t: float) -> None:
+        if self.payload_mass is None:
+            return
+        mass = float(self.payload_mass(t))
+        payload = pin.Inertia(mass, self._payload_placement.translation, np.zeros((3, 3)))
+        self.model.inertias[self._joint] = self._base_inertia + payload
+
+    def initial_state(self, alpha, alpha_dot):
+        return np.concatenate([alpha, alpha_dot]).astype(float)
+
+    def derivative(self, t, x, tau):
+        self._set_payload(t)
+        q, v = x[: self.dof], x[self.dof :]
+        return np.concatenate([v, pin.aba(self.model, self.data, q, v, tau)])
+
+    def joint_state(self, x):
+        return x[: self.dof], x[self.dof :]
+
+    def platform_position(self, x):
+        return self.robot.forward_kinematics(x[: self.dof])
+
+    def precompute_truth(self, step, count):
+        """Nothing to tabulate: the payload function is cheap."""
+
+    def metadata(self):
+        return {"plant": self.name, "payload": getattr(self.payload_mass, "__name__", None)}
