@@ -12,8 +12,22 @@ from delta_pin.simulate import load_run
 
 def test_run_writes_a_loadable_run_and_a_consistent_summary(tmp_path, capsys):
     out = tmp_path / "design1"
-    code = main(["run", "--controller", "design1", "--plant", "analytic", "--mode", "sampled", "--sampling-aware",
-                 "--t-end", "0.5", "--out", str(out)])
+    code = main(
+        [
+            "run",
+            "--controller",
+            "design1",
+            "--plant",
+            "analytic",
+            "--mode",
+            "sampled",
+            "--sampling-aware",
+            "--t-end",
+            "0.5",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     assert "max_task_error_mm" in capsys.readouterr().out
     run = load_run(out / "run.npz")
@@ -24,25 +38,63 @@ def test_run_writes_a_loadable_run_and_a_consistent_summary(tmp_path, capsys):
     assert summary["spec"]["controller"] == "design1" and summary["spec"]["sampling_aware"] is True
     assert run.metadata["controller"]["sampling_period"] == 1e-3
     np.testing.assert_allclose(run.alpha[0], np.full(3, 0.3322))  # the paper's initial deviation
-    assert run.metadata["uncertainty"] == {"kind": "paper", "delta_m": 0.3, "delta_fc": 0.3, "delta_f": 0.3,
-                                           "nominal_disturbance": [2.0, 4.0, 6.0]}
+    assert run.metadata["uncertainty"] == {
+        "kind": "paper",
+        "delta_m": 0.3,
+        "delta_fc": 0.3,
+        "delta_f": 0.3,
+        "nominal_disturbance": [2.0, 4.0, 6.0],
+    }
 
 
 @pytest.mark.parametrize("controller", ["lqr", "ctc", "pd", "design2"])
 def test_every_controller_runs_on_both_paths(tmp_path, controller):
     for path in ("I", "II"):
         out = tmp_path / f"{controller}_{path}"
-        assert main(["run", "--controller", controller, "--path", path, "--plant", "analytic", "--mode",
-                     "sampled", "--sampling-aware", "--t-end", "0.2", "--no-friction-compensation",
-                     "--out", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "run",
+                    "--controller",
+                    controller,
+                    "--path",
+                    path,
+                    "--plant",
+                    "analytic",
+                    "--mode",
+                    "sampled",
+                    "--sampling-aware",
+                    "--t-end",
+                    "0.2",
+                    "--no-friction-compensation",
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         summary = json.loads((out / "summary.json").read_text())
         assert summary["spec"]["friction_compensation"] is False
 
 
 def test_seeded_uncertainty_is_reproducible(tmp_path):
     for name in ("a", "b"):
-        main(["run", "--plant", "analytic", "--mode", "sampled", "--sampling-aware", "--t-end", "0.2",
-              "--seed", "7", "--out", str(tmp_path / name)])
+        main(
+            [
+                "run",
+                "--plant",
+                "analytic",
+                "--mode",
+                "sampled",
+                "--sampling-aware",
+                "--t-end",
+                "0.2",
+                "--seed",
+                "7",
+                "--out",
+                str(tmp_path / name),
+            ]
+        )
     a, b = load_run(tmp_path / "a" / "run.npz"), load_run(tmp_path / "b" / "run.npz")
     np.testing.assert_array_equal(a.alpha, b.alpha)
     assert a.metadata["uncertainty"]["kind"] == "random" and a.metadata["uncertainty"]["seed"] == 7

@@ -12,8 +12,19 @@ def _run(t, error, tau, xyz_error=None, rho=None):
     zeros = np.zeros((n, 3))
     xyz_error = zeros if xyz_error is None else xyz_error
     internals = {} if rho is None else {"rho_hat": rho[:, None]}
-    return Run(t=t, alpha=error, alpha_dot=zeros, alpha_d=zeros, alpha_dot_d=zeros, xyz=xyz_error, xyz_d=zeros,
-               tau=tau, closure_residual=np.zeros(n), internals=internals, metadata={"wall_time": 1.5})
+    return Run(
+        t=t,
+        alpha=error,
+        alpha_dot=zeros,
+        alpha_d=zeros,
+        alpha_dot_d=zeros,
+        xyz=xyz_error,
+        xyz_d=zeros,
+        tau=tau,
+        closure_residual=np.zeros(n),
+        internals=internals,
+        metadata={"wall_time": 1.5},
+    )
 
 
 def test_indices_of_a_linear_error_and_constant_torque():
