@@ -131,8 +131,10 @@ class Plant(ABC):
             k = round(t / self._table_step)
             if k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
                 return table[0][k], table[1][k], table[2][k]
-        mass, normal, disturbance = self._evaluate_truth(t)
-        return float(mass), normal, disturbance
+        if self.uncertainty is None:
+            mass, normal, disturbance = self._evaluate_truth(t)
+            return float(mass), normal, disturbance
+        return self.uncertainty.at(t, self.robot.params.m_o, np.full(3, self._nominal_normal_force()))
 
     def platform_mass(self, t: float) -> float:
         """m_o(t) [kg]."""

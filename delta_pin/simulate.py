@@ -417,7 +417,7 @@ def simulate(
     )
 
 
-LSODA_CHUNK = 100  # samples integrated per LSODA call; the closure is re-projected between calls
+LSODA_CHUNK = 1000  # samples per LSODA call (each restart costs a start-up; finish_step runs between)
 
 
 def _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol):

@@ -152,6 +152,18 @@ class Uncertainty(ABC):
         torque = self._disturbance(times)
         return torque[0] if scalar else torque
 
+    def at(
+        self, t: float, nominal_mass: float, nominal_normal_force: np.ndarray
+    ) -> tuple[float, np.ndarray, np.ndarray]:
+        """(m_o [kg], F_n (3,) [N], F (3,) [N m]) at one time t [s] for validated nominal values
+        (a plant's hot path: no argument checks)."""
+        times = np.array([float(t)])
+        return (
+            float(self._platform_mass(times, nominal_mass)[0]),
+            self._normal_force(times, nominal_normal_force)[0],
+            self._disturbance(times)[0],
+        )
+
     @abstractmethod
     def _platform_mass(self, t: np.ndarray, nominal: float) -> np.ndarray:
         """m_o [kg] (N,) at times t (N,) [s]."""

@@ -6,6 +6,7 @@ import pytest
 
 from delta_pin.plant import AnalyticPlant, Friction, PinocchioPlant
 from delta_pin.simulate import simulate
+from delta_pin.uncertainty import FunctionUncertainty
 
 START = np.array([0.02, -0.01, -0.35])  # [m]
 
@@ -99,26 +100,14 @@ def test_friction_only_dissipates(robot):
 
 
 def test_time_varying_platform_mass_reaches_the_pinocchio_model(robot):
-    class Heavier:
-        def platform_mass(self, t, nominal):
-            return nominal * (1.0 + t)
-
-        def normal_force(self, t, nominal):
-            return np.full(3, nominal)
-
-        def disturbance(self, t):
-            return np.zeros(3)
-
-        def metadata(self):
-            return {"kind": "test"}
-
-    plant = PinocchioPlant(robot, uncertainty=Heavier())
+    heavier = FunctionUncertainty(platform_mass=lambda t: robot.params.m_o * (1.0 + t))
+    plant = PinocchioPlant(robot, uncertainty=heavier)
     alpha = robot.inverse_kinematics(START)
     x = plant.initial_state(alpha, np.zeros(3))
     plant.derivative(1.0, x, np.zeros(3))
     assert plant.model.inertias[plant._platform_joint].mass == pytest.approx(2 * robot.params.m_o)
     # the analytic plant with the same mass sees the same acceleration
-    analytic = AnalyticPlant(robot, uncertainty=Heavier())
+    analytic = AnalyticPlant(robot, uncertainty=heavier)
     np.testing.assert_allclose(
         analytic.derivative(1.0, analytic.initial_state(alpha, np.zeros(3)), np.zeros(3))[3:],
         plant.derivative(1.0, x, np.zeros(3))[plant.nq + plant.active],

@@ -291,3 +291,14 @@ def test_factory_defaults_are_the_papers():
         make_uncertainty("gaussian")
     with pytest.raises(InvalidParameterError, match="bandwidth_hz"):
         make_uncertainty("random", bandwidth_hz=1.0)
+
+
+@pytest.mark.parametrize(
+    "profile", [NoUncertainty(), PaperUncertainty(0.2, 0.4, 0.6), RandomUncertainty(seed=3)]
+)
+def test_fast_scalar_evaluation_matches_the_public_methods(profile):
+    for t in (0.0, 0.37, 2.5):
+        mass, normal, disturbance = profile.at(t, 0.3, np.full(3, 15.0))
+        assert mass == profile.platform_mass(t, 0.3)
+        np.testing.assert_array_equal(normal, profile.normal_force(t, 15.0))
+        np.testing.assert_array_equal(disturbance, profile.disturbance(t))

@@ -1,0 +1,803 @@
+"""Many runs at once: a grid of :class:`~delta_pin.experiments.RunSpec` through an executor, with an
+on-disk cache so that a killed sweep resumes where it stopped.
+
+Every finished point is written at once, atomically (a temporary file, then a rename), to
+``cache_dir/<key>.json`` -- the spec, its metrics and the wall time -- and, with ``save_runs=True``,
+its :class:`~delta_pin.simulate.Run` to ``cache_dir/<key>.npz``. ``<key>`` is :func:`spec_key`, the
+sha256 of the spec's canonical JSON. A point whose ``.json`` exists is read back, not recomputed.
+
+Executors: ``"serial"`` (a loop in this process), ``"process"`` (a
+:class:`concurrent.futures.ProcessPoolExecutor`), ``"dask"`` (``dask.distributed``: a scheduler
+address, or ``"local"`` for a :class:`~distributed.LocalCluster`; ``pip install 'delta-pin[dask]'``),
+or any :class:`concurrent.futures.Executor` (or ``distributed.Client``) instance. Simulations are
+deterministic, so the metrics do not depend on the executor.
+
+A point that fails on purpose (a :class:`~delta_pin.errors.DeltaPinError`, e.g. a diverging run)
+is recorded with its error and cached, and the sweep goes on. Any other exception (a bug, an
+unknown gain name) is recorded but not cached, so that a resume retries it, and is reported by a
+:class:`RuntimeWarning` at the end.
+
+Examples:
+    >>> base = RunSpec(controller="design1", path="I", t_end=5.0)
+    >>> specs = grid_specs(base, dict([parse_axis("delta_m=0:0.9:4"), parse_axis("xi=0.001,0.01")]))
+    >>> points = run_sweep(specs, "sweep-cache", workers=4)       # a process pool of 4
+    >>> [p.metrics["iae"] for p in points]
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import functools
+import hashlib
+import itertools
+import json
+import logging
+import math
+import os
+import sys
+import tempfile
+import time
+import traceback
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from .errors import DeltaPinError, InvalidParameterError
+from .experiments import RunSpec, run_spec
+from .metrics import compute_metrics
+
+__all__ = [
+    "EXECUTORS",
+    "OptionalDependencyError",
+    "SweepPoint",
+    "SweepResult",
+    "evaluate_spec",
+    "grid_specs",
+    "parse_axes",
+    "parse_axis",
+    "run_sweep",
+    "spec_key",
+]
+
+EXECUTORS = ("serial", "process", "dask")
+RECORD_FORMAT = "delta-pin-sweep-point"
+RECORD_VERSION = 1
+_log = logging.getLogger(__name__)
+_FIELD_TYPES = {f.name: str(f.type) for f in fields(RunSpec)}
+
+
+class OptionalDependencyError(DeltaPinError, ImportError):
+    """An optional extra (e.g. ``dask``) is needed for the requested feature; the message gives
+    the pip command."""
+
+
+# --------------------------------------------------------------------------------------------------
+# keys and records
+
+
+def _canonical(value, *, as_float: bool = False, where: str = "value"):
+    """A JSON-ready copy of ``value``: tuples and arrays as lists, numpy scalars as Python ones,
+    and (``as_float``) integers as floats, so that ``delta_m=0`` and ``delta_m=0.0`` give one key."""
+    if value is None or isinstance(value, str | bool | np.bool_):
+        return value if not isinstance(value, np.bool_) else bool(value)
+    if isinstance(value, int | np.integer):
+        return float(value) if as_float else int(value)
+    if isinstance(value, float | np.floating):
+        return float(value)
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return [_canonical(v, as_float=as_float, where=where) for v in value]
+    if isinstance(value, Mapping):
+        return {str(k): _canonical(v, as_float=as_float, where=f"{where}[{k!r}]") for k, v in value.items()}
+    raise InvalidParameterError(f"{where}={value!r} ({type(value).__name__}) is not JSON-serialisable")
+
+
+def _canonical_spec(spec: RunSpec) -> dict:
+    out = {}
+    for name, value in spec.as_dict().items():
+        floaty = name == "gains" or "float" in _FIELD_TYPES.get(name, "")
+        out[name] = _canonical(value, as_float=floaty, where=f"spec.{name}")
+    return out
+
+
+def _canonical_robot_args(robot_args: Mapping | None) -> dict:
+    return _canonical(dict(robot_args or {}), as_float=True, where="robot_args")
+
+
+def _dumps(payload) -> str:
+    return json.dumps(payload, sort_keys=True, separators=(",", ":"))
+
+
+def spec_key(spec: RunSpec, robot_args: Mapping | None = None) -> str:
+    """The cache name of ``spec``: the sha256 (hex) of the canonical JSON of ``spec.as_dict()``
+    (sorted keys; integers in float fields and gains as floats; tuples as lists).
+
+    With non-empty ``robot_args`` (the :func:`~delta_pin.load_delta` arguments of the sweep) the hash
+    covers ``{"spec": ..., "robot_args": ...}``, so that two robots never share a cache entry.
+    """
+    if not isinstance(spec, RunSpec):
+        raise InvalidParameterError(f"spec_key expects a RunSpec, got {type(spec).__name__}: {spec!r}")
+    payload = _canonical_spec(spec)
+    args = _canonical_robot_args(robot_args)
+    if args:
+        payload = {"spec": payload, "robot_args": args}
+    return hashlib.sha256(_dumps(payload).encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point of a sweep.
+
+    Attributes:
+        spec: the run.
+        key: :func:`spec_key` (the cache file name without suffix).
+        metrics: :meth:`~delta_pin.metrics.RunMetrics.as_dict` of the run, ``None`` if it failed.
+        wall_time: seconds the worker took (simulation and metrics) [s].
+        error: the error message of a failed point, ``None`` otherwise.
+        error_type: the exception's class name of a failed point.
+        cached: read from the cache rather than computed by this call.
+    """
+
+    spec: RunSpec
+    key: str
+    metrics: dict | None
+    wall_time: float | None
+    error: str | None = None
+    error_type: str | None = None
+    cached: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def as_dict(self) -> dict:
+        """The JSON record (the content of the cache file, without its format fields)."""
+        return {
+            "key": self.key,
+            "spec": _canonical_spec(self.spec),
+            "metrics": self.metrics,
+            "wall_time": self.wall_time,
+            "error": self.error,
+            "error_type": self.error_type,
+            "cached": self.cached,
+        }
+
+    def row(self) -> dict:
+        """A flat row for a table (CSV, pandas): the spec's fields, its gains as ``gains.NAME``,
+        the metrics (the simulation's own wall time as ``sim_wall_time``), ``wall_time``, ``error``."""
+        spec = _canonical_spec(self.spec)
+        gains = spec.pop("gains")
+        row = {**spec, **{f"gains.{name}": value for name, value in sorted(gains.items())}}
+        for name, value in (self.metrics or {}).items():
+            row["sim_wall_time" if name == "wall_time" else name] = value
+        row["wall_time"] = self.wall_time
+        row["error"] = self.error
+        return row
+
+
+class SweepResult(list):
+    """The points of a sweep, in the order of its specs (a ``list`` of :class:`SweepPoint`).
+
+    Attributes:
+        skipped: points read from the cache (not recomputed).
+        computed: points simulated by this call (distinct keys).
+        failed: points with an error (cached or new).
+        wall_time: seconds the whole call took [s].
+        cache_dir: the cache folder.
+    """
+
+    def __init__(self, points=(), *, skipped=0, computed=0, wall_time=0.0, cache_dir=None):
+        super().__init__(points)
+        self.skipped = skipped
+        self.computed = computed
+        self.wall_time = wall_time
+        self.cache_dir = cache_dir
+
+    @property
+    def failed(self) -> int:
+        return sum(not point.ok for point in self)
+
+    def rows(self) -> list[dict]:
+        return [point.row() for point in self]
+
+    def summary(self) -> str:
+        return (
+            f"sweep: {len(self)} points, {self.skipped} from the cache (skipped), {self.computed} computed,"
+            f" {self.failed} failed, {self.wall_time:.1f} s"
+        )
+
+
+# --------------------------------------------------------------------------------------------------
+# the worker
+
+
+def _freeze(value):
+    if isinstance(value, Mapping):
+        return tuple(sorted((str(k), _freeze(v)) for k, v in value.items()))
+    if isinstance(value, list | tuple):
+        return tuple(_freeze(v) for v in value)
+    return value
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_robot(frozen_args: tuple):
+    """The robot of ``load_delta(**robot_args)``, built once per process."""
+    from .robot import load_delta
+
+    return load_delta(**dict(frozen_args))
+
+
+def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run: bool = False) -> dict:
+    """Simulate one point and compute its metrics (the function the executors run; picklable).
+
+    Args:
+        spec_dict: :meth:`RunSpec.as_dict` of the run.
+        robot_args: keyword arguments of :func:`~delta_pin.load_delta` (``None``: Table 1); the
+            robot is built once per process and reused.
+        return_run: add the :class:`~delta_pin.simulate.Run` under ``"run"`` (to be saved by the caller).
+
+    Returns:
+        ``{"spec", "metrics", "wall_time", "error", "error_type"}`` (JSON-serialisable, apart from
+        ``"run"``). A :class:`~delta_pin.errors.DeltaPinError` is returned as ``error`` and
+        ``error_type``; any other exception also sets ``unexpected`` and ``traceback``.
+    """
+    start = time.perf_counter()
+    record = {"spec": spec_dict, "metrics": None, "wall_time": None, "error": None, "error_type": None}
+    try:
+        spec = RunSpec(**spec_dict)
+        robot = _cached_robot(_freeze(_canonical_robot_args(robot_args)))
+        run = run_spec(spec, robot)
+        record["metrics"] = _canonical(compute_metrics(run).as_dict(), where="metrics")
+        if return_run:
+            record["run"] = run
+    except DeltaPinError as exc:
+        record.update(error=str(exc), error_type=type(exc).__name__)
+    except Exception as exc:
+        record.update(
+            error=f"{type(exc).__name__}: {exc}",
+            error_type=type(exc).__name__,
+            unexpected=True,
+            traceback=traceback.format_exc(),
+        )
+    record["wall_time"] = time.perf_counter() - start
+    return record
+
+
+# --------------------------------------------------------------------------------------------------
+# the cache
+
+
+def _write_text_atomically(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _read_cached(cache_dir: Path, key: str, need_run: bool, retry_failed: bool) -> dict | None:
+    path = cache_dir / f"{key}.json"
+    try:
+        record = json.loads(path.read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        _log.warning("unreadable cache file %s (%s): recomputing it", path, exc)
+        return None
+    if not isinstance(record, dict) or record.get("format") != RECORD_FORMAT or record.get("key") != key:
+        _log.warning("cache file %s is not a delta-pin sweep point of key %s: recomputing it", path, key)
+        return None
+    if record.get("error") is not None:
+        return None if retry_failed else record
+    if need_run and not (cache_dir / f"{key}.npz").is_file():
+        return None
+    return record
+
+
+def _store(cache_dir: Path, key: str, record: dict, robot_args: dict) -> None:
+    """Write the run (if any) and then the record, each atomically: a ``.json`` implies its ``.npz``."""
+    run = record.pop("run", None)
+    if run is not None:
+        run.save(cache_dir / f"{key}.npz")
+    if record.get("unexpected"):
+        return  # not cached: a resume retries it
+    from . import __version__
+
+    payload = {
+        "format": RECORD_FORMAT,
+        "version": RECORD_VERSION,
+        "key": key,
+        "spec": record["spec"],
+        "robot_args": robot_args,
+        "metrics": record["metrics"],
+        "wall_time": record["wall_time"],
+        "error": record["error"],
+        "error_type": record["error_type"],
+        "delta_pin": __version__,
+    }
+    _write_text_atomically(cache_dir / f"{key}.json", json.dumps(payload, indent=1, sort_keys=True) + "\n")
+
+
+# --------------------------------------------------------------------------------------------------
+# executors: each backend maps a function over (key, args) items and yields (key, result) as they finish
+
+_Submit = Callable[..., object]
+
+
+def _import_distributed():
+    try:
+        import distributed
+    except ImportError as exc:
+        raise OptionalDependencyError(
+            "executor='dask' needs dask.distributed, an optional extra: "
+            "pip install 'delta-pin[dask]'  (or: pip install 'dask[distributed]')"
+        ) from exc
+    return distributed
+
+
+def _is_dask_client(executor) -> bool:
+    return type(executor).__module__.split(".")[0] == "distributed" and hasattr(executor, "submit")
+
+
+def _run_futures(submit: _Submit, as_completed, cancel, fn, items) -> Iterator[tuple[str, dict]]:
+    futures = {submit(fn, *args): key for key, args in items}
+    try:
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+    finally:
+        for future in futures:
+            if not future.done():
+                cancel(future)
+
+
+@contextmanager
+def _backend(executor, workers: int | None, scheduler: str | None):
+    """A function ``(fn, items) -> iterator of (key, fn(*args))`` for the chosen executor."""
+    if isinstance(executor, concurrent.futures.Executor):
+        yield functools.partial(
+            _run_futures, executor.submit, concurrent.futures.as_completed, lambda f: f.cancel()
+        )
+        return
+    if _is_dask_client(executor):
+        distributed = _import_distributed()
+        submit = functools.partial(executor.submit, pure=False)
+        yield functools.partial(_run_futures, submit, distributed.as_completed, lambda f: f.cancel())
+        return
+    if executor == "serial":
+        yield lambda fn, items: ((key, fn(*args)) for key, args in items)
+        return
+    if executor == "process":
+        pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers)
+        clean = False
+        try:
+            yield functools.partial(
+                _run_futures, pool.submit, concurrent.futures.as_completed, lambda f: f.cancel()
+            )
+            clean = True
+        finally:
+            pool.shutdown(wait=clean, cancel_futures=True)
+        return
+    # dask
+    distributed = _import_distributed()
+    if scheduler in (None, "local"):
+        cluster = distributed.LocalCluster(
+            n_workers=workers, processes=True, threads_per_worker=1, dashboard_address=None
+        )
+        client = distributed.Client(cluster)
+    else:
+        cluster = None
+        client = distributed.Client(scheduler)
+    try:
+        submit = functools.partial(client.submit, pure=False)
+        yield functools.partial(_run_futures, submit, distributed.as_completed, lambda f: f.cancel())
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _resolve_executor(executor, workers, scheduler):
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise InvalidParameterError(f"workers={workers!r} must be an integer >= 1")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InvalidParameterError(f"scheduler={scheduler!r} must be 'local' or a dask scheduler address")
+    if isinstance(executor, concurrent.futures.Executor) or _is_dask_client(executor):
+        if workers is not None or scheduler is not None:
+            raise InvalidParameterError(
+                "workers and scheduler apply to executor='process' or 'dask', not to an executor instance"
+            )
+        return executor
+    if executor is None:
+        executor = "dask" if scheduler is not None else ("process" if workers and workers > 1 else "serial")
+    if executor not in EXECUTORS:
+        raise InvalidParameterError(
+            f"executor={executor!r} must be one of {', '.join(EXECUTORS)} or a concurrent.futures.Executor"
+        )
+    if scheduler is not None and executor != "dask":
+        raise InvalidParameterError(f"scheduler={scheduler!r} applies to executor='dask', not {executor!r}")
+    if executor == "serial" and workers not in (None, 1):
+        raise InvalidParameterError(f"workers={workers} needs executor='process' or 'dask', not 'serial'")
+    return executor
+
+
+# --------------------------------------------------------------------------------------------------
+# progress
+
+
+class _Progress:
+    """tqdm on a terminal (if installed), a one-line counter without it; one line per 10% in a
+    non-terminal when asked for (``progress=True``); nothing otherwise."""
+
+    def __init__(self, total: int, progress: bool | None, skipped: int) -> None:
+        self.total, self.done, self.failed = total, 0, 0
+        self.start = time.perf_counter()
+        self.stream = sys.stderr
+        tty = _isatty(self.stream)
+        self.mode, self.bar, self.tenths = None, None, 0
+        if progress is False or (progress is None and not tty):
+            return
+        self.mode = "lines" if not tty else "counter"
+        if total == 0:
+            return
+        if skipped:
+            self._print(f"sweep: {skipped} points from the cache, {total} to compute")
+        if tty:
+            try:
+                from tqdm import tqdm
+            except ImportError:
+                pass
+            else:
+                self.mode = "tqdm"
+                self.bar = tqdm(total=total, desc="sweep", unit="pt", file=self.stream, dynamic_ncols=True)
+
+    @property
+    def enabled(self) -> bool:
+        return self.mode is not None
+
+    def _print(self, text: str) -> None:
+        print(text, file=self.stream, flush=True)
+
+    def update(self, failed: bool) -> None:
+        self.done += 1
+        self.failed += bool(failed)
+        if self.mode == "tqdm":
+            self.bar.update(1)
+            if self.failed:
+                self.bar.set_postfix(failed=self.failed, refresh=False)
+        elif self.mode == "counter":
+            self.stream.write(f"\rsweep: {self.done}/{self.total} points, {self.failed} failed")
+            self.stream.flush()
+        elif self.mode == "lines":
+            tenths = (10 * self.done) // self.total
+            if tenths > self.tenths:
+                self.tenths = tenths
+                self._print(
+                    f"sweep: {self.done}/{self.total} points ({100 * self.done // self.total}%),"
+                    f" {self.failed} failed, {time.perf_counter() - self.start:.1f} s"
+                )
+
+    def close(self) -> None:
+        if self.mode == "tqdm" and self.bar is not None:
+            self.bar.close()
+        elif self.mode == "counter" and self.total:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+# --------------------------------------------------------------------------------------------------
+# the sweep
+
+
+def run_sweep(
+    specs: Iterable[RunSpec],
+    cache_dir: str | Path,
+    *,
+    executor: str | concurrent.futures.Executor | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    save_runs: bool = False,
+    robot_args: Mapping | None = None,
+    progress: bool | None = None,
+    retry_failed: bool = False,
+) -> SweepResult:
+    """Simulate every spec (those not already in ``cache_dir``) and return their points in order.
+
+    Args:
+        specs: the runs (:func:`grid_specs` makes a grid). Duplicates are simulated once.
+        cache_dir: folder of the cache (created if needed); ``<key>.json`` per finished point and,
+            with ``save_runs``, ``<key>.npz``. Points already there are read back, not recomputed.
+        executor: ``"serial"``, ``"process"`` (a process pool of ``workers``), ``"dask"`` (a
+            ``dask.distributed`` client of ``scheduler``), a :class:`concurrent.futures.Executor`
+            or a ``distributed.Client`` instance (left open). ``None``: ``"dask"`` if ``scheduler``
+            is given, ``"process"`` if ``workers > 1``, else ``"serial"``.
+        workers: processes of the pool, or workers of a local dask cluster (``None``: one per core).
+        scheduler: ``"local"`` (a :class:`~distributed.LocalCluster` of ``workers`` processes, one
+            thread each; the default with ``executor="dask"``) or a scheduler address
+            (``"tcp://host:8786"``).
+        save_runs: also store each run (``<key>.npz``, :func:`~delta_pin.load_run` reads it); a
+            cached point without its ``.npz`` is recomputed.
+        robot_args: keyword arguments of :func:`~delta_pin.load_delta` (``None``: Table 1); part of
+            the cache key when given.
+        progress: ``None``: a progress bar on a terminal only; ``True``: also one line per 10% when
+            stderr is not a terminal; ``False``: quiet.
+        retry_failed: recompute cached points that failed (by default a failure is final).
+
+    Returns:
+        A :class:`SweepResult` (a list of :class:`SweepPoint`, in the order of ``specs``) with the
+        counts ``skipped``, ``computed`` and ``failed``.
+
+    Raises:
+        InvalidParameterError: a spec that is not a RunSpec, bad executor options.
+        OptionalDependencyError: ``executor="dask"`` without dask installed.
+        DeltaPinError: ``robot_args`` that do not make a robot (checked once, before any run).
+    """
+    start = time.perf_counter()
+    specs = list(specs)
+    for index, spec in enumerate(specs):
+        if not isinstance(spec, RunSpec):
+            raise InvalidParameterError(
+                f"specs[{index}] must be a RunSpec, got {type(spec).__name__}: {spec!r}"
+            )
+    executor = _resolve_executor(executor, workers, scheduler)
+    args = _canonical_robot_args(robot_args)
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+
+    keys = [spec_key(spec, args) for spec in specs]
+    unique = {key: spec for key, spec in zip(keys, specs)}
+    records: dict[str, dict] = {}
+    for key in unique:
+        record = _read_cached(cache_dir, key, save_runs, retry_failed)
+        if record is not None:
+            records[key] = record
+    from_cache = set(records)
+    todo = [key for key in unique if key not in records]
+    skipped = sum(key in from_cache for key in keys)
+
+    bar = _Progress(len(todo), progress, skipped)
+    unexpected = []
+    try:
+        if todo:
+            _cached_robot(_freeze(args))  # bad robot arguments fail here, once, not in every point
+            items = [(key, (_canonical_spec(unique[key]), args, save_runs)) for key in todo]
+            with _backend(executor, workers, scheduler) as run_all:
+                for key, record in run_all(evaluate_spec, items):
+                    _store(cache_dir, key, record, args)
+                    records[key] = record
+                    if record.get("unexpected"):
+                        unexpected.append((unique[key], record))
+                        _log.error("sweep point %s (%s) failed:\n%s", key, unique[key], record["traceback"])
+                    bar.update(failed=record["error"] is not None)
+    finally:
+        bar.close()
+
+    points = [
+        SweepPoint(
+            spec=spec,
+            key=key,
+            metrics=records[key]["metrics"],
+            wall_time=records[key]["wall_time"],
+            error=records[key]["error"],
+            error_type=records[key]["error_type"],
+            cached=key in from_cache,
+        )
+        for spec, key in zip(specs, keys)
+    ]
+    result = SweepResult(
+        points,
+        skipped=skipped,
+        computed=len(todo),
+        wall_time=time.perf_counter() - start,
+        cache_dir=cache_dir,
+    )
+    _log.info("%s (cache %s)", result.summary(), cache_dir)
+    if bar.enabled:
+        print(result.summary(), file=sys.stderr, flush=True)
+    if unexpected:
+        spec, record = unexpected[0]
+        warnings.warn(
+            f"{len(unexpected)} sweep point(s) failed with an unexpected error (not cached, a resume"
+            f" retries them); the first, {spec.label()}: {record['error']}",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return result
+
+
+# --------------------------------------------------------------------------------------------------
+# grids
+
+
+def _coerce(name: str, value):
+    """``value`` as the type of RunSpec field ``name`` (ints as floats, 0/1 as bools ...)."""
+    kind = _FIELD_TYPES[name]
+    optional = "None" in kind
+    if value is None:
+        if optional:
+            return None
+        raise InvalidParameterError(f"axis {name}: None is not a valid {name} ({kind})")
+    if isinstance(value, np.generic):
+        value = value.item()
+    bad = InvalidParameterError(f"axis {name}: {value!r} is not a valid {name} ({kind})")
+    if kind.startswith("bool"):
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, int) and value in (0, 1):
+            return bool(value)
+        if isinstance(value, str) and value.lower() in ("true", "false"):
+            return value.lower() == "true"
+        raise bad
+    if kind.startswith("float"):
+        if isinstance(value, bool):
+            raise bad
+        if isinstance(value, int | float):
+            return float(value)
+        if isinstance(value, str):
+            try:
+                return float(value)
+            except ValueError:
+                raise bad from None
+        raise bad
+    if kind.startswith("int"):
+        if isinstance(value, bool):
+            raise bad
+        if isinstance(value, int):
+            return value
+        if isinstance(value, float) and value.is_integer():
+            return int(value)
+        if isinstance(value, str):
+            try:
+                return int(value)
+            except ValueError:
+                raise bad from None
+        raise bad
+    if kind.startswith("str"):
+        if isinstance(value, str):
+            return value
+        raise bad
+    return value
+
+
+def grid_specs(base: RunSpec, axes: Mapping[str, Iterable]) -> list[RunSpec]:
+    """The Cartesian product of ``axes`` over ``base`` (the first axis varies slowest).
+
+    Args:
+        base: the spec every point starts from.
+        axes: values by name. A :class:`RunSpec` field (``delta_m``, ``controller``, ``seed`` ...)
+            replaces the field (values coerced to its type: ``0`` -> ``0.0`` for a float field);
+            any other name is a gain and goes into ``spec.gains`` (over ``base.gains``). An unknown
+            gain name fails when the point runs.
+
+    Examples:
+        >>> grid_specs(RunSpec(), {"delta_m": [0.0, 0.5], "xi": [1e-3, 1e-2]})   # 4 specs
+
+    Raises:
+        InvalidParameterError: no axes, an axis without values, a name that is not an identifier
+            or is ``gains``, a value of the wrong type for its field.
+    """
+    if not isinstance(base, RunSpec):
+        raise InvalidParameterError(f"grid_specs: base must be a RunSpec, got {type(base).__name__}")
+    if not isinstance(axes, Mapping) or not axes:
+        raise InvalidParameterError(
+            f"grid_specs needs at least one axis, e.g. {{'delta_m': [0.0, 0.5]}}, got axes={axes!r}"
+        )
+    names, values = [], []
+    for name, axis in axes.items():
+        if not isinstance(name, str) or not name.isidentifier():
+            raise InvalidParameterError(f"axis name {name!r} must be a RunSpec field or a gain name")
+        if name == "gains":
+            raise InvalidParameterError("axis 'gains': give each gain its own axis, e.g. {'xi': [...]}")
+        if isinstance(axis, str | bytes | Mapping) or not isinstance(axis, Iterable):
+            raise InvalidParameterError(f"axis {name}: expected a list of values, got {axis!r}")
+        axis = list(axis)
+        if not axis:
+            raise InvalidParameterError(f"axis {name} has no values")
+        if name in _FIELD_TYPES:
+            axis = [_coerce(name, value) for value in axis]
+        names.append(name)
+        values.append(axis)
+    specs = []
+    for combo in itertools.product(*values):
+        changes, gains = {}, dict(base.gains)
+        for name, value in zip(names, combo):
+            if name in _FIELD_TYPES:
+                changes[name] = value
+            else:
+                gains[name] = value
+        specs.append(base.with_(**changes, gains=gains))
+    return specs
+
+
+_AXIS_SYNTAX = "NAME=START:STOP:COUNT (inclusive) or NAME=V1,V2,..."
+
+
+def _parse_value(token: str):
+    lower = token.lower()
+    if lower in ("none", "null"):
+        return None
+    if lower in ("true", "false"):
+        return lower == "true"
+    try:
+        return int(token)
+    except ValueError:
+        pass
+    try:
+        return float(token)
+    except ValueError:
+        return token
+
+
+def parse_axis(text: str) -> tuple[str, list]:
+    """A sweep axis from the command line.
+
+    ``"delta_m=0:0.9:4"`` -> ``("delta_m", [0.0, 0.3, 0.6, 0.9])`` (START:STOP:COUNT, both ends
+    included, values rounded to 12 significant digits); ``"delta_f=0,0.3,0.6"`` -> an explicit list
+    (integers, floats, ``true``/``false``, ``none`` and words such as ``design1`` or ``II``).
+
+    Raises:
+        InvalidParameterError: naming the text that cannot be read.
+    """
+    if not isinstance(text, str):
+        raise InvalidParameterError(f"axis {text!r} must be a string {_AXIS_SYNTAX}")
+    name, sep, rest = text.partition("=")
+    name, rest = name.strip(), rest.strip()
+    if not sep or not name or not rest:
+        raise InvalidParameterError(f"axis {text!r}: expected {_AXIS_SYNTAX}")
+    if not name.isidentifier():
+        raise InvalidParameterError(f"axis {text!r}: {name!r} is not a field or gain name")
+    if ":" in rest:
+        parts = [part.strip() for part in rest.split(":")]
+        if len(parts) != 3:
+            raise InvalidParameterError(f"axis {text!r}: a range is START:STOP:COUNT, got {rest!r}")
+        try:
+            start, stop = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise InvalidParameterError(
+                f"axis {text!r}: START and STOP must be numbers, got {rest!r}"
+            ) from None
+        if not (math.isfinite(start) and math.isfinite(stop)):
+            raise InvalidParameterError(f"axis {text!r}: START and STOP must be finite")
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise InvalidParameterError(
+                f"axis {text!r}: COUNT must be an integer, got {parts[2]!r}"
+            ) from None
+        if count < 1:
+            raise InvalidParameterError(f"axis {text!r}: COUNT must be >= 1, got {count}")
+        if count == 1 and start != stop:
+            raise InvalidParameterError(f"axis {text!r}: COUNT=1 needs START == STOP")
+        values = [float(f"{value:.12g}") for value in np.linspace(start, stop, count)]
+        return name, values
+    tokens = [token.strip() for token in rest.split(",")]
+    if any(not token for token in tokens):
+        raise InvalidParameterError(f"axis {text!r}: empty value in {rest!r}")
+    return name, [_parse_value(token) for token in tokens]
+
+
+def parse_axes(texts: Iterable[str]) -> dict[str, list]:
+    """Several :func:`parse_axis` texts as the ``axes`` of :func:`grid_specs` (a name at most once)."""
+    axes: dict[str, list] = {}
+    for text in texts:
+        name, values = parse_axis(text)
+        if name in axes:
+            raise InvalidParameterError(f"axis {name} given twice (in {text!r})")
+        axes[name] = values
+    return axes
