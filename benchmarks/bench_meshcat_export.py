@@ -14,25 +14,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 import delta_pin as dp
-from delta_pin.control import Controller, ControlOutput
 from delta_pin.simulate import simulate
 from delta_pin.viz.meshcat_export import export_html
-
-
-class PDGravity(Controller):
-    name = "pd_gravity"
-
-    def __init__(self, robot):
-        self.G0 = robot.analytic_dynamics(robot.inverse_kinematics([0.0, 0.0, -0.4]), np.zeros(3)).G
-
-    def evaluate(self, t, alpha, alpha_dot, reference, state):
-        return ControlOutput(
-            self.G0 + 60.0 * (reference.alpha - alpha) + 3.0 * (reference.alpha_dot - alpha_dot)
-        )
-
 
 SETTINGS = {
     "fps=30": {"fps": 30.0},
@@ -49,7 +33,14 @@ def main() -> None:
 
     robot = dp.load_delta()
     start = time.perf_counter()
-    run = simulate(robot, PDGravity(robot), dp.PathII(), plant="analytic", t_end=args.t_end, dt=1e-3)
+    run = simulate(
+        robot,
+        dp.PDGravity(dp.DeltaNominalModel(robot)),
+        dp.PathII(),
+        plant="analytic",
+        t_end=args.t_end,
+        dt=1e-3,
+    )
     print(
         f"simulated {args.t_end:g} s at 1 kHz ({len(run.t)} samples) in {time.perf_counter() - start:.2f} s"
     )

@@ -12,22 +12,8 @@ import argparse
 import numpy as np
 
 import delta_pin as dp
-from delta_pin.control import Controller, ControlOutput
 from delta_pin.simulate import simulate
 from delta_pin.viz.meshcat_export import export_html
-
-
-class PDGravity(Controller):
-    """Joint PD around the reference plus the gravity torque at the path's centre."""
-
-    name = "pd_gravity"
-
-    def __init__(self, robot: dp.Delta) -> None:
-        self.G0 = robot.analytic_dynamics(robot.inverse_kinematics([0.0, 0.0, -0.4]), np.zeros(3)).G
-
-    def evaluate(self, t, alpha, alpha_dot, reference, state):
-        tau = self.G0 + 60.0 * (reference.alpha - alpha) + 3.0 * (reference.alpha_dot - alpha_dot)  # [N m]
-        return ControlOutput(tau)
 
 
 def main() -> None:
@@ -42,7 +28,9 @@ def main() -> None:
     args = parser.parse_args()
 
     robot = dp.load_delta()  # the paper's Table 1 robot
-    run = simulate(robot, PDGravity(robot), dp.PathII(), plant="analytic", t_end=args.t_end)
+    run = simulate(
+        robot, dp.PDGravity(dp.DeltaNominalModel(robot)), dp.PathII(), plant="analytic", t_end=args.t_end
+    )
     error = np.linalg.norm(run.xyz - run.xyz_d, axis=1).max()
     path = export_html(run, args.out, show_desired_ghost=args.ghost)
     print(f"{args.t_end:g} s along path II, max tracking error {error * 1e3:.2f} mm")

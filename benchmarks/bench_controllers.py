@@ -1,0 +1,56 @@
+"""Median time of one controller step (torque and state derivative) from Python.
+
+Run: ``python benchmarks/bench_controllers.py [--repeats 5] [--calls 2000]``
+
+Each controller is evaluated at the paper's initial state on path I (alpha_0 = 0.3322 rad) with
+its Delta nominal model; the time is per call, the median over ``repeats`` batches of ``calls``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+from common import Timing, machine_info, print_table
+
+import delta_pin as dp
+from delta_pin.control import Reference
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--calls", type=int, default=2000)
+    args = parser.parse_args()
+    robot = dp.load_delta()
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    reference = dp.PathI().joint_reference(robot, np.array([0.0]))
+    ref = Reference(reference.alpha[0], reference.alpha_dot[0], reference.alpha_ddot[0])
+    alpha, alpha_dot = np.full(3, 0.3322), np.array([0.1, -0.2, 0.05])
+    controllers = {
+        "design I": dp.design1(nominal),
+        "design II": dp.design2(nominal),
+        "design I, sampling-aware": dp.design1(nominal, sampling_period=1e-3),
+        "computed torque": dp.ComputedTorque(nominal),
+        "PD + gravity": dp.PDGravity(nominal),
+        "LQR": dp.LQR(nominal, reference.alpha[0]),
+    }
+    import time
+
+    timings = []
+    for name, controller in controllers.items():
+        state = controller.initial_state()
+        controller.evaluate(0.0, alpha, alpha_dot, ref, state)  # warm-up (numba compilation)
+        times = []
+        for _ in range(args.repeats):
+            start = time.perf_counter()
+            for _ in range(args.calls):
+                controller.evaluate(0.0, alpha, alpha_dot, ref, state)
+            times.append((time.perf_counter() - start) / args.calls)
+        timings.append(Timing(name, times, note=f"per call, {args.calls} calls per repeat"))
+    print(f"machine: {machine_info()}")
+    print_table("one controller step (torque + state derivative)", timings, reference=timings[0])
+
+
+if __name__ == "__main__":
+    main()
