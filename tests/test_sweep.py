@@ -100,13 +100,6 @@ def test_workers_alone_pick_the_process_pool(grid, serial, tmp_path, monkeypatch
     assert _metrics(points) == _metrics(serial[:2])
 
 
-def test_local_dask_cluster_gives_identical_results(grid, serial, tmp_path):
-    pytest.importorskip("dask.distributed")
-    points = run_sweep(grid, tmp_path, executor="dask", scheduler="local", workers=2)
-    assert _metrics(points) == _metrics(serial)
-    assert all(not point.cached for point in points)
-
-
 def test_missing_dask_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # makes `import distributed` fail
     with pytest.raises(OptionalDependencyError, match=r"pip install 'delta-pin\[dask\]'"):
@@ -342,3 +335,27 @@ def test_parse_axis_errors(text, match):
 def test_parse_axes_rejects_a_repeated_name():
     with pytest.raises(InvalidParameterError, match="axis delta_m given twice"):
         parse_axes(["delta_m=0,1", "delta_m=0.5"])
+
+
+# dask last: its clusters leave threads in this process, and the process pools above fork it
+
+
+def test_local_dask_cluster_gives_identical_results(grid, serial, tmp_path):
+    pytest.importorskip("dask.distributed")
+    points = run_sweep(grid, tmp_path, executor="dask", scheduler="local", workers=2)
+    assert _metrics(points) == _metrics(serial)
+    assert all(not point.cached for point in points)
+
+
+def test_a_dask_scheduler_address_or_client_instance(grid, serial, tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=1, processes=False, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        by_address = run_sweep(grid[:2], tmp_path / "address", scheduler=cluster.scheduler_address)
+        by_client = run_sweep(grid[2:], tmp_path / "client", executor=client)
+        assert client.status == "running"  # a client given by the caller is left open
+    assert _metrics(by_address) + _metrics(by_client) == _metrics(serial)
