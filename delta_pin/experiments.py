@@ -116,7 +116,20 @@ def build_uncertainty(spec: RunSpec):
 
 def build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None = None) -> Controller:
     """The controller of ``spec`` on the Delta's analytic nominal model (m̄_o from the URDF,
-    F̄ = [2, 4, 6] N m, F̄_n = 15 N)."""
+    F̄ = [2, 4, 6] N m, F̄_n = 15 N).
+
+    Raises:
+        InvalidParameterError: a gain name the controller does not have.
+    """
+    try:
+        return _build_controller(spec, robot, trajectory)
+    except TypeError as exc:
+        raise InvalidParameterError(
+            f"controller {spec.controller!r} does not take gains {spec.gains}: {exc}"
+        ) from None
+
+
+def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None) -> Controller:
     nominal = DeltaNominalModel(robot, nominal_disturbance=PAPER_NOMINAL_DISTURBANCE)
     fc = {"friction_compensation": spec.friction_compensation}
     gains = dict(spec.gains)

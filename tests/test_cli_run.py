@@ -106,3 +106,11 @@ def test_bad_input_is_a_clear_error(tmp_path, capsys):
     assert main(["run", "--uncertainty", "1.5", "--plant", "analytic", "--out", str(tmp_path)]) == 2
     assert "delta_m" in capsys.readouterr().err
     assert not (tmp_path / "run.npz").exists()
+
+
+def test_unknown_gain_is_refused_with_its_name():
+    from delta_pin.errors import InvalidParameterError
+    from delta_pin.experiments import RunSpec, run_spec
+
+    with pytest.raises(InvalidParameterError, match="kappa"):
+        run_spec(RunSpec(plant="analytic", gains={"kappa": 1.0}, t_end=0.1))

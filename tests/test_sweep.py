@@ -176,11 +176,22 @@ def test_a_failing_point_is_recorded_cached_and_does_not_stop_the_others(tmp_pat
     assert retried[1].error == failed.error
 
 
-def test_an_unexpected_error_is_recorded_not_cached_and_warned(tmp_path):
-    specs = [BASE.with_(gains={"no_such_gain": 1.0}), BASE]
-    with pytest.warns(RuntimeWarning, match="no_such_gain"):
-        points = run_sweep(specs, tmp_path)
-    assert points[0].error_type == "TypeError" and points[1].ok
+def test_an_unexpected_error_is_recorded_not_cached_and_warned(tmp_path, monkeypatch):
+    import delta_pin.sweep
+
+    broken = BASE.with_(t_end=0.25)
+    real = delta_pin.sweep.run_spec
+
+    def run_spec_with_a_bug(spec, robot=None):
+        if spec == broken:
+            raise ZeroDivisionError("a bug in no_such_code")
+        return real(spec, robot)
+
+    monkeypatch.setattr(delta_pin.sweep, "run_spec", run_spec_with_a_bug)
+    specs = [broken, BASE]
+    with pytest.warns(RuntimeWarning, match="no_such_code"):
+        points = run_sweep(specs, tmp_path, executor="serial")
+    assert points[0].error_type == "ZeroDivisionError" and points[1].ok
     assert not (tmp_path / f"{points[0].key}.json").exists()  # a resume retries it
     assert (tmp_path / f"{points[1].key}.json").exists()
 
