@@ -1,4 +1,4 @@
-"""Command-line interface: ``delta-pin urdf | validate | run | view``."""
+"""Command-line interface: ``delta-pin urdf | validate | run | compare | sweep | reproduce | view``."""
 
 from __future__ import annotations
 
@@ -123,6 +123,88 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .reproduce import reproduce
+
+    result = reproduce(args.out, quick=not args.full, workers=args.workers, scheduler=args.scheduler)
+    holds = sum(c["holds"] == "yes" for c in result.claims)
+    print(
+        f"{holds} of {len(result.claims)} of the paper's claims hold on this plant: "
+        f"see {result.out}/report.md"
+    )
+    return 0
+
+
+def _split(text: str) -> list[str]:
+    return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def _spec_from_args(args: argparse.Namespace, **changes):
+    from .experiments import RunSpec
+
+    return RunSpec(
+        plant=args.plant,
+        mode=args.mode,
+        t_end=args.t_end,
+        dt=args.dt,
+        sampling_aware=args.sampling_aware,
+        **changes,
+    )
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .reproduce import _markdown_table, compare
+
+    specs = [
+        _spec_from_args(args, controller=c, path=p, friction_compensation=fc)
+        for p in _split(args.paths)
+        for c in _split(args.controllers)
+        for fc in ((True, False) if args.with_and_without_fc else (True,))
+    ]
+    metrics = compare(specs, args.out, workers=args.workers, scheduler=args.scheduler)
+    print(_markdown_table(metrics))
+    print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .reproduce import sweep
+    from .sweep import parse_axes
+
+    base = _spec_from_args(args, controller=args.controller, path=args.path)
+    rows = sweep(
+        base,
+        parse_axes(args.param),
+        args.out,
+        metric=args.metric,
+        workers=args.workers,
+        scheduler=args.scheduler,
+    )
+    print(f"{len(rows)} points: wrote {args.out}/results.csv")
+    return 0
+
+
+def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    from .simulate import MODES
+
+    parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic")
+    parser.add_argument("--mode", choices=MODES, default="continuous")
+    parser.add_argument("--t-end", type=float, default=None, help="duration [s] (path default)")
+    parser.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
+    parser.add_argument("--sampling-aware", action="store_true")
+    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    _add_executor_arguments(parser)
+
+
+def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--workers", type=int, default=None, help="local worker processes")
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address ('local' for a local cluster; needs the [dask] extra)",
+    )
+
+
 def _cmd_view(args: argparse.Namespace) -> int:
     from .viz.meshcat_export import view_live
 
@@ -192,6 +274,41 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--html", type=Path, default=None, help="also export a standalone meshcat page")
     _add_robot_arguments(run)
     run.set_defaults(func=_cmd_run)
+
+    reproduce = sub.add_parser(
+        "reproduce", help="the paper's Section V study: runs, surfaces, figures, report"
+    )
+    size = reproduce.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="analytic plant, 3 x 3 surfaces (the default)")
+    size.add_argument("--full", action="store_true", help="Pinocchio plant, 11 x 11 surfaces")
+    reproduce.add_argument("--out", type=Path, default=Path("out/reproduce"), help="output directory")
+    _add_executor_arguments(reproduce)
+    reproduce.set_defaults(func=_cmd_reproduce)
+
+    compare = sub.add_parser("compare", help="several controllers on several paths: metrics and figures")
+    compare.add_argument("--controllers", default="design1,design2,lqr", help="comma-separated")
+    compare.add_argument("--paths", default="I,II", help="comma-separated: I, II, adept")
+    compare.add_argument(
+        "--with-and-without-fc",
+        action="store_true",
+        help="each controller with and without friction compensation",
+    )
+    _add_study_arguments(compare)
+    compare.set_defaults(func=_cmd_compare)
+
+    sweep = sub.add_parser("sweep", help="a grid over uncertainty magnitudes or gains")
+    sweep.add_argument(
+        "--param",
+        action="append",
+        required=True,
+        metavar="NAME=SPEC",
+        help="an axis: delta_m=0:0.9:4 (start:stop:count) or xi=0.001,0.01 (repeatable)",
+    )
+    sweep.add_argument("--controller", choices=CONTROLLERS, default="design1")
+    sweep.add_argument("--path", choices=PATHS, default="I")
+    sweep.add_argument("--metric", default="rho_hat_max", help="surface of this metric for two axes")
+    _add_study_arguments(sweep)
+    sweep.set_defaults(func=_cmd_sweep)
 
     view = sub.add_parser("view", help="open a live meshcat viewer of a saved run")
     view.add_argument("run", type=Path, help="a run.npz written by delta-pin run")

@@ -1,0 +1,135 @@
+"""``delta-pin reproduce`` on a tiny study: every output exists, the tables equal a recomputation
+from the saved runs, a second call resumes from the cache; ``compare`` and ``sweep`` commands."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from delta_pin.cli import main
+from delta_pin.metrics import compute_metrics
+from delta_pin.reproduce import ReproduceSettings, reproduce, settling_time
+from delta_pin.simulate import load_run
+
+TINY = ReproduceSettings(plant="analytic", grid=(0.0, 0.6), main_t_end=0.3, surface_t_end=0.3)
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    return out, reproduce(out, settings=TINY, workers=1)
+
+
+def test_every_output_is_written(tiny):
+    out, result = tiny
+    for name in (
+        "index.html",
+        "report.md",
+        "metrics.csv",
+        "metrics.md",
+        "claims.json",
+        "design1_path_I.html",
+    ):
+        assert (out / name).stat().st_size > 0, name
+    figures = sorted((out / "figures").glob("*.png"))
+    numbers = sorted(int(p.name[3:5]) for p in figures)
+    assert numbers == list(range(6, 30))  # Figs. 6-29, one file each
+    for figure in figures:
+        data = figure.read_bytes()
+        assert data.startswith(PNG) and len(data) > 5000, figure.name
+    html = (out / "index.html").read_text()
+    assert all(f"figures/{p.name}" in html for p in figures)
+    assert len(result.claims) == len(json.loads((out / "claims.json").read_text())) >= 10
+
+
+def test_metrics_table_equals_a_recomputation_from_the_saved_runs(tiny):
+    out, result = tiny
+    rows = list(csv.DictReader((out / "metrics.csv").open()))
+    assert len(rows) == 10  # 5 controllers x 2 paths
+    runs = {(label, path): run for (label, path), run in result.runs.items()}
+    for row in rows:
+        run = runs[(row["controller"], row["path"])]
+        again = compute_metrics(
+            load_run(
+                next(p for p in (out / "cache").glob("*.npz") if np.array_equal(load_run(p).alpha, run.alpha))
+            )
+        )
+        for name in ("iae", "ise", "control_effort", "control_effort_sum"):
+            assert float(row[name]) == pytest.approx(getattr(again, name), rel=1e-12), name
+
+
+def test_surfaces_hold_one_value_per_grid_point(tiny):
+    _, result = tiny
+    assert len(result.surfaces) == 6  # 3 planes x 2 designs
+    for values in result.surfaces.values():
+        assert values.shape == (2, 2) and np.all(np.isfinite(values)) and np.all(values > 0.02)
+
+
+def test_a_second_reproduction_resumes_from_the_cache(tiny, capsys):
+    out, first = tiny
+    again = reproduce(out, settings=TINY, workers=1)
+    assert again.metrics == first.metrics or all(
+        a[k] == b[k] for a, b in zip(again.metrics, first.metrics) for k in a if k != "wall_time"
+    )
+    assert again.wall_time < first.wall_time
+
+
+def test_settling_time():
+    class Fake:
+        t = np.linspace(0.0, 1.0, 11)
+        error = np.zeros((11, 3))
+
+    run = Fake()
+    run.error[:4, 0] = 0.1  # above 1e-3 rad until t = 0.3 s
+    assert settling_time(run) == pytest.approx(0.4)
+    run.error[-1, 0] = 0.1
+    assert settling_time(run) == np.inf
+
+
+def test_compare_and_sweep_commands(tmp_path, capsys):
+    out = tmp_path / "compare"
+    assert (
+        main(
+            [
+                "compare",
+                "--controllers",
+                "design1,lqr",
+                "--paths",
+                "I",
+                "--t-end",
+                "0.3",
+                "--mode",
+                "sampled",
+                "--sampling-aware",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    assert "design I" in capsys.readouterr().out
+    assert len(list(csv.DictReader((out / "metrics.csv").open()))) == 2
+    assert (out / "figures" / "errors_I.png").read_bytes().startswith(PNG)
+    out = tmp_path / "sweep"
+    assert (
+        main(
+            [
+                "sweep",
+                "--param",
+                "delta_m=0:0.6:2",
+                "--param",
+                "delta_f=0,0.5",
+                "--t-end",
+                "0.3",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert len(rows) == 4
+    assert (out / "rho_hat_max_delta_m_delta_f.png").read_bytes().startswith(PNG)
+    assert main(["sweep", "--param", "delta_m=oops", "--out", str(out)]) == 2
