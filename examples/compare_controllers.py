@@ -1,0 +1,26 @@
+"""Compare designs I and II with LQR on paths I and II: metrics table and figures.
+
+Run: ``python examples/compare_controllers.py [--t-end 3] [--out out/compare]``
+"""
+
+import argparse
+
+from delta_pin.experiments import RunSpec
+from delta_pin.reproduce import _markdown_table, compare
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--t-end", type=float, default=3.0)
+    parser.add_argument("--out", default="out/compare")
+    args = parser.parse_args()
+    specs = [
+        RunSpec(controller=c, path=p, plant="analytic", t_end=args.t_end)
+        for p in ("I", "II")
+        for c in ("design1", "design2", "lqr")
+    ]
+    print(_markdown_table(compare(specs, args.out, workers=1)))
+
+
+if __name__ == "__main__":
+    main()
