@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
+from .atomic import write_text_atomically
 from .errors import DeltaPinError, XacroArgumentError
 
 __all__ = ["main"]
@@ -23,20 +22,6 @@ def _parse_settings(settings: list[str]) -> dict[str, str]:
             raise XacroArgumentError(f"--set expects NAME=VALUE, got {item!r}")
         parsed[name.strip()] = value.strip()
     return parsed
-
-
-def write_text_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename (never half-written)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _add_robot_arguments(parser: argparse.ArgumentParser, allow_urdf: bool = True) -> None:

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_text_atomically
 from .experiments import RunSpec
 from .metrics import compute_metrics
 from .simulate import Run, load_run
@@ -396,8 +397,6 @@ COLUMNS = (
 
 
 def _write_tables(result: ReproductionResult) -> None:
-    from .cli import write_text_atomically
-
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=COLUMNS, extrasaction="ignore")
     writer.writeheader()
@@ -445,8 +444,6 @@ def _write_meshcat_pages(result: ReproductionResult) -> list[str]:
 
 
 def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: list[str]) -> None:
-    from .cli import write_text_atomically
-
     figures = sorted(p.name for p in (result.out / "figures").glob("*.png"))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     lines = [
@@ -573,7 +570,6 @@ def sweep(
 ) -> list[dict]:
     """A grid over ``axes`` around ``base``: ``results.csv`` (one row per point) and, for two axes,
     a surface of ``metric``."""
-    from .cli import write_text_atomically
     from .viz import plots
 
     out = Path(out)

@@ -15,16 +15,15 @@ leaves the workspace fails at once with the time and the point).
 from __future__ import annotations
 
 import json
-import os
 import platform
 import sys
-import tempfile
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_open
 from .control.base import Controller, Reference, as_controller
 from .errors import DeltaPinError, InvalidParameterError, NonFiniteError, SimulationError
 from .kinematics import as_vector3
@@ -81,20 +80,12 @@ class Run:
 
     def save(self, path: str | Path) -> Path:
         """Write the run to ``path`` (``.npz``) atomically: a temporary file, then a rename."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {name: getattr(self, name) for name in _ARRAYS}
         arrays.update({f"internal__{name}": value for name, value in self.internals.items()})
         arrays["metadata_json"] = np.array(json.dumps(self.metadata, default=_json_default))
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp.npz")
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                np.savez_compressed(handle, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        with atomic_open(path, "wb") as handle:
+            np.savez_compressed(handle, **arrays)
+        return Path(path)
 
 
 def _json_default(value):

@@ -33,9 +33,7 @@ import itertools
 import json
 import logging
 import math
-import os
 import sys
-import tempfile
 import time
 import traceback
 import warnings
@@ -46,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_text_atomically
 from .errors import DeltaPinError, InvalidParameterError
 from .experiments import RunSpec, run_spec
 from .metrics import compute_metrics
@@ -274,17 +273,6 @@ def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run
 # the cache
 
 
-def _write_text_atomically(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _read_cached(cache_dir: Path, key: str, need_run: bool, retry_failed: bool) -> dict | None:
     path = cache_dir / f"{key}.json"
     try:
@@ -325,7 +313,7 @@ def _store(cache_dir: Path, key: str, record: dict, robot_args: dict) -> None:
         "error_type": record["error_type"],
         "delta_pin": __version__,
     }
-    _write_text_atomically(cache_dir / f"{key}.json", json.dumps(payload, indent=1, sort_keys=True) + "\n")
+    write_text_atomically(cache_dir / f"{key}.json", json.dumps(payload, indent=1, sort_keys=True) + "\n")
 
 
 # --------------------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..atomic import write_text_atomically
 from ..errors import DeltaPinError, InvalidParameterError, NonFiniteError
 from ..simulate import Run, load_run
 
@@ -626,21 +627,6 @@ def _prepare(run, robot, fps, show_desired_ghost, path_colors) -> tuple[Run, _Sc
     return run, _build_scene(run, robot, fps, bool(show_desired_ghost)), fps, colors
 
 
-def _write_text_atomically(path: Path, text: str) -> None:
-    """Write ``text`` through a temporary file in the same folder, then ``os.replace`` it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex}.tmp"
-    # os.open with mode 0o666 lets the umask decide the permissions, as for any new file
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 # ----------------------------------------------------------------------------------- public API
 def export_html(
     run: Run | str | os.PathLike,
@@ -689,7 +675,7 @@ def export_html(
     vis = _meshcat().Visualizer(window=window)
     _draw(vis, scene, fps, colors, repetitions)
     path = Path(path)
-    _write_text_atomically(path, scene_html(window, title=_title(run)))
+    write_text_atomically(path, scene_html(window, title=_title(run)))
     return path
 
 
