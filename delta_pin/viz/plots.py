@@ -27,9 +27,7 @@ The key lines carry a ``gid`` (e.g. ``"error_norm"``, ``"rho_hat"``, ``"tau_1"``
 from __future__ import annotations
 
 import math
-import os
 import sys
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -38,6 +36,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from ..atomic import atomic_open
 from ..errors import InvalidParameterError
 from ..simulate import Run
 
@@ -567,16 +566,8 @@ def save_figure(fig: Figure, path: str | Path, dpi: float = 120, close: bool = T
         raise InvalidParameterError(
             f"cannot write {str(path)!r}: format {fmt!r} is not one of {sorted(supported)}"
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp.{fmt}")
-    try:
-        os.fchmod(fd, 0o644)  # mkstemp's 0600 would make the figure private to its writer
-        with os.fdopen(fd, "wb") as handle:
-            fig.savefig(handle, format=fmt, dpi=dpi)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_open(path, "wb") as handle:
+        fig.savefig(handle, format=fmt, dpi=dpi)
     if close:
         pyplot = sys.modules.get("matplotlib.pyplot")
         if pyplot is not None:
