@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError
 from .base import Controller, ControlOutput, Reference
+from .baselines import ComputedTorque
 from .nominal import NominalModel
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
@@ -86,17 +87,6 @@ class AdaptiveRobustGains:
                 )
 
 
-def _diagonal(value, dof: int, name: str) -> np.ndarray:
-    array = (
-        np.broadcast_to(np.asarray(value, dtype=float), (dof,)).copy()
-        if np.ndim(value) == 0
-        else (np.asarray(value, dtype=float))
-    )
-    if array.shape != (dof,):
-        raise InvalidParameterError(f"gain {name}={value!r} must be a scalar or have {dof} entries")
-    return array
-
-
 class AdaptiveRobustController(Controller):
     """Design I or II on any nominal model (see the module docstring for the law).
 
@@ -135,10 +125,14 @@ class AdaptiveRobustController(Controller):
         self.vector_rho = vector_rho
         self.sampling_period = sampling_period
         self.sampling_margin = sampling_margin
-        n = nominal.dof
-        self.T_v = _diagonal(self.gains.T_v, n, "T_v")
-        self.T_p = _diagonal(self.gains.T_p, n, "T_p")
-        self.D = _diagonal(self.gains.D, n, "D")
+        self.computed_torque = ComputedTorque(
+            nominal,
+            D=self.gains.D,
+            T_p=self.gains.T_p,
+            T_v=self.gains.T_v,
+            friction_compensation=friction_compensation,
+        )
+        self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
         self.reset()
 
@@ -173,16 +167,9 @@ class AdaptiveRobustController(Controller):
     def evaluate(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        r = alpha - reference.alpha
-        r_dot = alpha_dot - reference.alpha_dot
-        s = r_dot + self.D * r
-        a_ref = reference.alpha_ddot - self.D * r_dot
-        v_ref = reference.alpha_dot - self.D * r
-        M, C, G = self.nominal.terms(alpha, alpha_dot)
-        c1 = M @ a_ref + C @ v_ref + G + self.nominal.disturbance()
-        if self.friction_compensation:
-            c1 = c1 + self.nominal.friction(alpha_dot)
-        c2 = -self.T_p * r - self.T_v * r_dot
+        nominal = self.computed_torque.terms(alpha, alpha_dot, reference)  # C1 + C2
+        s, M = nominal.s, nominal.M
+        a_ref, v_ref = nominal.a_ref, nominal.v_ref
         Lambda, gradient = self.bound(state, a_ref, v_ref)
         s_norm = math.sqrt(s @ s)
         omega_norm = s_norm * Lambda
@@ -199,7 +186,7 @@ class AdaptiveRobustController(Controller):
             gain = float(gains.min())
         rate, active = self.adaptation_rate(state, s_norm, gradient)
         return ControlOutput(
-            tau=c1 + c2 + c3,
+            tau=nominal.tau + c3,
             state_derivative=rate,
             internals={
                 "rho_hat": state.copy(),

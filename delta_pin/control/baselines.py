@@ -15,6 +15,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
@@ -22,7 +24,7 @@ from ..errors import InvalidParameterError
 from .base import Controller, ControlOutput, Reference
 from .nominal import NominalModel
 
-__all__ = ["LQR", "ComputedTorque", "PDGravity"]
+__all__ = ["LQR", "ComputedTorque", "ComputedTorqueTerms", "PDGravity"]
 
 
 def _positive_diagonal(value, dof: int, name: str) -> np.ndarray:
@@ -32,9 +34,31 @@ def _positive_diagonal(value, dof: int, name: str) -> np.ndarray:
     return array
 
 
+@dataclass(frozen=True)
+class ComputedTorqueTerms:
+    """The pieces of C1 + C2 at one instant (SI units).
+
+    Attributes:
+        r, r_dot: joint error alpha - alpha^d [rad] and its rate [rad/s] (eq. 14).
+        s: the error surface r_dot + D r [rad/s].
+        a_ref, v_ref: alpha_ddot^d - D r_dot [rad/s^2] and alpha_dot^d - D r [rad/s].
+        M: the nominal inertia M̄ [kg m^2] at the state.
+        tau: C1 + C2 [N m].
+    """
+
+    r: np.ndarray
+    r_dot: np.ndarray
+    s: np.ndarray
+    a_ref: np.ndarray
+    v_ref: np.ndarray
+    M: np.ndarray
+    tau: np.ndarray
+
+
 class ComputedTorque(Controller):
     """C1 + C2 (eqs. 23 and 26) on a nominal model: tau = M̄ (alpha_ddot^d - D r_dot) +
-    C̄ (alpha_dot^d - D r) + Ḡ + F̄ [+ M̄_f] - T_p r - T_v r_dot."""
+    C̄ (alpha_dot^d - D r) + Ḡ + F̄ [+ M̄_f] - T_p r - T_v r_dot. Designs I and II add their robust
+    term to exactly this."""
 
     name = "ctc"
 
@@ -46,21 +70,19 @@ class ComputedTorque(Controller):
         self.T_v = _positive_diagonal(T_v, n, "T_v")
         self.friction_compensation = friction_compensation
 
-    def evaluate(self, t, alpha, alpha_dot, reference: Reference, state) -> ControlOutput:
+    def terms(self, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference) -> ComputedTorqueTerms:
+        """C1 + C2 and the quantities the robust designs reuse."""
         r = alpha - reference.alpha
         r_dot = alpha_dot - reference.alpha_dot
+        a_ref = reference.alpha_ddot - self.D * r_dot
+        v_ref = reference.alpha_dot - self.D * r
         M, C, G = self.nominal.terms(alpha, alpha_dot)
-        tau = (
-            M @ (reference.alpha_ddot - self.D * r_dot)
-            + C @ (reference.alpha_dot - self.D * r)
-            + G
-            + self.nominal.disturbance()
-            - self.T_p * r
-            - self.T_v * r_dot
-        )
-        if self.friction_compensation:
-            tau = tau + self.nominal.friction(alpha_dot)
-        return ControlOutput(tau)
+        c1 = M @ a_ref + C @ v_ref + G + self.nominal.compensation(alpha_dot, self.friction_compensation)
+        c2 = -self.T_p * r - self.T_v * r_dot
+        return ComputedTorqueTerms(r, r_dot, r_dot + self.D * r, a_ref, v_ref, M, c1 + c2)
+
+    def evaluate(self, t, alpha, alpha_dot, reference: Reference, state) -> ControlOutput:
+        return ControlOutput(self.terms(alpha, alpha_dot, reference).tau)
 
     def metadata(self):
         return {
@@ -86,15 +108,12 @@ class PDGravity(Controller):
 
     def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
         _, _, G = self.nominal.terms(alpha, alpha_dot)
-        tau = (
+        return ControlOutput(
             G
-            + self.nominal.disturbance()
+            + self.nominal.compensation(alpha_dot, self.friction_compensation)
             - self.K_p * (alpha - reference.alpha)
             - self.K_d * (alpha_dot - reference.alpha_dot)
         )
-        if self.friction_compensation:
-            tau = tau + self.nominal.friction(alpha_dot)
-        return ControlOutput(tau)
 
     def metadata(self):
         return {
@@ -163,16 +182,13 @@ class LQR(Controller):
 
     def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
         error = np.concatenate([alpha - reference.alpha, alpha_dot - reference.alpha_dot])
-        tau = (
+        return ControlOutput(
             self.G0
-            + self.nominal.disturbance()
+            + self.nominal.compensation(alpha_dot, self.friction_compensation)
             + self.dG @ (reference.alpha - self.alpha0)
             + self.M0 @ reference.alpha_ddot
             - self.K @ error
         )
-        if self.friction_compensation:
-            tau = tau + self.nominal.friction(alpha_dot)
-        return ControlOutput(tau)
 
     def metadata(self):
         return {

@@ -45,6 +45,12 @@ class NominalModel(ABC):
         """Nominal friction torque M̄_f (n,) [N m] (zero by default)."""
         return np.zeros(self.dof)
 
+    def compensation(self, q_dot: np.ndarray, friction: bool) -> np.ndarray:
+        """F̄ [+ M̄_f(q_dot) when ``friction``] (n,) [N m]: what eq. 23 adds besides M̄, C̄, Ḡ."""
+        if friction:
+            return self.disturbance() + self.friction(q_dot)
+        return self.disturbance()
+
     def metadata(self) -> dict:
         return {"kind": type(self).__name__}
 
