@@ -45,7 +45,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .base import Controller, ControlOutput, Reference
 from .baselines import ComputedTorque
-from .nominal import NominalModel
+from .nominal import DeltaNominalModel, NominalModel
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
 
@@ -111,6 +111,7 @@ class AdaptiveRobustController(Controller):
         vector_rho: bool = False,
         sampling_period: float | None = None,
         sampling_margin: float = 1.0,
+        compiled: bool = True,
     ) -> None:
         if design not in DESIGNS:
             raise InvalidParameterError(f"design={design!r} must be one of {', '.join(DESIGNS)}")
@@ -134,6 +135,13 @@ class AdaptiveRobustController(Controller):
         )
         self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
+        # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
+        self._compiled = None
+        if compiled and isinstance(nominal, DeltaNominalModel):
+            from ..fast_model import chain_trigonometry
+            from .fast_adaptive_robust import adaptive_robust_kernel, pack_controller
+
+            self._compiled = (adaptive_robust_kernel, pack_controller(self), *chain_trigonometry())
         self.reset()
 
     def initial_state(self) -> np.ndarray:
@@ -165,6 +173,39 @@ class AdaptiveRobustController(Controller):
         return -g.beta * leak, False
 
     def evaluate(
+        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
+    ) -> ControlOutput:
+        """Torque, rho_hat_dot and internals: the compiled step when available, else the reference."""
+        if self._compiled is None:
+            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
+        kernel, parameters, cos_phi, sin_phi = self._compiled
+        tau, rate, info = kernel(
+            parameters,
+            cos_phi,
+            sin_phi,
+            alpha,
+            alpha_dot,
+            reference.alpha,
+            reference.alpha_dot,
+            reference.alpha_ddot,
+            state,
+        )
+        if info[0] == 0.0:
+            self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
+        return ControlOutput(
+            tau=tau,
+            state_derivative=rate,
+            internals={
+                "rho_hat": state.copy(),
+                "Lambda": info[1],
+                "robust_gain": info[2],
+                "omega_norm": info[3],
+                "robust_torque": info[5:8],
+                "adaptation_active": info[4],
+            },
+        )
+
+    def evaluate_reference(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
         nominal = self.computed_torque.terms(alpha, alpha_dot, reference)  # C1 + C2
