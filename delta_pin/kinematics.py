@@ -22,6 +22,7 @@ from .errors import ForwardKinematicsError, NonFiniteError, UnreachablePoseError
 __all__ = [
     "elbow_positions",
     "forward_kinematics",
+    "forward_kinematics_masked",
     "inverse_kinematics",
     "jacobian",
     "jacobian_derivative",
@@ -137,6 +138,30 @@ def inverse_kinematics(params: DeltaParameters, xyz: np.ndarray) -> np.ndarray:
     return alpha
 
 
+def forward_kinematics_masked(params: DeltaParameters, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """FK of a batch without raising: (xyz (..., 3) [m], valid (...,) bool); xyz is NaN where the
+    three spheres do not meet (see :func:`forward_kinematics`)."""
+    alpha = as_vector3(alpha, "alpha")
+    centres = elbow_positions(params, alpha) - params.r * _U
+    rows = 2.0 * (centres[..., :1, :] - centres[..., 1:, :])  # (..., 2, 3)
+    squared = _dot(centres, centres)
+    rhs = squared[..., :1] - squared[..., 1:]
+    direction = np.cross(rows[..., 0, :], rows[..., 1, :])
+    norm = np.linalg.norm(direction, axis=-1, keepdims=True)
+    valid = norm[..., 0] >= 1e-12  # three centres on one line: no unique line of solutions
+    direction = direction / np.where(valid[..., None], norm, 1.0)
+    direction = np.where(direction[..., 2:3] > 0.0, -direction, direction)
+    gram = rows @ np.swapaxes(rows, -1, -2) + np.where(valid, 0.0, 1.0)[..., None, None] * np.eye(2)
+    point = np.einsum("...ji,...j->...i", rows, np.linalg.solve(gram, rhs[..., None])[..., 0])
+    offset = point - centres[..., 0, :]
+    half_b = _dot(direction, offset)
+    discriminant = half_b**2 - (_dot(offset, offset) - params.l_b**2)
+    valid = valid & (discriminant >= 0.0)
+    root = np.sqrt(np.where(valid, discriminant, 0.0))
+    xyz = point + (-half_b + root)[..., None] * direction
+    return np.where(valid[..., None], xyz, np.nan), valid
+
+
 def forward_kinematics(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray:
     """Platform position xyz [m] (..., 3) for active angles ``alpha`` [rad] (platform below base).
 
@@ -148,32 +173,14 @@ def forward_kinematics(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray
         ForwardKinematicsError: the three spheres do not meet (no assembly for this ``alpha``).
     """
     alpha = as_vector3(alpha, "alpha")
-    centres = elbow_positions(params, alpha) - params.r * _U
-    rows = 2.0 * (centres[..., :1, :] - centres[..., 1:, :])  # (..., 2, 3)
-    squared = _dot(centres, centres)
-    rhs = squared[..., :1] - squared[..., 1:]
-    direction = np.cross(rows[..., 0, :], rows[..., 1, :])
-    norm = np.linalg.norm(direction, axis=-1, keepdims=True)
-    degenerate = norm[..., 0] < 1e-12
-    if degenerate.any():
-        bad = alpha[tuple(np.argwhere(degenerate)[0])] if degenerate.ndim else alpha
-        raise ForwardKinematicsError(
-            f"alpha={bad.tolist()} rad puts the three forearm spheres' centres on one line"
-        )
-    direction = direction / norm
-    direction = np.where(direction[..., 2:3] > 0.0, -direction, direction)
-    gram = rows @ np.swapaxes(rows, -1, -2)
-    point = np.einsum("...ji,...j->...i", rows, np.linalg.solve(gram, rhs[..., None])[..., 0])
-    offset = point - centres[..., 0, :]
-    half_b = _dot(direction, offset)
-    discriminant = half_b**2 - (_dot(offset, offset) - params.l_b**2)
-    if (discriminant < 0.0).any():
-        bad = alpha[tuple(np.argwhere(discriminant < 0.0)[0])] if discriminant.ndim else alpha
+    xyz, valid = forward_kinematics_masked(params, alpha)
+    if not np.all(valid):
+        bad = alpha[tuple(np.argwhere(~valid)[0])] if valid.ndim else alpha
         raise ForwardKinematicsError(
             f"alpha={bad.tolist()} rad has no forward kinematics: the forearms "
             f"(l_b={params.l_b} m) cannot reach a common platform position"
         )
-    return point + (-half_b + np.sqrt(discriminant))[..., None] * direction
+    return xyz
 
 
 def _closure_vectors(params: DeltaParameters, alpha: np.ndarray, xyz: np.ndarray) -> np.ndarray:

@@ -111,14 +111,18 @@ class DeltaPinocchioModel:
             ]
         )
 
-    def analytic_configuration(self, alpha: np.ndarray) -> np.ndarray:
+    def analytic_configuration(self, alpha: np.ndarray, xyz: np.ndarray | None = None) -> np.ndarray:
         """q with the analytic FK for the platform and each forearm pointing from B_i to C_i.
 
         Its closure residual measures how well the analytic FK closes Pinocchio's loops.
+
+        Args:
+            alpha: active angles [rad].
+            xyz: their platform position [m] if already known (saves an FK).
         """
         q = pin.neutral(self.model)
         q[self.active_indices] = alpha
-        q[self.platform_indices] = forward_kinematics(self.description.params, alpha)
+        q[self.platform_indices] = forward_kinematics(self.description.params, alpha) if xyz is None else xyz
         pin.framesForwardKinematics(self.model, self.data, q)
         for (pitch, roll), (_f1, f2) in zip(self._elbow_joints, self._closure_frames):
             parent = self.data.oMi[self.model.parents[pitch]] * self.model.jointPlacements[pitch]
@@ -173,24 +177,17 @@ class DeltaPinocchioModel:
         )
         return S
 
-    def _velocity_map_rate(self, q: np.ndarray, v: np.ndarray, S: np.ndarray) -> np.ndarray:
-        """S_dot alpha_dot (nv,): the passive acceleration when alpha_ddot = 0.
-
-        From J_c v_dot + J_c_dot v = 0; J_c_dot v is the gap between the closure points'
-        classical accelerations at zero joint acceleration.
-        """
+    def _closure_drift(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """J_c_dot v: the gap between the closure points' classical accelerations at zero joint
+        acceleration (J_c v_dot + J_c_dot v = 0 on the constraint manifold)."""
         pin.forwardKinematics(self.model, self.data, q, v, np.zeros(self.model.nv))
-        drift = np.concatenate(
+        return np.concatenate(
             [
                 pin.getFrameClassicalAcceleration(self.model, self.data, f1, _WORLD).linear
                 - pin.getFrameClassicalAcceleration(self.model, self.data, f2, _WORLD).linear
                 for f1, f2 in self._closure_frames
             ]
         )
-        jacobian = self._closure_jacobian(q)
-        rate = np.zeros(self.model.nv)
-        rate[self.passive_indices] = -np.linalg.solve(jacobian[:, self.passive_indices], drift)
-        return rate
 
     def state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closure-consistent (q, v) for active angles [rad] and velocities [rad/s]."""
@@ -204,18 +201,32 @@ class DeltaPinocchioModel:
     # ----------------------------------------------------------------------------- dynamics
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """Full symmetric joint-space inertia matrix of the tree (nv, nv) [SI]."""
-        M = pin.crba(self.model, self.data, q)
-        return np.triu(M) + np.triu(M, 1).T
+        M = pin.crba(self.model, self.data, q).copy()
+        lower = np.tril_indices(self.model.nv, -1)
+        M[lower] = M.T[lower]  # CRBA's upper triangle is the reference
+        return M
 
-    def reduced_dynamics(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> ReducedDynamics:
-        """M_red, C alpha_dot_red, G_red on the active joints by projection (see module doc)."""
-        q = self.configuration(alpha)
-        S = self.velocity_map(q)
+    def reduced_dynamics(
+        self, alpha: np.ndarray, alpha_dot: np.ndarray, q: np.ndarray | None = None
+    ) -> ReducedDynamics:
+        """M_red, C alpha_dot_red, G_red on the active joints by projection (see module doc).
+
+        Args:
+            q: the closure-consistent configuration of ``alpha`` if already known.
+        """
+        q = self.configuration(alpha) if q is None else q
+        pin.framesForwardKinematics(self.model, self.data, q)
+        jacobian = self._closure_jacobian(q)
+        passive = jacobian[:, self.passive_indices]
+        S = np.zeros((self.model.nv, 3))
+        S[self.active_indices] = np.eye(3)
+        S[self.passive_indices] = -np.linalg.solve(passive, jacobian[:, self.active_indices])
         v = S @ as_vector3(alpha_dot, "alpha_dot")
+        rate = np.zeros(self.model.nv)  # S_dot alpha_dot: the passive acceleration at alpha_ddot = 0
+        rate[self.passive_indices] = -np.linalg.solve(passive, self._closure_drift(q, v))
         M = self.mass_matrix(q)
         gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
         nle = pin.nonLinearEffects(self.model, self.data, q, v).copy()
-        rate = self._velocity_map_rate(q, v, S)
         return ReducedDynamics(
             M=S.T @ M @ S,
             G=S.T @ gravity,
