@@ -9,6 +9,8 @@ from delta_pin.cli import main
 from delta_pin.metrics import compute_metrics
 from delta_pin.simulate import load_run
 
+FAST = ["--plant", "analytic", "--mode", "sampled", "--sampling-aware"]  # a sub-second run
+
 
 def test_run_writes_a_loadable_run_and_a_consistent_summary(tmp_path, capsys):
     out = tmp_path / "design1"
@@ -59,11 +61,7 @@ def test_every_controller_runs_on_both_paths(tmp_path, controller):
                     controller,
                     "--path",
                     path,
-                    "--plant",
-                    "analytic",
-                    "--mode",
-                    "sampled",
-                    "--sampling-aware",
+                    *FAST,
                     "--t-end",
                     "0.2",
                     "--no-friction-compensation",
@@ -82,11 +80,7 @@ def test_seeded_uncertainty_is_reproducible(tmp_path):
         main(
             [
                 "run",
-                "--plant",
-                "analytic",
-                "--mode",
-                "sampled",
-                "--sampling-aware",
+                *FAST,
                 "--t-end",
                 "0.2",
                 "--seed",
