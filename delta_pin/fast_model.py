@@ -149,7 +149,10 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
         d_i = s[i] @ tangents[i]
         for k in range(3):
             J[k, i] = inverse[k, i] * d_i
-    xyz_dot = J @ alpha_dot
+    xyz_dot = np.zeros(3)  # J @ alpha_dot, written out: alpha_dot may be a strided view
+    for k in range(3):
+        for i in range(3):
+            xyz_dot[k] += J[k, i] * alpha_dot[i]
     # J_dot = S^-1 (diag(d_dot) - S_dot J), s_i_dot = p_dot - B_i' alpha_dot_i
     W = np.empty((3, 3))
     for i in range(3):
