@@ -283,15 +283,15 @@ def simulate(
         raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
     if integrator == "auto":
         integrator = "lsoda" if mode == "continuous" else "rk4"
+    if integrator not in INTEGRATORS or (integrator == "lsoda" and mode == "sampled"):
+        raise InvalidParameterError(
+            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda'"
+        )
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)
     plant = make_plant(
         plant, robot, friction, uncertainty, **({"coordinates": "active"} if integrator == "lsoda" else {})
     )
-    if integrator not in INTEGRATORS or (integrator == "lsoda" and mode == "sampled"):
-        raise InvalidParameterError(
-            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda'"
-        )
     controller = as_controller(controller)
     steps = round(t_end / dt)
     if steps < 1:
