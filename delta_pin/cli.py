@@ -112,7 +112,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from .reproduce import reproduce
 
-    result = reproduce(args.out, quick=not args.full, workers=args.workers, scheduler=args.scheduler)
+    result = reproduce(args.out, quick=not args.full, **_executor_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     print(
         f"{holds} of {len(result.claims)} of the paper's claims hold on this plant: "
@@ -147,7 +147,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         for c in _split(args.controllers)
         for fc in ((True, False) if args.with_and_without_fc else (True,))
     ]
-    metrics = compare(specs, args.out, workers=args.workers, scheduler=args.scheduler)
+    metrics = compare(specs, args.out, **_executor_options(args))
     print(_markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
     return 0
@@ -163,8 +163,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         parse_axes(args.param),
         args.out,
         metric=args.metric,
-        workers=args.workers,
-        scheduler=args.scheduler,
+        **_executor_options(args),
     )
     print(f"{len(rows)} points: wrote {args.out}/results.csv")
     return 0
@@ -182,7 +181,18 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     _add_executor_arguments(parser)
 
 
+def _executor_options(args: argparse.Namespace) -> dict:
+    """Where the runs of a study execute, and on which robot (xacro arguments)."""
+    robot_args = _parse_settings(args.settings)
+    if robot_args:
+        from .description import compile_urdf
+
+        compile_urdf(**robot_args)  # refuse a bad argument before any worker starts
+    return {"workers": args.workers, "scheduler": args.scheduler, "robot_args": robot_args or None}
+
+
 def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    _add_robot_arguments(parser, allow_urdf=False)
     parser.add_argument(
         "--workers",
         type=int,

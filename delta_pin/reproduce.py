@@ -151,6 +151,7 @@ def reproduce(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
+    robot_args: dict | None = None,
 ) -> ReproductionResult:
     """Run the Section V study and write every output (see the module docstring).
 
@@ -159,6 +160,7 @@ def reproduce(
         quick: :meth:`ReproduceSettings.quick` if True, else :meth:`ReproduceSettings.full`.
         settings: explicit settings instead (e.g. a tiny study for tests).
         workers, scheduler: local processes, or a Dask scheduler address (see :func:`run_sweep`).
+        robot_args: xacro arguments of the robot (the Table 1 robot by default).
     """
     start = time.perf_counter()
     settings = settings or (ReproduceSettings.quick() if quick else ReproduceSettings.full())
@@ -167,7 +169,7 @@ def reproduce(
     cache = out / "cache"
     plant = settings.plant
     grid = list(settings.grid)
-    options = {"workers": workers, "scheduler": scheduler, "progress": progress}
+    options = {"workers": workers, "scheduler": scheduler, "progress": progress, "robot_args": robot_args}
 
     main_specs = _main_specs(settings)
     surface_specs = _surface_specs(settings)
@@ -513,13 +515,21 @@ def compare(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
+    robot_args: dict | None = None,
 ) -> list[dict]:
-    """Run ``specs`` (controllers x paths), write their runs, ``metrics.csv``/``.md`` and figures."""
+    """Run ``specs`` (controllers x paths), write their runs, ``metrics.csv``/``.md`` and figures;
+    ``robot_args`` are xacro arguments of the robot (Table 1 by default)."""
     from .viz import plots
 
     out = Path(out)
     points = run_sweep(
-        specs, out / "cache", save_runs=True, workers=workers, scheduler=scheduler, progress=progress
+        specs,
+        out / "cache",
+        save_runs=True,
+        workers=workers,
+        scheduler=scheduler,
+        progress=progress,
+        robot_args=robot_args,
     )
     metrics, runs = [], {}
     for spec, point in zip(specs, points):
@@ -567,14 +577,17 @@ def sweep(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
+    robot_args: dict | None = None,
 ) -> list[dict]:
     """A grid over ``axes`` around ``base``: ``results.csv`` (one row per point) and, for two axes,
-    a surface of ``metric``."""
+    a surface of ``metric``; ``robot_args`` are xacro arguments of the robot."""
     from .viz import plots
 
     out = Path(out)
     specs = grid_specs(base, axes)
-    points = run_sweep(specs, out / "cache", workers=workers, scheduler=scheduler, progress=progress)
+    points = run_sweep(
+        specs, out / "cache", workers=workers, scheduler=scheduler, progress=progress, robot_args=robot_args
+    )
     rows = points.rows()
     buffer = io.StringIO()
     fields = sorted({key for row in rows for key in row})

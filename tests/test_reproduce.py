@@ -133,3 +133,34 @@ def test_compare_and_sweep_commands(tmp_path, capsys):
     assert len(rows) == 4
     assert (out / "rho_hat_max_delta_m_delta_f.png").read_bytes().startswith(PNG)
     assert main(["sweep", "--param", "delta_m=oops", "--out", str(out)]) == 2
+
+
+def test_compare_on_another_robot(tmp_path, capsys):
+    out = tmp_path / "long_arms"
+    assert (
+        main(
+            [
+                "compare",
+                "--controllers",
+                "design1",
+                "--paths",
+                "II",
+                "--t-end",
+                "0.2",
+                "--mode",
+                "sampled",
+                "--sampling-aware",
+                "--set",
+                "l_a=0.25",
+                "--set",
+                "l_b=0.5",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    run = load_run(next((out / "cache").glob("*.npz")))
+    assert run.metadata["robot"]["l_a"] == 0.25 and run.metadata["robot"]["l_b"] == 0.5
+    assert main(["compare", "--set", "wingspan=2", "--out", str(out)]) == 2
+    assert "wingspan" in capsys.readouterr().err
