@@ -89,7 +89,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{spec.duration:g} s ...",
         flush=True,
     )
-    run = run_spec(spec, robot)
+    run = run_spec(spec, robot, progress=None)  # a progress bar on a terminal
     metrics = compute_metrics(run)
     out = Path(args.out)
     run.save(out / "run.npz")

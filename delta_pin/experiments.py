@@ -145,8 +145,9 @@ def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None
     return LQR(nominal, start, **fc, **gains)
 
 
-def run_spec(spec: RunSpec, robot: Delta | None = None) -> Run:
-    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given)."""
+def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = False) -> Run:
+    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` as in
+    :func:`~delta_pin.simulate.simulate`."""
     robot = robot or load_delta()
     trajectory = build_trajectory(spec.path)
     controller = build_controller(spec, robot, trajectory)
@@ -161,6 +162,7 @@ def run_spec(spec: RunSpec, robot: Delta | None = None) -> Run:
         alpha0=None if spec.alpha0 is None else np.full(3, spec.alpha0),
         friction=Friction() if spec.friction else None,
         uncertainty=build_uncertainty(spec),
+        progress=progress,
     )
     run.metadata["spec"] = spec.as_dict()
     return run

@@ -28,6 +28,7 @@ from .control.base import Controller, Reference, as_controller
 from .errors import DeltaPinError, InvalidParameterError, NonFiniteError, SimulationError
 from .kinematics import as_vector3
 from .plant import Plant, make_plant
+from .progress import Progress
 from .robot import Delta
 
 __all__ = ["INTEGRATORS", "MODES", "Run", "load_run", "simulate"]
@@ -242,6 +243,7 @@ def simulate(
     integrator: str = "auto",
     rtol: float = 1e-6,
     atol: float = 1e-8,
+    progress: bool | None = False,
 ) -> Run:
     """Simulate ``controller`` driving ``robot`` along ``trajectory``.
 
@@ -266,6 +268,7 @@ def simulate(
             closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains: RK4 would need
             ~80 substeps per millisecond).
         rtol, atol: LSODA tolerances (relative; absolute in SI units of the state).
+        progress: show the simulated time on stderr (``None``: only on a terminal).
 
     Raises:
         InvalidParameterError: non-positive dt, t_end or substeps, unknown mode or plant.
@@ -350,10 +353,14 @@ def simulate(
         return np.concatenate([plant.derivative(t_now, xs, tau), z_dot])
 
     wall = _time.perf_counter()
+    bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
+    stride = max(steps // 100, 1)
     if integrator == "lsoda":
-        x, z = _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol)
+        x, z = _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol, bar)
     else:
         for k in range(steps):
+            if k % stride == 0 and k:
+                bar.update(round(stride * dt, 9))
             tau, z_dot = sample(k, x, z)
             if mode == "sampled":
                 for j in range(substeps):
@@ -368,6 +375,7 @@ def simulate(
                 x, z = y[:nx], y[nx:]
             loop.check_state(t[k + 1], x, z)
     sample(steps, x, z)
+    bar.close()
     wall = _time.perf_counter() - wall
 
     metadata = {
@@ -411,7 +419,7 @@ def simulate(
 LSODA_CHUNK = 1000  # samples per LSODA call (each restart costs a start-up; finish_step runs between)
 
 
-def _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol):
+def _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol, bar):
     """Continuous mode with scipy's LSODA, in chunks of LSODA_CHUNK samples (the plant's
     ``finish_step`` runs between chunks); every sample is recorded with ``sample``."""
     from scipy.integrate import solve_ivp
@@ -441,5 +449,6 @@ def _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol):
         x, z = solution.y[:nx, -1], solution.y[nx:, -1]
         loop.check_state(t[stop], x, z)
         x = plant.finish_step(x, t[stop])
+        bar.update(round(t[stop] - t[k], 9))
         k = stop
     return x, z

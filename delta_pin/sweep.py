@@ -48,6 +48,7 @@ from .atomic import write_text_atomically
 from .errors import DeltaPinError, InvalidParameterError
 from .experiments import RunSpec, run_spec
 from .metrics import compute_metrics
+from .progress import Progress
 
 __all__ = [
     "EXECUTORS",
@@ -422,73 +423,6 @@ def _resolve_executor(executor, workers, scheduler):
 # progress
 
 
-class _Progress:
-    """tqdm on a terminal (if installed), a one-line counter without it; one line per 10% in a
-    non-terminal when asked for (``progress=True``); nothing otherwise."""
-
-    def __init__(self, total: int, progress: bool | None, skipped: int) -> None:
-        self.total, self.done, self.failed = total, 0, 0
-        self.start = time.perf_counter()
-        self.stream = sys.stderr
-        tty = _isatty(self.stream)
-        self.mode, self.bar, self.tenths = None, None, 0
-        if progress is False or (progress is None and not tty):
-            return
-        self.mode = "lines" if not tty else "counter"
-        if total == 0:
-            return
-        if skipped:
-            self._print(f"sweep: {skipped} points from the cache, {total} to compute")
-        if tty:
-            try:
-                from tqdm import tqdm
-            except ImportError:
-                pass
-            else:
-                self.mode = "tqdm"
-                self.bar = tqdm(total=total, desc="sweep", unit="pt", file=self.stream, dynamic_ncols=True)
-
-    @property
-    def enabled(self) -> bool:
-        return self.mode is not None
-
-    def _print(self, text: str) -> None:
-        print(text, file=self.stream, flush=True)
-
-    def update(self, failed: bool) -> None:
-        self.done += 1
-        self.failed += bool(failed)
-        if self.mode == "tqdm":
-            self.bar.update(1)
-            if self.failed:
-                self.bar.set_postfix(failed=self.failed, refresh=False)
-        elif self.mode == "counter":
-            self.stream.write(f"\rsweep: {self.done}/{self.total} points, {self.failed} failed")
-            self.stream.flush()
-        elif self.mode == "lines":
-            tenths = (10 * self.done) // self.total
-            if tenths > self.tenths:
-                self.tenths = tenths
-                self._print(
-                    f"sweep: {self.done}/{self.total} points ({100 * self.done // self.total}%),"
-                    f" {self.failed} failed, {time.perf_counter() - self.start:.1f} s"
-                )
-
-    def close(self) -> None:
-        if self.mode == "tqdm" and self.bar is not None:
-            self.bar.close()
-        elif self.mode == "counter" and self.total:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
-
-
 # --------------------------------------------------------------------------------------------------
 # the sweep
 
@@ -559,7 +493,9 @@ def run_sweep(
     todo = [key for key in unique if key not in records]
     skipped = sum(key in from_cache for key in keys)
 
-    bar = _Progress(len(todo), progress, skipped)
+    bar = Progress(len(todo), progress, label="sweep", unit="pt")
+    if skipped:
+        bar.note(f"sweep: {skipped} points from the cache, {len(todo)} to compute")
     unexpected = []
     try:
         if todo:

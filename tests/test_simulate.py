@@ -179,3 +179,12 @@ def test_path_outside_the_workspace_fails_before_the_run(robot, tmp_path):
     with pytest.raises(dp.UnreachablePoseError, match=r"t=0\.\d+ s: xyz="):
         simulate(robot, lambda t, a, ad: calls.append(t) or np.zeros(3), dive, t_end=1.0)
     assert calls == []  # the controller never ran
+
+
+def test_progress_is_shown_only_when_asked(robot, capsys):
+    alpha0, hold = _hold(robot)
+    simulate(robot, hold, alpha0=alpha0, plant="analytic", t_end=0.2)
+    assert capsys.readouterr().err == ""  # library default: quiet
+    simulate(robot, hold, alpha0=alpha0, plant="analytic", t_end=0.2, progress=True)
+    err = capsys.readouterr().err
+    assert "simulate: " in err and "(100%)" not in err.splitlines()[0]

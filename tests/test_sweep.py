@@ -248,7 +248,7 @@ def test_progress_lines_only_when_asked_outside_a_terminal(grid, tmp_path, capsy
     assert capsys.readouterr().err == ""
     run_sweep(grid[:2], tmp_path / "loud", progress=True)
     err = capsys.readouterr().err
-    assert "2/2 points (100%)" in err and "0 from the cache" in err
+    assert "sweep: 2/2 pt (100%)" in err and "0 from the cache" in err
     run_sweep(grid[:2], tmp_path / "loud", progress=True)
     assert "2 from the cache (skipped)" in capsys.readouterr().err
 
@@ -273,7 +273,7 @@ def test_progress_on_a_terminal_is_tqdm_or_a_counter_without_it(grid, tmp_path, 
     monkeypatch.setattr(sys, "stderr", terminal)
     monkeypatch.setitem(sys.modules, "tqdm", None)  # tqdm not installed: the built-in counter
     run_sweep(grid[:2], tmp_path / "counter")
-    assert "\rsweep: 2/2 points, 0 failed" in terminal.text
+    assert "\rsweep: 2/2 pt" in terminal.text
     if not has_tqdm:
         pytest.skip("tqdm is optional")
     monkeypatch.delitem(sys.modules, "tqdm")  # the real one
