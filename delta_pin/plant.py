@@ -43,6 +43,7 @@ from .fast_model import (
     stribeck_kernel,
 )
 from .robot import Delta
+from .uncertainty import NoUncertainty
 
 __all__ = ["AnalyticPlant", "Friction", "PinocchioPlant", "Plant", "make_plant"]
 
@@ -96,7 +97,7 @@ class Plant(ABC):
                     "friction requested but the robot's URDF carries no Stribeck data"
                 )
             self._friction_arguments = friction_kernel_arguments(self.stribeck)
-        self.uncertainty = uncertainty
+        self.uncertainty = NoUncertainty() if uncertainty is None else uncertainty
 
     # ------------------------------------------------------------------ truth shared by both plants
     def _nominal_normal_force(self) -> float:
@@ -105,13 +106,6 @@ class Plant(ABC):
     def _evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(m_o, F_n, F) at a time or an array of times, straight from the uncertainty profile."""
         nominal_mass = self.robot.params.m_o
-        if self.uncertainty is None:
-            shape = np.shape(t)
-            return (
-                np.full(shape, nominal_mass),
-                np.full((*shape, 3), self._nominal_normal_force()),
-                np.zeros((*shape, 3)),
-            )
         return (
             self.uncertainty.platform_mass(t, nominal_mass),
             self.uncertainty.normal_force(t, self._nominal_normal_force()),
@@ -131,9 +125,6 @@ class Plant(ABC):
             k = round(t / self._table_step)
             if k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
                 return table[0][k], table[1][k], table[2][k]
-        if self.uncertainty is None:
-            mass, normal, disturbance = self._evaluate_truth(t)
-            return float(mass), normal, disturbance
         return self.uncertainty.at(t, self.robot.params.m_o, np.full(3, self._nominal_normal_force()))
 
     def platform_mass(self, t: float) -> float:
@@ -185,7 +176,7 @@ class Plant(ABC):
             "friction": None
             if self.friction is None
             else {**asdict(self.friction), "stribeck": asdict(self.stribeck)},
-            "uncertainty": None if self.uncertainty is None else self.uncertainty.metadata(),
+            "uncertainty": self.uncertainty.metadata(),
         }
 
 
