@@ -13,11 +13,13 @@ from pathlib import Path
 
 HERE = Path(__file__).parent
 BENCHMARKS = {
+    "bench_model.py": ["--repeats", "5"],
     "bench_controllers.py": ["--repeats", "5"],
     "bench_simulate.py": ["--repeats", "3"],
     "bench_meshcat_export.py": ["--repeats", "5"],
 }
 QUICK = {
+    "bench_model.py": ["--repeats", "3", "--calls", "500"],
     "bench_controllers.py": ["--repeats", "3", "--calls", "500"],
     "bench_simulate.py": ["--repeats", "1", "--t-end", "3"],
     "bench_meshcat_export.py": ["--repeats", "2"],

@@ -1,0 +1,79 @@
+"""Cost of one evaluation of the Delta's dynamics (M, C, G at one state) by each implementation.
+
+Run: ``python benchmarks/bench_model.py [--repeats 5] [--calls 2000]``
+
+References measured in the same run: the readable numpy model (delta_pin.dynamics, the test
+oracle), the same kernel as plain scalar Python (numba's ``py_func``), the numba-compiled kernel,
+the numpy model on a batch of 10 000 states (per state), and Pinocchio's projected reduced
+dynamics (closure solve, projection).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from common import Timing, machine_info, print_table
+
+import delta_pin as dp
+from delta_pin.dynamics import analytic_dynamics
+from delta_pin.fast_model import chain_trigonometry, delta_terms, pack_geometry
+
+
+def per_call(function, calls: int, repeats: int, per: int = 1) -> list[float]:
+    function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(calls):
+            function()
+        times.append((time.perf_counter() - start) / (calls * per))
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--calls", type=int, default=2000)
+    args = parser.parse_args()
+    robot = dp.load_delta()
+    params = robot.params
+    alpha, alpha_dot = np.array([0.3, 0.2, 0.4]), np.array([0.1, 0.2, -0.3])
+    geometry, (cos_phi, sin_phi) = pack_geometry(params), chain_trigonometry()
+    m_eq = params.platform_equivalent_mass
+    batch = 10_000
+    alphas, alpha_dots = np.tile(alpha, (batch, 1)), np.tile(alpha_dot, (batch, 1))
+    n, r = args.calls, args.repeats
+    timings = [
+        Timing(
+            "numba kernel (fast_model.delta_terms)",
+            per_call(lambda: delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot), n, r),
+        ),
+        Timing(
+            "same kernel as scalar Python (py_func)",
+            per_call(
+                lambda: delta_terms.py_func(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot),
+                max(n // 10, 10),
+                r,
+            ),
+        ),
+        Timing(
+            "readable numpy model, one state",
+            per_call(lambda: analytic_dynamics(params, alpha, alpha_dot), max(n // 10, 10), r),
+        ),
+        Timing(
+            f"readable numpy model, batch of {batch} (per state)",
+            per_call(lambda: analytic_dynamics(params, alphas, alpha_dots), 1, r, per=batch),
+        ),
+        Timing(
+            "Pinocchio reduced dynamics (closure + projection)",
+            per_call(lambda: robot.pinocchio_dynamics(alpha, alpha_dot), max(n // 10, 10), r),
+        ),
+    ]
+    print(f"machine: {machine_info()}")
+    print_table("one evaluation of M, C, G", timings, reference=timings[0])
+
+
+if __name__ == "__main__":
+    main()
