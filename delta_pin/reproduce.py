@@ -254,13 +254,17 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
             t1 < 1.0,
             "from alpha_0 = 0.3322 rad, ||r(0)|| = 0.144 rad (erratum 4)",
         )
-    t2 = [_metric(metrics, d, "II", "settling_time") for d in ("design I", "design II")]
+    t2 = [
+        settling_time(runs[(d, "II")], SETTLING_BAND_PATH_II) if (d, "II") in runs else float("inf")
+        for d in ("design I", "design II")
+    ]
     claim(
-        "designs I and II settle on path II",
-        "< 0.25 s",
-        f"{t2[0]:.2f} s and {t2[1]:.2f} s to {SETTLING_BAND:g} rad",
+        "designs I and II settle into a very small zone on path II",
+        "in less than 0.25 s",
+        f"{t2[0]:.2f} s and {t2[1]:.2f} s to {SETTLING_BAND_PATH_II:g} rad",
         max(t2) < 1.0,
-        "path II starts 0.478 rad away from alpha_0",
+        "path II starts 0.478 rad away from alpha_0; on its faster circle the designs keep ~3e-3 rad "
+        "of error (never below 1e-3 rad)",
     )
     s1, s2 = (
         _metric(metrics, "design I", "I", "control_effort"),
@@ -282,7 +286,9 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
         "12.87 s vs 13.80 s (MATLAB)",
         f"{w1:.1f} s vs {w2:.1f} s",
         w1 < w2,
-        "run time is dominated by the integrator's step count, not by the controller's arithmetic",
+        "wall times of runs made side by side (noisy); a run's time is set by the integrator's step "
+        "count, not by the robust gain's arithmetic: one compiled step costs the same for both designs "
+        "(benchmarks/bench_controllers.py)",
     )
     for path in ("I", "II"):
         lqr = _metric(metrics, "LQR", path, "iae")
@@ -302,8 +308,10 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
             claim(
                 f"friction compensation lowers ISE ({design}, path {path})",
                 "higher ISE without",
-                f"{with_fc:.3e} with vs {without:.3e} rad²·s without",
+                f"{with_fc:.4e} with vs {without:.4e} rad²·s without "
+                f"({100 * (without / with_fc - 1):+.2f} %)",
                 with_fc < without,
+                "the robust term absorbs almost all of the friction, so compensating it gains little",
             )
     for design, name in (("design1", "design I"), ("design2", "design II")):
         at_paper = grid.index(min(grid, key=lambda v: abs(v - 0.3)))
