@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from common import Timing, machine_info, print_table
+from common import Timing, machine_info, per_call, print_table
 
 import delta_pin as dp
 from delta_pin.control import Reference
@@ -39,18 +39,12 @@ def main() -> None:
         "PD + gravity": dp.PDGravity(nominal),
         "LQR": dp.LQR(nominal, reference.alpha[0]),
     }
-    import time
-
     timings = []
     for name, controller in controllers.items():
         state = controller.initial_state()
-        controller.evaluate(0.0, alpha, alpha_dot, ref, state)  # warm-up (numba compilation)
-        times = []
-        for _ in range(args.repeats):
-            start = time.perf_counter()
-            for _ in range(args.calls):
-                controller.evaluate(0.0, alpha, alpha_dot, ref, state)
-            times.append((time.perf_counter() - start) / args.calls)
+        times = per_call(
+            lambda c=controller, z=state: c.evaluate(0.0, alpha, alpha_dot, ref, z), args.calls, args.repeats
+        )
         timings.append(Timing(name, times, note=f"per call, {args.calls} calls per repeat"))
     print(f"machine: {machine_info()}")
     print_table("one controller step (torque + state derivative)", timings, reference=timings[0])

@@ -11,25 +11,13 @@ dynamics (closure solve, projection).
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
-from common import Timing, machine_info, print_table
+from common import Timing, machine_info, per_call, print_table
 
 import delta_pin as dp
 from delta_pin.dynamics import analytic_dynamics
 from delta_pin.fast_model import chain_trigonometry, delta_terms, pack_geometry
-
-
-def per_call(function, calls: int, repeats: int, per: int = 1) -> list[float]:
-    function()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for _ in range(calls):
-            function()
-        times.append((time.perf_counter() - start) / (calls * per))
-    return times
 
 
 def main() -> None:

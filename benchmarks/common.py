@@ -34,6 +34,19 @@ def measure(name: str, function: Callable[[], object], repeats: int = 5, note: s
     return Timing(name, times, note)
 
 
+def per_call(function: Callable[[], object], calls: int, repeats: int, per: int = 1) -> list[float]:
+    """Seconds per call (divided by ``per`` items) of ``repeats`` batches of ``calls`` calls,
+    after one warm-up call (numba compilation, caches)."""
+    function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(calls):
+            function()
+        times.append((time.perf_counter() - start) / (calls * per))
+    return times
+
+
 def _format(seconds: float) -> str:
     if seconds < 1e-3:
         return f"{seconds * 1e6:.1f} us"
