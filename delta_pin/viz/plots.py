@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from ..atomic import atomic_open
 from ..errors import InvalidParameterError
@@ -148,6 +149,11 @@ def _check_runs(runs: Any) -> dict[str, Run]:
     return {str(label): _check_run(run, f"run {label!r}") for label, run in runs.items()}
 
 
+def _linewidth(i: int) -> float:
+    """Thinner lines for later runs, so that a run drawn over an earlier one leaves it visible."""
+    return max(0.8, 2.2 - 0.5 * i)
+
+
 def _time_axis(ax: Axes, run: Run) -> None:
     ax.set_xlabel("time t [s]")
     ax.set_xlim(run.t[0], run.t[-1])
@@ -177,8 +183,12 @@ def plot_tracking_errors(run: Run, ax: Axes | Sequence[Axes] | None = None) -> F
         fig, ax_r = ax.figure, ax
         ax_rdot = ax.twinx()
         twin = True
-    elif isinstance(ax, Sequence) and len(ax) == 2 and all(isinstance(a, Axes) for a in ax):
-        ax_r, ax_rdot = ax
+    elif (
+        isinstance(ax, (Sequence, np.ndarray))
+        and np.size(ax) == 2
+        and all(isinstance(a, Axes) for a in np.ravel(np.asarray(ax, dtype=object)))
+    ):  # a pair: a list, a tuple, or the array fig.subplots(1, 2) returns
+        ax_r, ax_rdot = np.ravel(np.asarray(ax, dtype=object))
         fig = ax_r.figure
     else:
         raise InvalidParameterError("ax must be None, one Axes, or a pair of Axes")
@@ -193,6 +203,8 @@ def plot_tracking_errors(run: Run, ax: Axes | Sequence[Axes] | None = None) -> F
         ax_r.set_title(title)
         ax_r.legend(handles=[line_r, line_rdot], loc="upper right")
         ax_rdot.grid(False)
+        ax_r.yaxis.label.set_color("C0")
+        ax_rdot.yaxis.label.set_color("C1")
     else:
         _time_axis(ax_rdot, run)
         ax_r.set_xlabel("")
@@ -282,12 +294,12 @@ def plot_paths_3d(runs: Mapping[str, Run], ax: Axes | None = None, unit: str = "
     points = [desired]
     for i, (label, run) in enumerate(runs.items()):
         xyz = run.xyz * scale
-        ax.plot(*xyz.T, color=f"C{i}", linewidth=1.2, label=label, gid=f"path:{label}")
+        ax.plot(*xyz.T, color=f"C{i}", linewidth=_linewidth(i), label=label, gid=f"path:{label}")
         ax.scatter(*xyz[0], color=f"C{i}", marker="o", s=18)
         points.append(xyz)
     ax.scatter(*desired[0], color="black", marker="x", s=30, label="start (desired)")
 
-    # equal-ish aspect: the box follows the data ranges, none flatter than 1/4 of the largest
+    # equal-ish aspect: the box follows the data ranges, no side below half of the longest
     allpts = np.concatenate(points)
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
     span = np.maximum(hi - lo, 1e-9)
@@ -295,10 +307,13 @@ def plot_paths_3d(runs: Mapping[str, Run], ax: Axes | None = None, unit: str = "
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
     ax.set_zlim(lo[2] - pad, hi[2] + pad)
-    ax.set_box_aspect(tuple(np.maximum(span + 2 * pad, 0.25 * (span.max() + 2 * pad))))
+    ax.set_box_aspect(tuple(np.maximum(span + 2 * pad, 0.5 * (span.max() + 2 * pad))), zoom=0.9)
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(5))
     ax.set_xlabel(f"x [{unit}]")
     ax.set_ylabel(f"y [{unit}]")
-    ax.set_zlabel(f"z [{unit}]")
+    ax.tick_params(axis="z", pad=6)  # keeps the minus signs clear of the tick marks
+    ax.set_zlabel(f"z [{unit}]", labelpad=12)
     path = _common_path_name(runs)
     ax.set_title("End-effector paths" + (f" — {path}" if path else ""))
     ax.legend(loc="upper left", fontsize="small")
@@ -325,7 +340,7 @@ def plot_error_comparison(
     t0, t1 = math.inf, -math.inf
     for i, (label, run) in enumerate(runs.items()):
         values = np.linalg.norm(run.error_rate if rate else run.error, axis=1)
-        ax.plot(run.t, values, color=f"C{i}", linewidth=1.1, label=label, gid=f"error:{label}")
+        ax.plot(run.t, values, color=f"C{i}", linewidth=_linewidth(i), label=label, gid=f"error:{label}")
         t0, t1 = min(t0, run.t[0]), max(t1, run.t[-1])
     if log:
         ax.set_yscale("log")
@@ -499,6 +514,7 @@ def plot_rho_surface(
     if vmax <= vmin:
         vmin, vmax = vmin - 0.5 * max(abs(vmin), 1e-3), vmax + 0.5 * max(abs(vmax), 1e-3)
     annotate = z.size <= 25
+    node_size = 10 if annotate else 3
     cmap = "viridis"
 
     if kind == "surface":
@@ -508,7 +524,7 @@ def plot_rho_surface(
             linewidth=0.3, alpha=0.9, rstride=1, cstride=1,
         )  # fmt: skip
         mappable.set_gid("rho_surface")
-        nodes = ax.scatter(X[finite], Y[finite], z[finite], color="k", s=10, depthshade=False)
+        nodes = ax.scatter(X[finite], Y[finite], z[finite], color="k", s=node_size, depthshade=False)
         nodes.set_gid("rho_nodes")
         if annotate:
             dz = 0.03 * (vmax - vmin)
@@ -524,24 +540,33 @@ def plot_rho_surface(
         mappable = ax.contourf(X, Y, Zm, levels=levels, cmap=cmap, extend="neither")
         mappable.set_gid("rho_surface")
         ax.contour(X, Y, Zm, levels=levels[::2], colors="k", linewidths=0.4, alpha=0.5)
-        nodes = ax.scatter(X[finite], Y[finite], color="k", s=10)
+        nodes = ax.scatter(X[finite], Y[finite], color="k", s=node_size)
         nodes.set_gid("rho_nodes")
         if annotate:
             for xi, yi, zi in zip(X[finite], Y[finite], z[finite]):
+                # labels lean inwards at the edges of the grid, so none leaves the frame
+                ha = "left" if xi == x.min() else "right" if xi == x.max() else "center"
+                dx = {"left": 4, "right": -4, "center": 0}[ha]
+                top = yi == y.max()
                 ax.annotate(
-                    f"{zi:.3g}", (xi, yi), textcoords="offset points", xytext=(0, 5),
-                    ha="center", fontsize=8,
+                    f"{zi:.3g}", (xi, yi), textcoords="offset points", xytext=(dx, -5 if top else 5),
+                    ha=ha, va="top" if top else "bottom", fontsize=8,
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7, "lw": 0},
                 )  # fmt: skip
         ax.set_xlim(x.min(), x.max())
         ax.set_ylim(y.min(), y.max())
-    if len(x) <= 6:
-        ax.set_xticks(x)
-    if len(y) <= 6:
-        ax.set_yticks(y)
+    # a coarse grid gets its own values as ticks, a fine one about five round ticks
+    for values, axis in ((x, ax.xaxis), (y, ax.yaxis)):
+        if len(values) <= 6:
+            axis.set_ticks(values)
+        else:
+            axis.set_major_locator(MaxNLocator(6))
     ax.set_xlabel(x_label)
     ax.set_ylabel(y_label)
-    fig.colorbar(mappable, ax=ax, label=z_label, shrink=0.7 if kind == "surface" else 1.0, pad=0.08)
+    fig.colorbar(
+        mappable, ax=ax, label=z_label, shrink=0.7 if kind == "surface" else 1.0, pad=0.08,
+        ticks=MaxNLocator(6), format="%.3g",
+    )  # fmt: skip
     ax.set_title(title if title is not None else f"{z_label} over ({x_label}, {y_label})")
     return fig
 
