@@ -86,6 +86,19 @@ class DeltaPinocchioModel:
             self._closure_frames.append((f1, f2))
         self.model = model
         self.data = model.createData()
+        # the closure anchors [parent_1, child_1, parent_2, ...] for the batched routines: the joints
+        # they ride on (each read once per state), their position in that joint's frame, and the
+        # velocity coordinates that move them (the joint's support)
+        anchor_frames = [model.frames[f] for pair in self._closure_frames for f in pair]
+        self._anchor_joints = sorted({frame.parentJoint for frame in anchor_frames})
+        self._anchor_slots = np.array(
+            [self._anchor_joints.index(frame.parentJoint) for frame in anchor_frames]
+        )
+        self._anchor_offsets = np.array([[*frame.placement.translation, 1.0] for frame in anchor_frames])
+        self._anchor_supports = np.zeros((len(anchor_frames), model.nv))
+        for a, frame in enumerate(anchor_frames):
+            for joint in model.supports[frame.parentJoint][1:]:  # [0] is the universe
+                self._anchor_supports[a, model.idx_vs[joint]] = 1.0
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
         for cm in self._constraint_models:
@@ -132,6 +145,70 @@ class DeltaPinocchioModel:
             q[self.model.idx_qs[roll]] = math.asin(float(np.clip(d[1], -1.0, 1.0)))
             q[self.model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
         return q
+
+    def analytic_configurations(self, alpha: np.ndarray, xyz: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`analytic_configuration` of many states at once (n, nq).
+
+        One Pinocchio forward-kinematics pass per state gives the elbows' parent placements and
+        the platform anchors; the forearm angles are then computed for all states together.
+
+        Args:
+            alpha: active angles [rad] (n, 3).
+            xyz: their platform positions [m] (n, 3) if already known.
+        """
+        alpha = np.atleast_2d(np.asarray(alpha, dtype=float))
+        xyz = forward_kinematics(self.description.params, alpha) if xyz is None else np.atleast_2d(xyz)
+        model, data = self.model, self.data
+        q = np.tile(pin.neutral(model), (len(alpha), 1))
+        q[:, self.active_indices] = alpha
+        q[:, self.platform_indices] = xyz
+        parents = [model.parents[pitch] for pitch, _roll in self._elbow_joints]
+        anchors = [model.frames[f2] for _f1, f2 in self._closure_frames]
+        joints = parents + [frame.parentJoint for frame in anchors]
+        unique = sorted(set(joints))
+        read = np.empty((len(q), len(unique), 4, 4))  # oMi of those joints per state
+        oMi = data.oMi  # a reference to the placements, updated by every kinematics pass
+        for k, q_k in enumerate(q):
+            pin.forwardKinematics(model, data, q_k)
+            for j, joint in enumerate(unique):
+                read[k, j] = oMi[joint].homogeneous
+        placements = read[:, [unique.index(joint) for joint in joints]]
+        n = len(parents)
+        elbow = np.array([model.jointPlacements[pitch].homogeneous for pitch, _roll in self._elbow_joints])
+        anchor = np.array([frame.placement.homogeneous for frame in anchors])
+        parent = placements[:, :n] @ elbow  # (states, closures, 4, 4): joint frames of the pitches
+        anchor_position = (placements[:, n:] @ anchor)[..., :3, 3]
+        target = anchor_position - parent[..., :3, 3]
+        target /= np.linalg.norm(target, axis=-1, keepdims=True)
+        d = np.einsum("...ji,...j->...i", parent[..., :3, :3], target)  # R^T target
+        for i, (pitch, roll) in enumerate(self._elbow_joints):
+            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (DESIGN.md section 3)
+            q[:, model.idx_qs[roll]] = np.arcsin(np.clip(d[:, i, 1], -1.0, 1.0))
+            q[:, model.idx_qs[pitch]] = np.arctan2(-d[:, i, 0], -d[:, i, 2])
+        return q
+
+    def closure_residuals(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`closure_residual` of many configurations (n, nq) -> (n, 3 n_closures) [m]."""
+        q = np.atleast_2d(q)
+        model, data = self.model, self.data
+        placements = np.empty((len(q), len(self._anchor_joints), 4, 4))
+        oMi = data.oMi  # a reference to the placements, updated by every kinematics pass
+        for k, q_k in enumerate(q):
+            pin.forwardKinematics(model, data, q_k)
+            for j, joint in enumerate(self._anchor_joints):
+                placements[k, j] = oMi[joint].homogeneous
+        return self._anchor_gaps(self._anchor_positions(placements))
+
+    def _anchor_positions(self, placements: np.ndarray) -> np.ndarray:
+        """World positions (n, anchors, 3) of the closure anchors from the oMi (n, joints, 4, 4)
+        of ``_anchor_joints``."""
+        return (placements[:, self._anchor_slots] @ self._anchor_offsets[:, :, None])[..., :3, 0]
+
+    @staticmethod
+    def _anchor_gaps(anchor_values: np.ndarray) -> np.ndarray:
+        """Parent minus child value of each closure, stacked: (n, anchors, ...) -> (n, 3 n_closures, ...)."""
+        gaps = anchor_values[:, 0::2] - anchor_values[:, 1::2]
+        return gaps.reshape(len(gaps), -1, *gaps.shape[3:])
 
     def configuration(
         self,
@@ -231,4 +308,79 @@ class DeltaPinocchioModel:
             M=S.T @ M @ S,
             G=S.T @ gravity,
             coriolis=S.T @ (nle - gravity) + S.T @ (M @ rate),
+        )
+
+    def reduced_dynamics_batch(
+        self, alpha: np.ndarray, alpha_dot: np.ndarray, q: np.ndarray | None = None
+    ) -> ReducedDynamics:
+        """:meth:`reduced_dynamics` of many states at once: M (n, 3, 3), G and coriolis (n, 3).
+
+        Same projection, arranged for speed. Per state, two short passes of Pinocchio calls: the
+        joint Jacobians (``computeJointJacobians``), the anchor joints' placements, CRBA and
+        gravity at q; then the Jacobians' time variation (``computeJointJacobiansTimeVariation``)
+        and the nonlinear effects at (q, v). The closure Jacobian and its drift J_c_dot v follow
+        for all states together from rigid-body point kinematics of the anchors (a point p on a
+        body with world spatial velocity (v_O, w) at the origin moves at v_O + w x p); the
+        closure solves and projections are batched too.
+
+        Args:
+            alpha: active angles [rad] (n, 3).
+            alpha_dot: active velocities [rad/s] (n, 3).
+            q: their closure-consistent configurations (n, nq) if already known; otherwise
+                Newton from :meth:`analytic_configurations` (``configuration``'s tolerance).
+        """
+        alpha = np.atleast_2d(np.asarray(alpha, dtype=float))
+        alpha_dot = np.atleast_2d(np.asarray(alpha_dot, dtype=float))
+        if q is None:
+            q = self.analytic_configurations(alpha)
+            gaps = np.abs(self.closure_residuals(q)).max(axis=1)
+            for k in np.flatnonzero(gaps > 1e-13):
+                q[k] = self.configuration(alpha[k], initial_guess=q[k])
+        q = np.atleast_2d(q)
+        model, data, nv, n = self.model, self.data, self.model.nv, len(q)
+        J = np.empty((n, 6, nv))  # joint Jacobians, world frame (linear part at the origin)
+        placements = np.empty((n, len(self._anchor_joints), 4, 4))
+        M = np.empty((n, nv, nv))
+        gravity = np.empty((n, nv))
+        oMi = data.oMi  # a reference to the placements, updated by every kinematics pass
+        for k, q_k in enumerate(q):
+            pin.computeJointJacobians(model, data, q_k)
+            J[k] = data.J
+            for j, joint in enumerate(self._anchor_joints):
+                placements[k, j] = oMi[joint].homogeneous
+            M[k] = pin.crba(model, data, q_k)
+            gravity[k] = pin.computeGeneralizedGravity(model, data, q_k)
+        M = np.triu(M) + np.swapaxes(np.triu(M, 1), 1, 2)  # CRBA's upper triangle is the reference
+        p = self._anchor_positions(placements)[..., None]  # (n, anchors, 3, 1)
+        support = self._anchor_supports[None, :, None, :]  # (1, anchors, 1, nv)
+        J_lin, J_ang = J[:, None, :3] * support, J[:, None, 3:] * support
+        jacobian = self._anchor_gaps(J_lin + np.cross(J_ang, p, axis=2))  # d(p_parent - p_child)/dq
+        passive = jacobian[:, :, self.passive_indices]
+        S = np.zeros((n, nv, 3))
+        S[:, self.active_indices] = np.eye(3)
+        S[:, self.passive_indices] = -np.linalg.solve(passive, jacobian[:, :, self.active_indices])
+        v = (S @ alpha_dot[:, :, None])[..., 0]
+        J_dot = np.empty((n, 6, nv))
+        nle = np.empty((n, nv))
+        for k, (q_k, v_k) in enumerate(zip(q, v)):
+            pin.computeJointJacobiansTimeVariation(model, data, q_k, v_k)
+            J_dot[k] = data.dJ
+            nle[k] = pin.nonLinearEffects(model, data, q_k, v_k)
+        # J_c_dot v = the gap between the anchors' classical accelerations at zero joint
+        # acceleration: a_O + w_dot x p + w x p_dot, with (a_O, w_dot) = J_dot v on the anchor's body
+        v_body = v[:, None, :] * self._anchor_supports[None]  # (n, anchors, nv)
+        velocity = np.einsum("kij,kaj->kai", J, v_body)
+        acceleration = np.einsum("kij,kaj->kai", J_dot, v_body)
+        p = p[..., 0]
+        p_dot = velocity[..., :3] + np.cross(velocity[..., 3:], p)
+        drift = self._anchor_gaps(
+            acceleration[..., :3] + np.cross(acceleration[..., 3:], p) + np.cross(velocity[..., 3:], p_dot)
+        )
+        rate = np.zeros((n, nv))  # S_dot alpha_dot
+        rate[:, self.passive_indices] = -np.linalg.solve(passive, drift[:, :, None])[..., 0]
+        S_T = np.swapaxes(S, 1, 2)
+        return ReducedDynamics(
+            M=S_T @ M @ S,
+            G=(S_T @ gravity[:, :, None])[..., 0],
+            coriolis=(S_T @ ((nle - gravity) + (M @ rate[:, :, None])[..., 0])[:, :, None])[..., 0],
         )

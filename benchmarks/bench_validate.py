@@ -1,0 +1,95 @@
+"""Cost of ``validate`` (analytic model vs the constrained Pinocchio model) on 10 000 states.
+
+Run: ``python benchmarks/bench_validate.py [--repeats 5] [--samples 10000]``
+
+Cases: ``validate(robot, samples)`` in-process (imports and the robot's compilation excluded);
+its Pinocchio side alone, batched (``reduced_dynamics_batch`` and the closure check, as
+``validate`` calls them) and, as the reference, the readable one-state methods on a subset
+scaled to the same number of states; and the command ``delta-pin validate --samples N`` end to
+end in a fresh interpreter (imports included: the issue's target is 2 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+
+import numpy as np
+from common import Timing, machine_info, measure, print_table
+
+import delta_pin as dp
+from delta_pin.kinematics import forward_kinematics
+from delta_pin.validation import sample_states, validate
+
+TARGET = 2.0  # [s] delta-pin validate --samples 10000 (issue 7)
+
+
+def _pinocchio_side_batched(model, alpha, alpha_dot, xyz) -> None:
+    q = model.analytic_configurations(alpha, xyz)
+    np.abs(model.closure_residuals(q)).max(axis=1)
+    model.reduced_dynamics_batch(alpha, alpha_dot, q)
+
+
+def _pinocchio_side_one_by_one(model, alpha, alpha_dot, xyz) -> None:
+    for a, d, x in zip(alpha, alpha_dot, xyz):
+        q = model.analytic_configuration(a, x)
+        np.abs(model.closure_residual(q)).max()
+        model.reduced_dynamics(a, d, q)
+
+
+def _command(samples: int) -> None:
+    subprocess.run(
+        [sys.executable, "-m", "delta_pin.cli", "validate", "--samples", str(samples)],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+
+
+def _scaled(name: str, function, repeats: int, factor: float, note: str) -> Timing:
+    """Wall times of ``function`` multiplied by ``factor`` (a subset scaled to the full count)."""
+    function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append((time.perf_counter() - start) * factor)
+    return Timing(name, times, note)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--samples", type=int, default=10_000)
+    args = parser.parse_args()
+    robot = dp.load_delta()
+    model, n, r = robot.pinocchio, args.samples, args.repeats
+    alpha, alpha_dot = sample_states(robot, n)
+    xyz = forward_kinematics(robot.params, alpha)
+    subset = max(n // 20, 1)
+    timings = [
+        measure(f"delta-pin validate --samples {n} (fresh process)", lambda: _command(n), r),
+        measure(f"validate(robot, samples={n}), in-process", lambda: validate(robot, samples=n), r),
+        measure(
+            f"Pinocchio side, batched ({n} states)",
+            lambda: _pinocchio_side_batched(model, alpha, alpha_dot, xyz),
+            r,
+        ),
+        _scaled(
+            f"Pinocchio side, one state at a time ({n} states)",
+            lambda: _pinocchio_side_one_by_one(model, alpha[:subset], alpha_dot[:subset], xyz[:subset]),
+            r,
+            n / subset,
+            f"{subset} states timed, scaled",
+        ),
+    ]
+    print(f"machine: {machine_info()}")
+    print_table(f"validate on {n} random states", timings, reference=timings[0])
+    command = timings[0].median
+    print(f"\ntarget: delta-pin validate --samples 10000 <= {TARGET:g} s: median {command:.2f} s", end="")
+    print(f" ({'met' if command <= TARGET else 'NOT met'})" if n == 10_000 else " (other sample count)")
+
+
+if __name__ == "__main__":
+    main()
