@@ -3,15 +3,47 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from .atomic import write_text_atomically
 from .errors import DeltaPinError, XacroArgumentError
 
 __all__ = ["main"]
+
+
+class _Choices(Sequence):
+    """A tuple constant of a submodule as argparse ``choices``, imported only when argparse reads
+    it: ``experiments`` and ``simulate`` load SciPy, numba and the controllers (~0.6 s) that
+    ``delta-pin validate`` and ``delta-pin urdf`` do not need."""
+
+    def __init__(self, module: str, name: str) -> None:
+        self._module, self._name = module, name
+
+    def _values(self) -> tuple:
+        return getattr(importlib.import_module(self._module, __package__), self._name)
+
+    def __getitem__(self, index):
+        return self._values()[index]
+
+    def __len__(self) -> int:
+        return len(self._values())
+
+
+CONTROLLERS = _Choices(".experiments", "CONTROLLERS")
+PATHS = _Choices(".experiments", "PATHS")
+MODES = _Choices(".simulate", "MODES")
+INTEGRATOR_CHOICES = _Choices(".simulate", "INTEGRATOR_CHOICES")
+
+
+def _add_choice_argument(parser: argparse.ArgumentParser, flag: str, choices: _Choices, **options) -> None:
+    """``parser.add_argument(flag, choices=choices, **options)`` without reading ``choices`` now
+    (``add_argument`` formats the choices once to check the metavar)."""
+    parser.add_argument(flag, **options).choices = choices
 
 
 def _parse_settings(settings: list[str]) -> dict[str, str]:
@@ -74,6 +106,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         path=args.path,
         plant=args.plant,
         mode=args.mode,
+        integrator=args.integrator,
         t_end=args.t_end,
         dt=args.dt,
         friction_compensation=not args.no_friction_compensation,
@@ -131,6 +164,7 @@ def _spec_from_args(args: argparse.Namespace, **changes):
     return RunSpec(
         plant=args.plant,
         mode=args.mode,
+        integrator=args.integrator,
         t_end=args.t_end,
         dt=args.dt,
         sampling_aware=args.sampling_aware,
@@ -169,11 +203,16 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
-    from .simulate import MODES
+_INTEGRATOR_HELP = (
+    "auto: RK4 sampled, LSODA continuous; bdf2: compiled implicit BDF2 (designs I/II, analytic "
+    "plant, continuous; sweeps batch it)"
+)
 
+
+def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic")
-    parser.add_argument("--mode", choices=MODES, default="continuous")
+    _add_choice_argument(parser, "--mode", MODES, default="continuous")
+    _add_choice_argument(parser, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     parser.add_argument("--t-end", type=float, default=None, help="duration [s] (path default)")
     parser.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
     parser.add_argument("--sampling-aware", action="store_true")
@@ -246,14 +285,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     validate.set_defaults(func=_cmd_validate)
 
-    from .experiments import CONTROLLERS, PATHS
-    from .simulate import MODES
-
     run = sub.add_parser("run", help="simulate one controller on one path (the paper's Section V scenario)")
-    run.add_argument("--controller", choices=CONTROLLERS, default="design1")
-    run.add_argument("--path", choices=PATHS, default="I")
+    _add_choice_argument(run, "--controller", CONTROLLERS, default="design1")
+    _add_choice_argument(run, "--path", PATHS, default="I")
     run.add_argument("--plant", choices=("pinocchio", "analytic"), default="pinocchio")
-    run.add_argument("--mode", choices=MODES, default="continuous")
+    _add_choice_argument(run, "--mode", MODES, default="continuous")
+    _add_choice_argument(run, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     run.add_argument("--t-end", type=float, default=None, help="duration [s] (15 for path I, 10 for path II)")
     run.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s] (default 1e-3)")
     run.add_argument("--no-friction-compensation", action="store_true")
@@ -305,8 +342,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=SPEC",
         help="an axis: delta_m=0:0.9:4 (start:stop:count) or xi=0.001,0.01 (repeatable)",
     )
-    sweep.add_argument("--controller", choices=CONTROLLERS, default="design1")
-    sweep.add_argument("--path", choices=PATHS, default="I")
+    _add_choice_argument(sweep, "--controller", CONTROLLERS, default="design1")
+    _add_choice_argument(sweep, "--path", PATHS, default="I")
     sweep.add_argument("--metric", default="rho_hat_max", help="surface of this metric for two axes")
     _add_study_arguments(sweep)
     sweep.set_defaults(func=_cmd_sweep)

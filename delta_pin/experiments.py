@@ -19,11 +19,20 @@ from .control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravi
 from .errors import InvalidParameterError
 from .plant import Friction
 from .robot import Delta, load_delta
-from .simulate import MODES, Run, simulate
+from .simulate import INTEGRATORS, MODES, Run, simulate
 from .trajectory import AdeptCycle, PathI, PathII, Trajectory
 from .uncertainty import PAPER_NOMINAL_DISTURBANCE, NoUncertainty, PaperUncertainty, RandomUncertainty
 
-__all__ = ["CONTROLLERS", "PATHS", "RunSpec", "build_controller", "build_trajectory", "run_spec"]
+__all__ = [
+    "CONTROLLERS",
+    "PATHS",
+    "RunSpec",
+    "batch_group",
+    "build_controller",
+    "build_trajectory",
+    "run_batch",
+    "run_spec",
+]
 
 CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd")
 PATHS = ("I", "II", "adept")
@@ -40,6 +49,8 @@ class RunSpec:
         path: ``"I"`` (eq. 66), ``"II"`` (eq. 69) or ``"adept"`` (pick-and-place cycle).
         plant: ``"pinocchio"`` or ``"analytic"``.
         mode: ``"continuous"`` or ``"sampled"``.
+        integrator: ``"auto"`` (RK4 sampled, LSODA continuous), ``"rk4"``, ``"lsoda"`` or
+            ``"bdf2"`` (compiled, designs I/II on the analytic plant; batched by sweeps).
         t_end: duration [s]; ``None`` for the path's default (15 s, 10 s, 3 s).
         dt: sample / control period [s].
         friction_compensation: include M̄_f in the controller.
@@ -55,6 +66,7 @@ class RunSpec:
     path: str = "I"
     plant: str = "pinocchio"
     mode: str = "continuous"
+    integrator: str = "auto"
     t_end: float | None = None
     dt: float = 1e-3
     friction_compensation: bool = True
@@ -76,6 +88,10 @@ class RunSpec:
             raise InvalidParameterError(f"path={self.path!r} must be one of {', '.join(PATHS)}")
         if self.mode not in MODES:
             raise InvalidParameterError(f"mode={self.mode!r} must be one of {', '.join(MODES)}")
+        if self.integrator not in ("auto", *INTEGRATORS):
+            raise InvalidParameterError(
+                f"integrator={self.integrator!r} must be one of auto, {', '.join(INTEGRATORS)}"
+            )
 
     @property
     def duration(self) -> float:
@@ -159,6 +175,7 @@ def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = 
         t_end=spec.duration,
         dt=spec.dt,
         mode=spec.mode,
+        integrator=spec.integrator,
         alpha0=None if spec.alpha0 is None else np.full(3, spec.alpha0),
         friction=Friction() if spec.friction else None,
         uncertainty=build_uncertainty(spec),
@@ -166,3 +183,53 @@ def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = 
     )
     run.metadata["spec"] = spec.as_dict()
     return run
+
+
+def batch_group(spec: RunSpec) -> tuple | None:
+    """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
+    when ``spec`` cannot be batched: only designs I/II in continuous mode with
+    ``integrator="bdf2"`` on the analytic plant can."""
+    if not (
+        spec.plant == "analytic"
+        and spec.mode == "continuous"
+        and spec.integrator == "bdf2"
+        and spec.controller in ("design1", "design2")
+    ):
+        return None
+    return (spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, bool(spec.gains.get("vector_rho")))
+
+
+def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
+    """Simulate specs of one :func:`batch_group` together (:func:`delta_pin.batch.simulate_batch`);
+    each result is the :class:`Run` that :func:`run_spec` gives for its spec, or the
+    :class:`~delta_pin.errors.SimulationError` of a run that failed.
+
+    Raises:
+        InvalidParameterError: specs from different groups, or a spec that cannot be batched.
+    """
+    from .batch import simulate_batch
+
+    groups = {batch_group(spec) for spec in specs}
+    if None in groups or len(groups) != 1:
+        raise InvalidParameterError(
+            "run_batch needs specs of one batch group (designs I/II, continuous, bdf2, analytic, "
+            f"same path, duration, dt, alpha0, friction); got groups {sorted(map(str, groups))}"
+        )
+    robot = robot or load_delta()
+    first = specs[0]
+    trajectory = build_trajectory(first.path)
+    runs = simulate_batch(
+        robot,
+        [build_controller(spec, robot, trajectory) for spec in specs],
+        trajectory,
+        t_end=first.duration,
+        dt=first.dt,
+        alpha0=None if first.alpha0 is None else np.full(3, first.alpha0),
+        friction=Friction() if first.friction else None,
+        uncertainties=[build_uncertainty(spec) for spec in specs],
+        errors="return",
+    )
+    for spec, run in zip(specs, runs):
+        if isinstance(run, Run):
+            run.metadata["spec"] = spec.as_dict()
+    return runs

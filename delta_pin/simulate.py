@@ -34,7 +34,8 @@ from .robot import Delta
 __all__ = ["INTEGRATORS", "MODES", "Run", "load_run", "simulate"]
 
 MODES = ("sampled", "continuous")
-INTEGRATORS = ("rk4", "lsoda")
+INTEGRATORS = ("rk4", "lsoda", "bdf2")
+INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
 MAX_JOINT_SPEED = 1e3  # [rad/s] a state beyond this has diverged
 _ARRAYS = ("t", "alpha", "alpha_dot", "alpha_d", "alpha_dot_d", "xyz", "xyz_d", "tau", "closure_residual")
 
@@ -226,6 +227,36 @@ class _ReferenceTable:
         )
 
 
+def _reference(robot: Delta, trajectory, alpha0, dof: int, steps: int, dt: float, per_sample: int):
+    """(reference table on the grid dt / per_sample, desired xyz at the samples, alpha0): the
+    trajectory's, or a hold of ``alpha0`` when there is no trajectory."""
+    grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
+    if trajectory is not None:
+        ref = trajectory.joint_reference(robot, grid)
+        table = _ReferenceTable(dt / per_sample, ref.alpha, ref.alpha_dot, ref.alpha_ddot)
+        return table, ref.xyz[::per_sample], ref.alpha[0] if alpha0 is None else alpha0
+    if alpha0 is None:
+        raise InvalidParameterError("alpha0 is required when no trajectory is given")
+    hold = _joint_vector(alpha0, "alpha0", dof)
+    zeros = np.zeros((len(grid), dof))
+    table = _ReferenceTable(dt / per_sample, np.broadcast_to(hold, (len(grid), dof)), zeros, zeros, zeros)
+    return table, np.broadcast_to(robot.forward_kinematics(hold), (steps + 1, 3)), alpha0
+
+
+def run_metadata(robot: Delta, controller: Controller, trajectory, plant: Plant, **timing) -> dict:
+    """The metadata of a :class:`Run`: robot, controller, trajectory, plant, then ``timing``
+    (mode, dt, t_end, integrator, ...), then the package versions."""
+    return {
+        "robot": robot.metadata(),
+        "urdf": robot.urdf,
+        "controller": controller.metadata(),
+        "trajectory": None if trajectory is None else trajectory.metadata(),
+        **plant.metadata(),
+        **timing,
+        "versions": _versions(),
+    }
+
+
 def simulate(
     robot: Delta,
     controller,
@@ -262,11 +293,13 @@ def simulate(
         friction: :class:`~delta_pin.plant.Friction`, ``True`` for its defaults, or ``None``.
         uncertainty: an :class:`~delta_pin.uncertainty.Uncertainty` profile or ``None``.
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
-        integrator: ``"rk4"`` (fixed step dt / substeps) or ``"lsoda"`` (scipy's adaptive
-            stiff/non-stiff switching solver, continuous mode only); ``"auto"`` takes RK4 in sampled
-            mode and LSODA in continuous mode, where the robust term's boundary-layer gain makes the
-            closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains: RK4 would need
-            ~80 substeps per millisecond).
+        integrator: ``"rk4"`` (fixed step dt / substeps), ``"lsoda"`` (scipy's adaptive
+            stiff/non-stiff switching solver, continuous mode only) or ``"bdf2"`` (compiled implicit
+            BDF2 with step dt / substeps, continuous mode, designs I/II on the analytic plant only:
+            :func:`delta_pin.batch.simulate_batch`); ``"auto"`` takes RK4 in sampled mode and LSODA
+            in continuous mode, where the robust term's boundary-layer gain makes the closed loop
+            stiff (eigenvalues near -2e5 1/s with the paper's gains: RK4 would need ~80 substeps
+            per millisecond).
         rtol, atol: LSODA tolerances (relative; absolute in SI units of the state).
         progress: show the simulated time on stderr (``None``: only on a terminal).
 
@@ -286,10 +319,26 @@ def simulate(
         raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
     if integrator == "auto":
         integrator = "lsoda" if mode == "continuous" else "rk4"
-    if integrator not in INTEGRATORS or (integrator == "lsoda" and mode == "sampled"):
+    if integrator not in INTEGRATORS or (integrator != "rk4" and mode == "sampled"):
         raise InvalidParameterError(
-            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda'"
+            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda' or 'bdf2'"
         )
+    if integrator == "bdf2":
+        from .batch import simulate_batch
+
+        return simulate_batch(
+            robot,
+            [controller],
+            trajectory,
+            plant=plant,
+            t_end=t_end,
+            dt=dt,
+            substeps=substeps,
+            alpha0=alpha0,
+            alpha_dot0=alpha_dot0,
+            friction=friction,
+            uncertainties=[uncertainty],
+        )[0]
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)
     plant = make_plant(
@@ -305,20 +354,7 @@ def simulate(
     # the reference on a grid fine enough for the integrator: the samples in sampled mode, the RK4
     # stage times (half steps) or dt/4 for LSODA in continuous mode
     per_sample = 1 if mode == "sampled" else (2 * substeps if integrator == "rk4" else 4)
-    grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
-    if trajectory is not None:
-        ref = trajectory.joint_reference(robot, grid)
-        table = _ReferenceTable(dt / per_sample, ref.alpha, ref.alpha_dot, ref.alpha_ddot)
-        sample_xyz = ref.xyz[::per_sample]
-        if alpha0 is None:
-            alpha0 = ref.alpha[0]
-    else:
-        if alpha0 is None:
-            raise InvalidParameterError("alpha0 is required when no trajectory is given")
-        hold = _joint_vector(alpha0, "alpha0", dof)
-        zeros = np.zeros((len(grid), dof))
-        table = _ReferenceTable(dt / per_sample, np.broadcast_to(hold, (len(grid), dof)), zeros, zeros, zeros)
-        sample_xyz = np.broadcast_to(robot.forward_kinematics(hold), (steps + 1, 3))
+    table, sample_xyz, alpha0 = _reference(robot, trajectory, alpha0, dof, steps, dt, per_sample)
     alpha0 = _joint_vector(alpha0, "alpha0", dof)
     alpha_dot0 = np.zeros(dof) if alpha_dot0 is None else _joint_vector(alpha_dot0, "alpha_dot0", dof)
 
@@ -378,23 +414,21 @@ def simulate(
     bar.close()
     wall = _time.perf_counter() - wall
 
-    metadata = {
-        "robot": robot.metadata(),
-        "urdf": robot.urdf,
-        "controller": controller.metadata(),
-        "trajectory": None if trajectory is None else trajectory.metadata(),
-        **plant.metadata(),
-        "mode": mode,
-        "dt": dt,
-        "t_end": steps * dt,
-        "substeps": substeps,
-        "integrator": integrator,
+    metadata = run_metadata(
+        robot,
+        controller,
+        trajectory,
+        plant,
+        mode=mode,
+        dt=dt,
+        t_end=steps * dt,
+        substeps=substeps,
+        integrator=integrator,
         **({"rtol": rtol, "atol": atol} if integrator == "lsoda" else {}),
-        "alpha0": alpha0.tolist(),
-        "alpha_dot0": alpha_dot0.tolist(),
-        "wall_time": wall,
-        "versions": _versions(),
-    }
+        alpha0=alpha0.tolist(),
+        alpha_dot0=alpha_dot0.tolist(),
+        wall_time=wall,
+    )
     if getattr(plant, "projections", 0):
         metadata["closure_projections"] = plant.projections
     try:

@@ -33,6 +33,7 @@ import itertools
 import json
 import logging
 import math
+import os
 import sys
 import time
 import traceback
@@ -46,7 +47,7 @@ import numpy as np
 
 from .atomic import write_text_atomically
 from .errors import DeltaPinError, InvalidParameterError
-from .experiments import RunSpec, run_spec
+from .experiments import RunSpec, batch_group, run_batch, run_spec
 from .metrics import compute_metrics
 from .progress import Progress
 
@@ -55,6 +56,7 @@ __all__ = [
     "OptionalDependencyError",
     "SweepPoint",
     "SweepResult",
+    "evaluate_batch",
     "evaluate_spec",
     "grid_specs",
     "parse_axes",
@@ -64,6 +66,7 @@ __all__ = [
 ]
 
 EXECUTORS = ("serial", "process", "dask")
+BATCH_SIZE = 32  # points per compiled batch (one executor task)
 RECORD_FORMAT = "delta-pin-sweep-point"
 RECORD_VERSION = 1
 _log = logging.getLogger(__name__)
@@ -102,6 +105,8 @@ def _canonical(value, *, as_float: bool = False, where: str = "value"):
 def _canonical_spec(spec: RunSpec) -> dict:
     out = {}
     for name, value in spec.as_dict().items():
+        if name == "integrator" and value == "auto":
+            continue  # the default: keys of caches written before the field existed stay valid
         floaty = name == "gains" or "float" in _FIELD_TYPES.get(name, "")
         out[name] = _canonical(value, as_float=floaty, where=f"spec.{name}")
     return out
@@ -268,6 +273,54 @@ def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run
         )
     record["wall_time"] = time.perf_counter() - start
     return record
+
+
+def evaluate_batch(
+    spec_dicts: list[dict], robot_args: Mapping | None = None, return_run: bool = False
+) -> list[dict]:
+    """:func:`evaluate_spec` for several points that share a :func:`~delta_pin.experiments.batch_group`:
+    one compiled call simulates them all (each record's ``wall_time`` is its share). A batch that
+    cannot be built (e.g. an unknown gain name) falls back to one point at a time, so the error
+    lands on the point that caused it."""
+    if len(spec_dicts) == 1:
+        return [evaluate_spec(spec_dicts[0], robot_args, return_run)]
+    start = time.perf_counter()
+    try:
+        specs = [RunSpec(**spec_dict) for spec_dict in spec_dicts]
+        robot = _cached_robot(_freeze(_canonical_robot_args(robot_args)))
+        results = run_batch(specs, robot)
+    except Exception:
+        return [evaluate_spec(spec_dict, robot_args, return_run) for spec_dict in spec_dicts]
+    share = (time.perf_counter() - start) / len(specs)
+    records = []
+    for spec_dict, result in zip(spec_dicts, results):
+        record = {"spec": spec_dict, "metrics": None, "wall_time": share, "error": None, "error_type": None}
+        if isinstance(result, DeltaPinError):
+            record.update(error=str(result), error_type=type(result).__name__)
+        else:
+            record["metrics"] = _canonical(compute_metrics(result).as_dict(), where="metrics")
+            if return_run:
+                record["run"] = result
+        records.append(record)
+    return records
+
+
+def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None) -> list[list[str]]:
+    """The todo keys in tasks: points of one batch group in chunks (at most BATCH_SIZE, and at
+    least two chunks per worker when the group is large enough), every other point alone."""
+    groups: dict = {}
+    tasks = []
+    for key in todo:
+        group = batch_group(unique[key])
+        if group is None:
+            tasks.append([key])
+        else:
+            groups.setdefault(group, []).append(key)
+    lanes = 2 * (workers or os.cpu_count() or 1)
+    for keys in groups.values():
+        size = max(1, min(BATCH_SIZE, math.ceil(len(keys) / lanes)))
+        tasks.extend(keys[i : i + size] for i in range(0, len(keys), size))
+    return tasks
 
 
 # --------------------------------------------------------------------------------------------------
@@ -500,15 +553,21 @@ def run_sweep(
     try:
         if todo:
             _cached_robot(_freeze(args))  # bad robot arguments fail here, once, not in every point
-            items = [(key, (_canonical_spec(unique[key]), args, save_runs)) for key in todo]
+            items = [
+                (tuple(chunk), ([_canonical_spec(unique[key]) for key in chunk], args, save_runs))
+                for chunk in _chunks(todo, unique, workers)
+            ]
             with _backend(executor, workers, scheduler) as run_all:
-                for key, record in run_all(evaluate_spec, items):
-                    _store(cache_dir, key, record, args)
-                    records[key] = record
-                    if record.get("unexpected"):
-                        unexpected.append((unique[key], record))
-                        _log.error("sweep point %s (%s) failed:\n%s", key, unique[key], record["traceback"])
-                    bar.update(failed=record["error"] is not None)
+                for chunk, chunk_records in run_all(evaluate_batch, items):
+                    for key, record in zip(chunk, chunk_records):
+                        _store(cache_dir, key, record, args)
+                        records[key] = record
+                        if record.get("unexpected"):
+                            unexpected.append((unique[key], record))
+                            _log.error(
+                                "sweep point %s (%s) failed:\n%s", key, unique[key], record["traceback"]
+                            )
+                        bar.update(failed=record["error"] is not None)
     finally:
         bar.close()
 

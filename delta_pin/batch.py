@@ -1,0 +1,222 @@
+"""Batched continuous-mode runs of designs I and II on the analytic plant (compiled BDF2).
+
+:func:`simulate_batch` advances many runs that share the robot, the path and the timing but differ
+in gains, uncertainty or initial state through one compiled call
+(:func:`delta_pin.fast_closed_loop.closed_loop_batch`); each run's result is the same, bit for bit,
+as the run made alone (``simulate(..., integrator="bdf2")`` is a batch of one). The integrator and
+its accuracy are described in :mod:`delta_pin.fast_closed_loop`.
+
+Example:
+    >>> robot = load_delta()
+    >>> nominal = DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    >>> runs = simulate_batch(robot, [design1(nominal, xi=x) for x in (1e-3, 1e-2)], PathI(),
+    ...                       t_end=3.0, friction=Friction(),
+    ...                       uncertainties=[PaperUncertainty()] * 2)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from .control.adaptive_robust import AdaptiveRobustController
+from .errors import InvalidParameterError, SimulationError
+from .fast_model import chain_trigonometry, pack_geometry
+from .plant import AnalyticPlant, Plant, make_plant
+from .robot import Delta
+
+__all__ = ["batchable", "simulate_batch"]
+
+_FAILURES = {
+    1: "the state left the workspace (no forward kinematics)",
+    2: "Newton's method did not converge even on 1024 sub-steps",
+    3: "the run diverged (|alpha_dot| > 1000 rad/s or a non-finite state)",
+}
+MAX_JOINT_SPEED = 1e3  # [rad/s], as simulate's
+
+
+def batchable(controller, plant="analytic") -> bool:
+    """Whether ``controller`` on ``plant`` can take the compiled BDF2 path: design I or II with
+    its compiled step (the Delta's analytic nominal model) on the analytic plant."""
+    is_analytic = plant == "analytic" or isinstance(plant, AnalyticPlant)
+    return (
+        is_analytic
+        and isinstance(controller, AdaptiveRobustController)
+        and getattr(controller, "_compiled", None) is not None
+    )
+
+
+def _packed_plant(plant: Plant) -> np.ndarray:
+    params = plant.robot.params
+    friction = np.zeros(7)
+    if plant.friction is not None:
+        friction = np.array([1.0, *plant._friction_arguments, plant.friction.sign_velocity_scale])
+    return np.concatenate([pack_geometry(params), [1.5 * params.m_b], friction])
+
+
+def simulate_batch(
+    robot: Delta,
+    controllers: Sequence[AdaptiveRobustController],
+    trajectory=None,
+    *,
+    plant: str | Plant = "analytic",
+    t_end: float,
+    dt: float = 1e-3,
+    substeps: int = 1,
+    alpha0=None,
+    alpha_dot0=None,
+    friction=None,
+    uncertainties: Sequence | None = None,
+    errors: str = "raise",
+) -> list:
+    """Simulate one continuous-mode run per controller (design I or II) with compiled BDF2.
+
+    Args:
+        robot: the robot; every run uses it.
+        controllers: designs I/II on the Delta's analytic nominal model, all with the same
+            ``vector_rho``; gains and options may differ.
+        trajectory: the shared path (``None``: hold ``alpha0``).
+        plant: ``"analytic"`` (or an :class:`~delta_pin.plant.AnalyticPlant`, whose friction and
+            uncertainty then serve the first run).
+        t_end, dt: duration and sample period [s]; BDF2 steps are dt / substeps.
+        substeps: BDF2 steps per sample (>= 1).
+        alpha0, alpha_dot0: initial angles [rad] and velocities [rad/s] of every run, or one row
+            per run ((B, 3)); defaults as :func:`~delta_pin.simulate.simulate`.
+        friction: :class:`~delta_pin.plant.Friction` of every run, ``True`` or ``None``.
+        uncertainties: one profile per run (``None`` entries: no uncertainty), or ``None``.
+        errors: ``"raise"`` the first failure, or ``"return"`` it in place of its run.
+
+    Returns:
+        A list of :class:`~delta_pin.simulate.Run` (or :class:`~delta_pin.errors.SimulationError`
+        with ``errors="return"``), in the order of ``controllers``.
+
+    Raises:
+        InvalidParameterError: a controller or plant the compiled path cannot run, bad sizes.
+        SimulationError: a run that fails (with ``errors="raise"``), naming the time.
+    """
+    from .simulate import Run, _joint_vector, _reference, run_metadata
+
+    controllers = list(controllers)
+    if not controllers:
+        raise InvalidParameterError("controllers must hold at least one controller")
+    if errors not in ("raise", "return"):
+        raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")
+    for index, controller in enumerate(controllers):
+        if not batchable(controller, plant):
+            raise InvalidParameterError(
+                f"controllers[{index}] ({getattr(controller, 'name', controller)!r}) on plant "
+                f"{getattr(plant, 'name', plant)!r}: integrator 'bdf2' runs designs I/II with their "
+                "compiled step on the analytic plant only; use integrator='lsoda'"
+            )
+    if len({c.vector_rho for c in controllers}) > 1:
+        raise InvalidParameterError("all controllers of a batch must have the same vector_rho")
+    if not (isinstance(substeps, int) and substeps >= 1):
+        raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
+    for name, value in (("dt", dt), ("t_end", t_end)):
+        if not (isinstance(value, int | float) and value > 0.0 and np.isfinite(value)):
+            raise InvalidParameterError(f"{name}={value!r} must be a positive number of seconds")
+    count = len(controllers)
+    uncertainties = [None] * count if uncertainties is None else list(uncertainties)
+    if len(uncertainties) != count:
+        raise InvalidParameterError(f"uncertainties has {len(uncertainties)} entries for {count} controllers")
+    plants = [
+        plant if isinstance(plant, Plant) and i == 0 else make_plant("analytic", robot, friction, u)
+        for i, u in enumerate(uncertainties)
+    ]
+    steps = round(t_end / dt)
+    if steps < 1:
+        raise InvalidParameterError(f"t_end={t_end} s is shorter than one period dt={dt} s")
+    h = dt / substeps
+
+    alpha0_rows = np.asarray(alpha0, dtype=float) if alpha0 is not None else None
+    per_run_alpha0 = alpha0_rows is not None and alpha0_rows.ndim == 2
+    table, sample_xyz, start = _reference(
+        robot, trajectory, alpha0_rows[0] if per_run_alpha0 else alpha0, 3, steps, dt, substeps
+    )
+    reference = np.hstack([table.alpha, table.alpha_dot, table.alpha_ddot])
+    grid = np.arange(steps * substeps + 1) * h
+    truths = np.empty((count, len(grid), 7))
+    initial = []
+    for b, (controller, run_plant) in enumerate(zip(controllers, plants)):
+        mass, normal, disturbance = run_plant._evaluate_truth(grid)
+        truths[b] = np.column_stack([mass, normal, disturbance])
+        a0 = _joint_vector(alpha0_rows[b] if per_run_alpha0 else start, "alpha0", 3)
+        v0 = np.zeros(3)
+        if alpha_dot0 is not None:
+            rows = np.asarray(alpha_dot0, dtype=float)
+            v0 = _joint_vector(rows[b] if rows.ndim == 2 else rows, "alpha_dot0", 3)
+        controller.reset()
+        initial.append(np.concatenate([a0, v0, controller.initial_state().astype(float)]))
+    packed_controllers = np.array([c._compiled[1] for c in controllers])
+    cos_phi, sin_phi = chain_trigonometry()
+
+    from .fast_closed_loop import closed_loop_batch
+
+    wall = time.perf_counter()
+    samples, info, status, failure_time, counters = closed_loop_batch(
+        packed_controllers,
+        cos_phi,
+        sin_phi,
+        _packed_plant(plants[0]),
+        truths,
+        reference,
+        np.array(initial),
+        h,
+        substeps,
+        steps,
+        MAX_JOINT_SPEED,
+    )
+    wall = (time.perf_counter() - wall) / count
+
+    t = np.arange(steps + 1) * dt
+    results = []
+    for b, controller in enumerate(controllers):
+        if status[b] != 0:
+            error = SimulationError(f"bdf2: {_FAILURES[int(status[b])]}", float(failure_time[b]))
+            if errors == "raise":
+                raise error
+            results.append(error)
+            continue
+        out = samples[b]
+        metadata = run_metadata(
+            robot,
+            controller,
+            trajectory,
+            plants[b],
+            mode="continuous",
+            dt=dt,
+            t_end=steps * dt,
+            substeps=substeps,
+            integrator="bdf2",
+            alpha0=initial[b][:3].tolist(),
+            alpha_dot0=initial[b][3:6].tolist(),
+            wall_time=wall,
+            rhs_evaluations=int(counters[b, 0]),
+            split_steps=int(counters[b, 1]),
+            batch_size=count,
+        )
+        results.append(
+            Run(
+                t=t,
+                alpha=out[:, 0:3].copy(),
+                alpha_dot=out[:, 3:6].copy(),
+                alpha_d=np.array(table.alpha[::substeps]),
+                alpha_dot_d=np.array(table.alpha_dot[::substeps]),
+                xyz=out[:, 9:12].copy(),
+                xyz_d=np.array(sample_xyz),
+                tau=out[:, 6:9].copy(),
+                closure_residual=np.zeros(steps + 1),
+                internals={
+                    "rho_hat": out[:, 12:].copy(),
+                    "Lambda": info[b, :, 1].copy(),
+                    "robust_gain": info[b, :, 2].copy(),
+                    "omega_norm": info[b, :, 3].copy(),
+                    "robust_torque": info[b, :, 5:8].copy(),
+                    "adaptation_active": info[b, :, 4].copy(),
+                },
+                metadata=metadata,
+            )
+        )
+    return results
