@@ -13,10 +13,12 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from common import Timing, machine_info, per_call, print_table
+from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.control import Reference
+
+STEP_LIMIT = 10e-6  # [s] issue 7: a controller step of designs I and II fit for a 10 kHz drive
 
 
 def main() -> None:
@@ -48,6 +50,9 @@ def main() -> None:
         timings.append(Timing(name, times, note=f"per call, {args.calls} calls per repeat"))
     print(f"machine: {machine_info()}")
     print_table("one controller step (torque + state derivative)", timings, reference=timings[0])
+    for timing in timings:
+        if timing.name in ("design I", "design II"):
+            report_target(f"one controller step, {timing.name} (compiled)", timing.median, STEP_LIMIT)
 
 
 if __name__ == "__main__":

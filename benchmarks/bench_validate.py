@@ -17,7 +17,7 @@ import sys
 import time
 
 import numpy as np
-from common import Timing, machine_info, measure, print_table
+from common import Timing, machine_info, measure, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.kinematics import forward_kinematics
@@ -87,8 +87,7 @@ def main() -> None:
     print(f"machine: {machine_info()}")
     print_table(f"validate on {n} random states", timings, reference=timings[0])
     command = timings[0].median
-    print(f"\ntarget: delta-pin validate --samples 10000 <= {TARGET:g} s: median {command:.2f} s", end="")
-    print(f" ({'met' if command <= TARGET else 'NOT met'})" if n == 10_000 else " (other sample count)")
+    report_target(f"delta-pin validate --samples {n}", command, TARGET if n == 10_000 else None)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,361 @@
+"""MuJoCo reference: the same Delta simulated for 15 s (RK4, 1 ms) by MuJoCo and by Pinocchio.
+
+Run: ``python benchmarks/bench_mujoco.py [--repeats 3] [--t-end 15] [--calls 2000]``
+(needs ``pip install -e '.[bench]'``; without MuJoCo it prints a "skipped" line and exits 0).
+
+The MJCF is built in code from the robot's Pinocchio model (``delta_pin.load_delta()``, Table 1):
+every joint placement, axis, mass and inertia and the closure points are read from it, nothing is
+written down twice. Massless links (the elbow cross, the platform slides) are merged into the
+next body as consecutive joints, since MuJoCo rejects moving bodies without mass; rod inertias
+that are singular in the URDF (no inertia about the rod's axis) get 1e-9 kg m^2 on the diagonal.
+The three loops are closed by ``connect`` equality constraints between sites at the forearm tips
+and the platform attachment points; the platform moves on three slides, as in the URDF. The connects
+are stiffened (``SOFTNESS``) so that the two engines agree to ~1e-7 rad; this does not change the
+cost. Sanity checks printed first: total mass, closure gap at the assembled start pose, free-fall
+joint acceleration against ``pin.constraintDynamics``, and 0.3 s at zero torque (the platform must
+fall, the loops must hold, both engines must agree).
+
+Both engines run the same torque law, evaluated once per 1 ms step in Python and held over the
+step: a joint PD about a slow sinusoid (precomputed table) plus the gravity torque at the start
+pose, computed once. The Pinocchio runs integrate the full 12-joint tree with RK4 by hand: on
+``PinocchioPlant.derivative`` (no friction, no uncertainty, Baumgarte 20 rad/s) and on bare
+``pin.constraintDynamics`` (the floor for Pinocchio from Python). Closures are not projected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+from common import Timing, machine_info, measure, per_call, print_table, report_target
+
+try:
+    import mujoco
+except ImportError:  # pragma: no cover - depends on the environment
+    mujoco = None
+
+import pinocchio as pin
+
+import delta_pin as dp
+from delta_pin.plant import PinocchioPlant
+
+DT = 1e-3  # [s]
+ALPHA0 = 0.3322  # [rad] the paper's initial angle on every joint
+KP, KD = 40.0, 2.0  # [N m/rad], [N m s/rad]
+AMPLITUDE, FREQUENCY = 0.15, 0.5  # [rad], [Hz] of the reference sinusoid
+# connect softness: time constant 2 dt (the least MuJoCo advises), impedance near 1; MuJoCo's
+# defaults (0.02 s, 0.9-0.95) cost the same but leave closure gaps near 0.5 mm
+SOFTNESS = {"solref": "0.002 1", "solimp": "0.99 0.999 0.001"}
+INERTIA_FLOOR = 1e-9  # [kg m^2] added to every inertia (MuJoCo needs positive eigenvalues)
+
+_JOINT_TYPES = {
+    "RX": ("hinge", "1 0 0"),
+    "RY": ("hinge", "0 1 0"),
+    "RZ": ("hinge", "0 0 1"),
+    "PX": ("slide", "1 0 0"),
+    "PY": ("slide", "0 1 0"),
+    "PZ": ("slide", "0 0 1"),
+}
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
+
+
+def delta_mjcf(robot: dp.Delta, solref: str | None = None, solimp: str | None = None) -> str:
+    """MJCF of ``robot``, built from its Pinocchio model and ``<constraint>`` closures."""
+    source = robot.pinocchio
+    model = source.model
+    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        children[model.parents[j]].append(j)
+    sites: dict[int, list[tuple[str, np.ndarray]]] = {}
+    closure_names = [c.name for c in source.description.closures]
+    for frame in model.frames:
+        if frame.type == pin.FrameType.OP_FRAME and frame.name.rsplit("_", 1)[0] in closure_names:
+            sites.setdefault(frame.parentJoint, []).append((frame.name, frame.placement.translation))
+
+    def body(j: int, indent: str) -> str:
+        placement = model.jointPlacements[j]
+        quat = pin.Quaternion(placement.rotation)
+        text = (
+            f'{indent}<body name="{model.names[j]}" pos="{_numbers(placement.translation)}" '
+            f'quat="{_numbers([quat.w, quat.x, quat.y, quat.z])}">\n'
+        )
+        chain = [j]  # a massless link joined to its only child at the same frame: one body, two joints
+        while (
+            model.inertias[chain[-1]].mass == 0.0
+            and chain[-1] not in sites
+            and len(children[chain[-1]]) == 1
+            and model.jointPlacements[children[chain[-1]][0]].isIdentity()
+        ):
+            chain.append(children[chain[-1]][0])
+        for joint in chain:
+            kind, axis = _JOINT_TYPES[model.joints[joint].shortname().removeprefix("JointModel")]
+            text += f'{indent}  <joint name="{model.names[joint]}" type="{kind}" axis="{axis}"/>\n'
+        last = chain[-1]
+        inertia = model.inertias[last]
+        if inertia.mass == 0.0:
+            raise ValueError(f"link of joint {model.names[last]!r} is massless and cannot be merged")
+        c = inertia.inertia + INERTIA_FLOOR * np.eye(3)
+        text += (
+            f'{indent}  <inertial pos="{_numbers(inertia.lever)}" mass="{inertia.mass!r}" '
+            f'fullinertia="{_numbers([c[0, 0], c[1, 1], c[2, 2], c[0, 1], c[0, 2], c[1, 2]])}"/>\n'
+        )
+        for name, position in sites.get(last, []):
+            text += f'{indent}  <site name="{name}" pos="{_numbers(position)}"/>\n'
+        for child in children[last]:
+            text += body(child, indent + "  ")
+        return text + f"{indent}</body>\n"
+
+    soft = (f' solref="{solref}"' if solref else "") + (f' solimp="{solimp}"' if solimp else "")
+    connects = "".join(
+        f'    <connect name="{name}" site1="{name}_parent" site2="{name}_child"{soft}/>\n'
+        for name in closure_names
+    )
+    bodies = "".join(body(j, "    ") for j in children[0])
+    return (
+        f'<mujoco model="{robot.pinocchio.model.name or "delta"}">\n'
+        f'  <option timestep="{DT!r}" integrator="RK4" gravity="{_numbers(model.gravity.linear)}"/>\n'
+        f"  <worldbody>\n{bodies}  </worldbody>\n"
+        f"  <equality>\n{connects}  </equality>\n"
+        "</mujoco>\n"
+    )
+
+
+class MujocoDelta:
+    """MuJoCo model and data of the Delta, with index maps to Pinocchio's coordinates."""
+
+    def __init__(self, robot: dp.Delta, **soft: str) -> None:
+        self.robot = robot
+        self.model = mujoco.MjModel.from_xml_string(delta_mjcf(robot, **soft))
+        self.data = mujoco.MjData(self.model)
+        pin_model = robot.pinocchio.model
+        names = [pin_model.names[j] for j in range(1, pin_model.njoints)]
+        ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in names]
+        self.qpos_index = np.array([self.model.jnt_qposadr[i] for i in ids])  # Pinocchio q order
+        self.dof_index = np.array([self.model.jnt_dofadr[i] for i in ids])
+        self.active = self.dof_index[robot.pinocchio.active_indices]
+        self.active_qpos = self.qpos_index[robot.pinocchio.active_indices]
+        self.platform = self.qpos_index[robot.pinocchio.platform_indices]
+        self.site_pairs = [
+            (
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_parent"),
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_child"),
+            )
+            for c in robot.pinocchio.description.closures
+        ]
+
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.qpos_index] = q
+        self.data.qvel[self.dof_index] = v
+        mujoco.mj_forward(self.model, self.data)
+
+    def closure_gap(self) -> float:
+        """Largest distance between the paired closure sites [m] (needs kinematics computed)."""
+        xpos = self.data.site_xpos
+        return max(float(np.linalg.norm(xpos[a] - xpos[b])) for a, b in self.site_pairs)
+
+
+def torque_law(robot: dp.Delta, steps: int):
+    """The law both engines run: tau_k = G(alpha_0) + KP (ref_k - alpha) - KD alpha_dot."""
+    alpha0 = np.full(3, ALPHA0)
+    gravity = robot.analytic_dynamics(alpha0, np.zeros(3)).G  # computed once
+    t = np.arange(steps)[:, None] * DT
+    phases = np.array([0.0, 2.0, 4.0]) * np.pi / 3.0
+    reference = alpha0 + AMPLITUDE * np.sin(2.0 * np.pi * FREQUENCY * t + phases) * np.minimum(t, 1.0)
+    return alpha0, gravity, reference
+
+
+def mujoco_run(sim: MujocoDelta, q0, v0, gravity, reference, gaps: list | None = None) -> None:
+    """The torque law under ``mj_step``; ``gaps`` collects the closure gap after each step."""
+    model, data, active, active_qpos = sim.model, sim.data, sim.active, sim.active_qpos
+    sim.set_state(q0, v0)
+    step = mujoco.mj_step
+    for ref in reference:
+        data.qfrc_applied[active] = gravity + KP * (ref - data.qpos[active_qpos]) - KD * data.qvel[active]
+        step(model, data)
+        if gaps is not None:
+            gaps.append(sim.closure_gap())  # site positions of the step's first stage: one step late
+
+
+def rk4_run(derivative, x0, active, nq, gravity, reference, kp=KP, kd=KD) -> np.ndarray:
+    """Classic RK4 at DT with the torque held over each step; returns the final state."""
+    x, h, t = x0.copy(), DT, 0.0
+    for ref in reference:
+        tau = gravity + kp * (ref - x[active]) - kd * x[nq + active]
+        k1 = derivative(t, x, tau)
+        k2 = derivative(t + 0.5 * h, x + 0.5 * h * k1, tau)
+        k3 = derivative(t + 0.5 * h, x + 0.5 * h * k2, tau)
+        k4 = derivative(t + h, x + h * k3, tau)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        t += h
+    return x
+
+
+def constraint_dynamics_function(plant: PinocchioPlant):
+    """x' = [v, constraintDynamics(q, v, tau)] on the plant's model, without the plant's wrapper."""
+    model, data, cms, cds, settings = (
+        plant.model,
+        plant.data,
+        plant.constraint_models,
+        plant.constraint_datas,
+        plant.settings,
+    )
+    nq, active, full_tau = plant.nq, plant.active, np.zeros(plant.model.nv)
+
+    def derivative(t, x, tau):
+        full_tau[active] = tau
+        v = x[nq:]
+        return np.concatenate(
+            [v, pin.constraintDynamics(model, data, x[:nq], v, full_tau, cms, cds, settings)]
+        )
+
+    return derivative
+
+
+def sanity_checks(robot: dp.Delta, sim: MujocoDelta, plant: PinocchioPlant) -> list[str]:
+    """Physical checks of the MJCF against the Pinocchio model; returns printable lines."""
+    params = robot.params
+    lines = []
+    total = float(sim.model.body_subtreemass[0])
+    expected = 3 * params.m_a + 3 * params.m_b + params.m_o
+    lines.append(f"total mass {total:.6f} kg (3 m_a + 3 m_b + m_o = {expected:.6f} kg)")
+    alpha0 = np.full(3, ALPHA0)
+    x0 = plant.initial_state(alpha0, np.zeros(3))
+    q0, v0 = x0[: plant.nq], x0[plant.nq :]
+    sim.set_state(q0, v0)
+    lines.append(f"closure gap at the Pinocchio-assembled start pose: {sim.closure_gap():.1e} m")
+    mj_acc = sim.data.qacc[sim.dof_index].copy()  # zero torque, at rest
+    pin_acc = plant.derivative(0.0, x0, np.zeros(3))[plant.nq :]
+    difference = np.abs(mj_acc - pin_acc)[plant.active].max() / np.abs(pin_acc[plant.active]).max()
+    lines.append(
+        f"free-fall joint acceleration at rest: MuJoCo {np.round(mj_acc[plant.active], 3).tolist()}, "
+        f"Pinocchio {np.round(pin_acc[plant.active], 3).tolist()} rad/s^2 "
+        f"(relative difference {difference:.1e})"
+    )
+    # zero torque for 0.3 s: the robot falls, the loops must hold
+    steps = 300
+    z0 = float(sim.data.qpos[sim.platform[2]])
+    gaps = []
+    for _ in range(steps):
+        mujoco.mj_step(sim.model, sim.data)
+        gaps.append(sim.closure_gap())
+    mujoco.mj_forward(sim.model, sim.data)
+    x = rk4_run(plant.derivative, x0, plant.active, plant.nq, np.zeros(3), np.zeros((steps, 3)), 0.0, 0.0)
+    z_mj = float(sim.data.qpos[sim.platform[2]])
+    z_pin = float(plant.platform_position(x)[2])
+    alpha_gap = np.abs(sim.data.qpos[sim.active_qpos] - x[plant.active]).max()
+    lines.append(
+        f"zero torque, 0.3 s: platform z {z0:.4f} -> {z_mj:.4f} m (MuJoCo), -> {z_pin:.4f} m (Pinocchio); "
+        f"largest closure gap {max(gaps):.1e} m; |alpha_MuJoCo - alpha_Pinocchio| <= {alpha_gap:.1e} rad"
+    )
+    return lines
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--t-end", type=float, default=15.0, help="simulated time of each run [s]")
+    parser.add_argument("--calls", type=int, default=2000, help="calls per repeat of the per-call rows")
+    args = parser.parse_args()
+    if mujoco is None:
+        print("bench_mujoco: skipped: MuJoCo is not installed (pip install -e '.[bench]')")
+        return 0
+    robot = dp.load_delta()
+    plant = PinocchioPlant(robot)
+    sim = MujocoDelta(robot, **SOFTNESS)
+    print(f"machine: {machine_info()}, MuJoCo {mujoco.__version__}, Pinocchio {pin.__version__}")
+    for title, checked in (
+        (f"connect {SOFTNESS}, as timed", sim),
+        ("MuJoCo's default connect softness, for comparison", MujocoDelta(robot)),
+    ):
+        print(f"\nMJCF sanity checks, {title}:")
+        for line in sanity_checks(robot, checked, plant):
+            print(f"  - {line}")
+
+    steps = round(args.t_end / DT)
+    alpha0, gravity, reference = torque_law(robot, steps)
+    x0 = plant.initial_state(alpha0, np.zeros(3))
+    q0, v0 = x0[: plant.nq], x0[plant.nq :]
+    bare = constraint_dynamics_function(plant)
+    label = f"{args.t_end:g} s, RK4 at 1 kHz, PD + G in Python"
+    final: dict[str, np.ndarray] = {}
+
+    def pinocchio_run(derivative, key):
+        def run():
+            final[key] = rk4_run(derivative, x0, plant.active, plant.nq, gravity, reference)
+
+        return run
+
+    runs = [
+        measure(
+            "MuJoCo mj_step loop", lambda: mujoco_run(sim, q0, v0, gravity, reference), args.repeats, label
+        ),
+        measure(
+            "Pinocchio: PinocchioPlant.derivative",
+            pinocchio_run(plant.derivative, "plant"),
+            args.repeats,
+            label,
+        ),
+        measure("Pinocchio: bare pin.constraintDynamics", pinocchio_run(bare, "bare"), args.repeats, label),
+    ]
+    gaps: list[float] = []
+    mujoco_run(sim, q0, v0, gravity, reference, gaps)  # again, untimed, recording the closure gap
+    mujoco.mj_forward(sim.model, sim.data)
+    difference = np.abs(sim.data.qpos[sim.active_qpos] - final["plant"][plant.active]).max()
+    motion = np.ptp(reference, axis=0).max()
+    print(
+        f"\nPD run ({motion:.2f} rad peak to peak): after {args.t_end:g} s "
+        f"|alpha_MuJoCo - alpha_Pinocchio| <= {difference:.1e} rad; largest closure gap "
+        f"MuJoCo {max([*gaps, sim.closure_gap()]):.1e} m, "
+        f"Pinocchio {plant.closure_residual(final['plant']):.1e} m at the end (Baumgarte only)"
+    )
+    print_table(f"the same Delta for {args.t_end:g} s", runs, reference=runs[0])
+
+    sim.set_state(q0, v0)
+    qpos0, data = sim.data.qpos.copy(), sim.data
+
+    def mj_step_from_start():  # every call from the start pose, as the Pinocchio rows
+        data.qpos[:] = qpos0
+        data.qvel[:] = 0.0
+        mujoco.mj_step(sim.model, data)
+
+    tau = np.zeros(3)
+    calls = [
+        Timing(
+            "mj_step, RK4: 4 evaluations (state reset included)",
+            per_call(mj_step_from_start, args.calls, args.repeats),
+        ),
+        Timing(
+            "pin.constraintDynamics (one evaluation)",
+            per_call(
+                lambda: pin.constraintDynamics(
+                    plant.model,
+                    plant.data,
+                    q0,
+                    v0,
+                    np.zeros(plant.model.nv),
+                    plant.constraint_models,
+                    plant.constraint_datas,
+                    plant.settings,
+                ),
+                args.calls,
+                args.repeats,
+            ),
+        ),
+        Timing(
+            "PinocchioPlant.derivative (one evaluation)",
+            per_call(lambda: plant.derivative(0.0, x0, tau), args.calls, args.repeats),
+        ),
+    ]
+    print_table("one call", calls, reference=calls[0])
+    report_target("pin.constraintDynamics per call (reference, about 10 us)", calls[1].median, None)
+    report_target(f"MuJoCo {args.t_end:g} s RK4 1 ms (reference, 0.5-0.8 s for 15 s)", runs[0].median, None)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
