@@ -48,12 +48,19 @@ def batchable(controller, plant="analytic") -> bool:
     )
 
 
-def _packed_plant(plant: Plant) -> np.ndarray:
+def _packed_plant(plant: Plant, packed_controllers: np.ndarray) -> np.ndarray:
+    """The plant's numbers for :func:`~delta_pin.fast_closed_loop.closed_loop_batch`, with a flag
+    saying whether every controller's nominal geometry is the plant's (then the kinematics are
+    shared)."""
+    from .control.fast_adaptive_robust import GEOMETRY
+
     params = plant.robot.params
+    geometry = pack_geometry(params)
     friction = np.zeros(7)
     if plant.friction is not None:
         friction = np.array([1.0, *plant._friction_arguments, plant.friction.sign_velocity_scale])
-    return np.concatenate([pack_geometry(params), [1.5 * params.m_b], friction])
+    shared = bool(np.all(packed_controllers[:, GEOMETRY] == geometry))
+    return np.concatenate([geometry, [1.5 * params.m_b], friction, [float(shared)]])
 
 
 def simulate_batch(
@@ -159,7 +166,7 @@ def simulate_batch(
         packed_controllers,
         cos_phi,
         sin_phi,
-        _packed_plant(plants[0]),
+        _packed_plant(plants[0], packed_controllers),
         truths,
         reference,
         np.array(initial),

@@ -32,7 +32,7 @@ except ImportError:  # pragma: no cover
         return lambda function: function
 
 
-__all__ = ["FAST_BACKEND", "delta_terms", "pack_geometry", "solve3"]
+__all__ = ["FAST_BACKEND", "delta_dynamics", "delta_kinematics", "delta_terms", "pack_geometry", "solve3"]
 
 _COS = np.cos(chain_azimuths())
 _SIN = np.sin(chain_azimuths())
@@ -92,15 +92,33 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     Returns:
         ``(ok, xyz, J, J_dot, M, C, G)``.
     """
-    R, r, l_a, l_b, arm_inertia, arm_gravity, g = (
-        geometry[0],
-        geometry[1],
-        geometry[2],
-        geometry[3],
-        geometry[4],
-        geometry[5],
-        geometry[6],
-    )
+    ok, xyz, J, J_dot = delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot)
+    if not ok:
+        empty = np.zeros((3, 3))
+        return False, xyz, empty, empty, empty, empty, np.zeros(3)
+    M, C, G = delta_dynamics(geometry, m_eq, alpha, J, J_dot)
+    return True, xyz, J, J_dot, M, C, G
+
+
+@njit(cache=True)
+def delta_dynamics(geometry, m_eq, alpha, J, J_dot):
+    """M, C, G of eqs. 7-9 from the kinematics of :func:`delta_kinematics` (linear in m_eq [kg]:
+    one kinematics serves several platform masses)."""
+    arm_inertia, arm_gravity, g = geometry[4], geometry[5], geometry[6]
+    M = m_eq * (J.T @ J)
+    C = m_eq * (J.T @ J_dot)
+    G = np.empty(3)
+    for i in range(3):
+        M[i, i] += arm_inertia
+        G[i] = -arm_gravity * math.cos(alpha[i]) + m_eq * g * J[2, i]
+    return M, C, G
+
+
+@njit(cache=True)
+def delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot):
+    """FK, J and J_dot of eqs. 3-6 and 10 at one state: ``(ok, xyz, J, J_dot)``; ``ok`` is False
+    without an FK solution."""
+    R, r, l_a, l_b = geometry[0], geometry[1], geometry[2], geometry[3]
     centres = np.empty((3, 3))
     tangents = np.empty((3, 3))
     curvatures = np.empty((3, 3))
@@ -128,7 +146,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     xyz = np.zeros(3)
     empty = np.zeros((3, 3))
     if nn < 1e-24:
-        return False, xyz, empty, empty, empty, empty, np.zeros(3)
+        return False, xyz, empty, empty
     p0 = (d1 * _cross(n2, n) + d2 * _cross(n, n1)) / nn
     direction = n / math.sqrt(nn)
     if direction[2] > 0.0:
@@ -137,7 +155,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     half_b = direction @ offset
     discriminant = half_b * half_b - (offset @ offset - l_b * l_b)
     if discriminant < 0.0:
-        return False, xyz, empty, empty, empty, empty, np.zeros(3)
+        return False, xyz, empty, empty
     xyz = p0 + (-half_b + math.sqrt(discriminant)) * direction
     # J = S^-1 diag(s_i . B_i'), s_i = p - P_i
     s = np.empty((3, 3))
@@ -160,14 +178,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
         for j in range(3):
             W[i, j] = -(s_dot[0] * J[0, j] + s_dot[1] * J[1, j] + s_dot[2] * J[2, j])
         W[i, i] += s_dot @ tangents[i] + (s[i] @ curvatures[i]) * alpha_dot[i]
-    J_dot = inverse @ W
-    M = m_eq * (J.T @ J)
-    C = m_eq * (J.T @ J_dot)
-    G = np.empty(3)
-    for i in range(3):
-        M[i, i] += arm_inertia
-        G[i] = -arm_gravity * math.cos(alpha[i]) + m_eq * g * J[2, i]
-    return True, xyz, J, J_dot, M, C, G
+    return True, xyz, J, inverse @ W
 
 
 def chain_trigonometry() -> tuple[np.ndarray, np.ndarray]:

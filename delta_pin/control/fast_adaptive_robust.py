@@ -16,7 +16,7 @@ import numpy as np
 
 from ..fast_model import delta_terms, njit, stribeck_kernel
 
-__all__ = ["adaptive_robust_kernel", "pack_controller"]
+__all__ = ["adaptive_robust_kernel", "adaptive_robust_law", "pack_controller"]
 
 # layout of the packed parameter vector
 _D, _T_P, _T_V = slice(0, 3), slice(3, 6), slice(6, 9)
@@ -26,7 +26,7 @@ _F_BAR = slice(19, 22)
 _FRICTION_ON, _R_A, _V_S, _MU_S, _MU_D, _MU_V = 22, 23, 24, 25, 26, 27
 _NORMAL = slice(28, 31)
 _SIGN_SCALE, _M_EQ = 31, 32
-_GEOMETRY = slice(33, 40)
+GEOMETRY = slice(33, 40)
 SIZE = 40
 
 
@@ -48,7 +48,7 @@ def pack_controller(controller) -> np.ndarray:
         p[_NORMAL] = nominal._normal_force
         p[_SIGN_SCALE] = nominal.friction_model.sign_velocity_scale
     p[_M_EQ] = nominal._m_eq
-    p[_GEOMETRY] = nominal._geometry
+    p[GEOMETRY] = nominal._geometry
     return p
 
 
@@ -58,11 +58,18 @@ def adaptive_robust_kernel(
 ):
     """(tau (3,), rho_dot, info) with info = [ok, Lambda, robust gain, ||omega||, adaptation active,
     C3 (3 values)]; ``ok`` is 0 when the nominal model has no FK at ``alpha``."""
-    D, T_p, T_v = p[0:3], p[3:6], p[6:9]
-    info = np.zeros(8)
     ok, _, _, _, M, C, G = delta_terms(p[33:40], cos_phi, sin_phi, p[32], alpha, alpha_dot)
     if not ok:
-        return np.zeros(3), np.zeros(rho.shape[0]), info
+        return np.zeros(3), np.zeros(rho.shape[0]), np.zeros(8)
+    return adaptive_robust_law(p, M, C, G, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho)
+
+
+@njit(cache=True)
+def adaptive_robust_law(p, M, C, G, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho):
+    """:func:`adaptive_robust_kernel` given the nominal M̄, C̄, Ḡ at the state (the closed-loop
+    kernel computes the kinematics once for the controller and the plant)."""
+    D, T_p, T_v = p[0:3], p[3:6], p[6:9]
+    info = np.zeros(8)
     r = alpha - ref_alpha
     r_dot = alpha_dot - ref_alpha_dot
     s = r_dot + D * r
