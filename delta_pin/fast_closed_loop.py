@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from .control.fast_adaptive_robust import adaptive_robust_kernel, adaptive_robust_law
-from .fast_model import delta_dynamics, delta_kinematics, delta_terms, njit, solve3, stribeck_kernel
+from .fast_model import delta_dynamics, delta_kinematics, njit, solve3, stribeck_kernel
 
 __all__ = ["NEWTON_TOLERANCE", "closed_loop_batch"]
 
@@ -54,7 +54,7 @@ OK, NO_FK, NO_CONVERGENCE, DIVERGED = 0, 1, 2, 3
 
 @njit(cache=True)
 def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
-    """Closed-loop derivative at one state: (ok, y_dot, tau, info, M) with the plant's true M.
+    """Closed-loop derivative at one state: (ok, y_dot, tau, info, platform position xyz).
 
     ``plant`` = [geometry (7), 1.5 m_b, friction on, r_a, v_s, mu_s, mu_d, mu_v, sign scale,
     same geometry as the controller's nominal model]; ``truth`` = [m_o, F_n (3), F (3)];
@@ -65,9 +65,9 @@ def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
     velocity = y[3:6]
     rho = y[6 : 6 + nr]
     y_dot = np.zeros(6 + nr)
-    ok, _, J, J_dot = delta_kinematics(plant[0:7], cos_phi, sin_phi, alpha, velocity)
+    ok, xyz, J, J_dot = delta_kinematics(plant[0:7], cos_phi, sin_phi, alpha, velocity)
     if not ok:
-        return False, y_dot, np.zeros(3), np.zeros(8), np.eye(3)
+        return False, y_dot, np.zeros(3), np.zeros(8), np.zeros(3)
     if plant[15] > 0.0:
         M_bar, C_bar, G_bar = delta_dynamics(plant[0:7], pc[32], alpha, J, J_dot)
         tau, rho_dot, info = adaptive_robust_law(
@@ -78,7 +78,7 @@ def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
             pc, cos_phi, sin_phi, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho
         )
         if info[0] == 0.0:
-            return False, y_dot, tau, info, np.eye(3)
+            return False, y_dot, tau, info, np.zeros(3)
     M, C, G = delta_dynamics(plant[0:7], truth[0] + plant[7], alpha, J, J_dot)
     passive = truth[4:7].copy()
     if plant[8] > 0.0:
@@ -89,7 +89,7 @@ def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
     y_dot[0:3] = velocity
     y_dot[3:6] = acceleration
     y_dot[6 : 6 + nr] = rho_dot
-    return True, y_dot, tau, info, M
+    return True, y_dot, tau, info, xyz
 
 
 @njit(cache=True)
@@ -246,10 +246,9 @@ def _run_one(
     valid = False
     for k in range(steps + 1):
         index = k * substeps
-        ok, _, tau, info, _ = _rhs(pc, cos_phi, sin_phi, plant, truth[index], ref[index], y, nr)
+        ok, _, tau, info, xyz = _rhs(pc, cos_phi, sin_phi, plant, truth[index], ref[index], y, nr)
         if not ok:
             return NO_FK, k * substeps * h
-        _, xyz, _, _, _, _, _ = delta_terms(plant[0:7], cos_phi, sin_phi, 1.0, y[0:3], y[3:6])
         out[k, 0:6] = y[0:6]
         out[k, 6:9] = tau
         out[k, 9:12] = xyz
