@@ -21,7 +21,7 @@ from .plant import Friction
 from .robot import Delta, load_delta
 from .simulate import INTEGRATORS, MODES, Run, simulate
 from .trajectory import AdeptCycle, PathI, PathII, Trajectory
-from .uncertainty import PAPER_NOMINAL_DISTURBANCE, NoUncertainty, PaperUncertainty, RandomUncertainty
+from .uncertainty import PAPER_NOMINAL_DISTURBANCE, PaperUncertainty, RandomUncertainty
 
 __all__ = [
     "CONTROLLERS",
@@ -116,9 +116,8 @@ def build_trajectory(path: str) -> Trajectory:
 
 
 def build_uncertainty(spec: RunSpec):
-    """The plant's time-varying truth of ``spec``."""
-    if spec.delta_m == spec.delta_fc == spec.delta_f == 0.0:
-        return NoUncertainty()
+    """The plant's time-varying truth of ``spec``. With every magnitude 0 the plant is the nominal
+    one, the known disturbance F̄ included (the controllers compensate F̄, so the plant has it)."""
     if spec.seed is None:
         return PaperUncertainty(spec.delta_m, spec.delta_fc, spec.delta_f, PAPER_NOMINAL_DISTURBANCE)
     return RandomUncertainty(
