@@ -13,6 +13,7 @@ which is an independent route to the paper's eqs. 7-9 (DESIGN.md section 5).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -26,6 +27,26 @@ from .kinematics import as_vector3, forward_kinematics
 __all__ = ["DeltaPinocchioModel"]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def _largest_gap(gap, nan, parent, child):
+    """(max(gap, max |parent - child|), nan or any NaN among them): one closure's share of
+    :meth:`DeltaPinocchioModel.closure_gap`."""
+    for i in range(len(parent)):
+        d = abs(parent[i] - child[i])
+        if d > gap:
+            gap = d
+        elif d != d:
+            nan = True
+    return gap, nan
+
+
+@functools.cache
+def _largest_gap_kernel():
+    """:func:`_largest_gap` compiled on first use (numba stays unloaded for ``delta-pin validate``)."""
+    from .fast_model import njit
+
+    return njit(cache=True)(_largest_gap)
 
 
 class DeltaPinocchioModel:
@@ -86,6 +107,7 @@ class DeltaPinocchioModel:
             self._closure_frames.append((f1, f2))
         self.model = model
         self.data = model.createData()
+        self._gap_data = model.createData()  # closure_gap's own
         # the closure anchors [parent_1, child_1, parent_2, ...] for the batched routines: the joints
         # they ride on (each read once per state), their position in that joint's frame, and the
         # velocity coordinates that move them (the joint's support)
@@ -112,6 +134,24 @@ class DeltaPinocchioModel:
         return np.concatenate(
             [self.data.oMf[f1].translation - self.data.oMf[f2].translation for f1, f2 in self._closure_frames]
         )
+
+    def closure_gap(self, q: np.ndarray) -> float:
+        """Largest loop-closure gap max |closure_residual(q)| [m] (NaN if q holds one), cheaply.
+
+        The same number as ``np.abs(closure_residual(q)).max()``, bit for bit (the same frame
+        placements oMi * placement, subtracted the same way), for the simulation's per-step check:
+        joint kinematics plus the six anchor frames only, on a ``data`` of its own (the shared one
+        is left as it was).
+        """
+        model, data, place = self.model, self._gap_data, pin.updateFramePlacement
+        largest_gap = _largest_gap_kernel()
+        pin.forwardKinematics(model, data, q)
+        gap, nan = 0.0, False
+        for f1, f2 in self._closure_frames:
+            gap, nan = largest_gap(
+                gap, nan, place(model, data, f1).translation, place(model, data, f2).translation
+            )
+        return math.nan if nan else gap
 
     def _closure_jacobian(self, q: np.ndarray) -> np.ndarray:
         """d(closure_residual)/dq (3 n_closures, nv); needs kinematics at q already computed."""

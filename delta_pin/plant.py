@@ -38,6 +38,7 @@ from .fast_model import (
     chain_trigonometry,
     delta_terms,
     friction_kernel_arguments,
+    njit,
     pack_geometry,
     solve3,
     stribeck_kernel,
@@ -70,6 +71,61 @@ class Friction:
             raise InvalidParameterError(f"normal_force={self.normal_force} must be >= 0")
         if not self.sign_velocity_scale > 0.0:
             raise InvalidParameterError(f"sign_velocity_scale={self.sign_velocity_scale} must be > 0")
+
+
+@njit(cache=True)
+def _joint_torques(out, active, tau, v, disturbance, normal_force, friction):
+    """out[active] = tau - (F + M_f(alpha_dot, F_n)) with alpha_dot = v[active]: the torques of
+    eq. 13 on the tree's active joints (what :meth:`Plant.acceleration_terms` gives, bit for bit).
+
+    ``friction`` is ``(*friction_kernel_arguments, sign_velocity_scale)``, or empty for none.
+    """
+    if len(friction) == 0:
+        for i in range(len(active)):
+            out[active[i]] = tau[i] - disturbance[i]
+        return
+    alpha_dot = np.empty(len(active))
+    for i in range(len(active)):
+        alpha_dot[i] = v[active[i]]
+    r_a, v_s, mu_s, mu_d, mu_v = friction[0], friction[1], friction[2], friction[3], friction[4]
+    torque = stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, friction[5])
+    for i in range(len(active)):
+        out[active[i]] = tau[i] - (disturbance[i] + torque[i])
+
+
+@njit(cache=True)
+def _joint_torques_at(out, active, tau, v, disturbances, normal_forces, row, friction):
+    """:func:`_joint_torques` for row ``row`` of the truth tables."""
+    _joint_torques(out, active, tau, v, disturbances[row], normal_forces[row], friction)
+
+
+@njit(cache=True)
+def _rk4_stage(y, x, k, v, ddq, c, torques, active, tau, disturbances, normal_forces, row, friction):
+    """One RK4 stage point of :meth:`PinocchioPlant.held_rk4`: k = [v, ddq] (the stage derivative
+    of x = [q, v]), y = x + c k (the arithmetic of ``simulate._rk4``), then the joint torques at y
+    by :func:`_joint_torques` for row ``row`` of the truth tables (y's time)."""
+    nv = len(v)
+    n = len(x) - nv
+    for i in range(n):
+        k[i] = v[i]
+    for i in range(nv):
+        k[n + i] = ddq[i]
+    for i in range(len(x)):
+        y[i] = x[i] + c * k[i]
+    _joint_torques(torques, active, tau, y[n:], disturbances[row], normal_forces[row], friction)
+
+
+@njit(cache=True)
+def _rk4_combine(x, k1, k2, k3, v, ddq, c):
+    """x + c (k1 + 2 k2 + 2 k3 + k4) with k4 = [v, ddq] and c = h / 6, in the order of
+    ``simulate._rk4``."""
+    nv = len(v)
+    n = len(x) - nv
+    out = np.empty(len(x))
+    for i in range(len(x)):
+        k4 = v[i] if i < n else ddq[i - n]
+        out[i] = x[i] + c * (((k1[i] + 2.0 * k2[i]) + 2.0 * k3[i]) + k4)
+    return out
 
 
 class Plant(ABC):
@@ -170,6 +226,18 @@ class Plant(ABC):
         """Correction applied after each integration step (none by default)."""
         return x
 
+    def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
+        """(:meth:`finish_step` of x, the :meth:`closure_residual` of that state)."""
+        x = self.finish_step(x, t)
+        return x, self.closure_residual(x)
+
+    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
+        """A fast path for one RK4 step of length h [s] of :meth:`derivative` under a held torque
+        from t = stage h / 2 (the sampled mode's inner step), equal to the generic step bit for
+        bit; ``None`` (the default) where the plant has none: the caller then takes the generic
+        step."""
+        return None
+
     def metadata(self) -> dict:
         return {
             "plant": self.name,
@@ -264,13 +332,26 @@ class PinocchioPlant(Plant):
         self.settings = pin.ProximalSettings(1e-12, 0.0, 1)  # mu = 0: exact KKT solve
         self.nq = self.model.nq
         self.active = source.active_indices
+        self._joint_indices = np.concatenate([self.active, self.nq + self.active])
         self.projection_tolerance = projection_tolerance
         self.failure_tolerance = failure_tolerance
         self.projections = 0
         self._platform_joint = source.platform_joint
         self._nominal_inertia = pin.Inertia(self.model.inertias[self._platform_joint])
+        self._nominal_rotational = self._nominal_inertia.inertia  # (3, 3) about the COM
+        # the model's own platform inertia (a reference into model.inertias), rewritten in place
+        self._platform_inertia = self.model.inertias[self._platform_joint]
         self._mass = self._nominal_inertia.mass
         self._tau = np.zeros(self.model.nv)
+        self._friction_vector = (
+            np.zeros(0)
+            if self.friction is None
+            else np.array([*self._friction_arguments, self.friction.sign_velocity_scale], dtype=float)
+        )
+        # k1, k2, k3, then the stage points y2, y3, y4 of held_rk4 with their q and v views
+        stages = np.empty((6, self.model.nq + self.model.nv))
+        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[3:]]
+        self._stages = (*stages[:3], *(view for point in points for view in point))
         self._last_q: np.ndarray | None = None
         self.metadata_extra = {
             "coordinates": coordinates,
@@ -278,14 +359,49 @@ class PinocchioPlant(Plant):
             "projection_tolerance": projection_tolerance,
         }
 
-    def _set_platform_mass(self, mass: float) -> None:
+    def _rotational_inertia(self, mass):
+        """The platform's rotational inertia about its COM for a platform mass [kg] (or an array
+        of masses): the nominal one scaled with the mass."""
+        return self._nominal_rotational * (mass / self._nominal_inertia.mass)
+
+    def _set_platform_mass(self, mass: float, rotational: np.ndarray | None = None) -> None:
+        """Rewrite the platform body's inertia in the model (in place) for a platform mass [kg]:
+        the same COM, the rotational inertia ``rotational`` (by default
+        :meth:`_rotational_inertia` of the mass); nothing when the mass is unchanged."""
         if mass != self._mass:
-            scale = mass / self._nominal_inertia.mass
-            nominal = self._nominal_inertia
-            self.model.inertias[self._platform_joint] = pin.Inertia(
-                mass, nominal.lever, nominal.inertia * scale
-            )
+            inertia = self._platform_inertia
+            inertia.mass = mass
+            inertia.inertia = self._rotational_inertia(mass) if rotational is None else rotational
             self._mass = mass
+
+    def _accelerations(self, q, v, tau, mass, normal_force, disturbance) -> np.ndarray:
+        """ddq of eq. 13 on the tree at (q, v) under active-joint torques tau [N m] for the
+        truth (m_o, F_n, F)."""
+        _joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self._friction_vector)
+        return self._tree_dynamics(q, v, mass)
+
+    def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
+        """ddq of the constrained tree at (q, v) with platform mass m_o [kg] under the joint
+        torques already in ``self._tau`` (:func:`_joint_torques`). This, :func:`_joint_torques`
+        and :meth:`_set_platform_mass` are the plant's physics, which :meth:`derivative` and
+        the fast sampled step :meth:`held_rk4` share."""
+        if mass != self._mass:
+            self._set_platform_mass(mass, rotational)
+        return pin.constraintDynamics(
+            self.model,
+            self.data,
+            q,
+            v,
+            self._tau,
+            self.constraint_models,
+            self.constraint_datas,
+            self.settings,
+        )
+
+    def precompute_truth(self, step: float, count: int) -> None:
+        super().precompute_truth(step, count)
+        # the platform's rotational inertia at each tabulated mass, for held_rk4
+        self._rotational_table = self._rotational_inertia(np.asarray(self._table[0])[:, None, None])
 
     def _complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) on the constraint manifold for active coordinates (``coordinates="active"``)."""
@@ -310,19 +426,7 @@ class PinocchioPlant(Plant):
             q, v = self._complete(x[:3], x[3:], t)
         else:
             q, v = x[: self.nq], x[self.nq :]
-        mass, passive = self.acceleration_terms(t, v[self.active])
-        self._set_platform_mass(mass)
-        self._tau[self.active] = tau - passive
-        ddq = pin.constraintDynamics(
-            self.model,
-            self.data,
-            q,
-            v,
-            self._tau,
-            self.constraint_models,
-            self.constraint_datas,
-            self.settings,
-        )
+        ddq = self._accelerations(q, v, tau, *self.truth(t))
         if self.coordinates == "active":
             return np.concatenate([x[3:], ddq[self.active]])
         return np.concatenate([v, ddq])
@@ -330,7 +434,8 @@ class PinocchioPlant(Plant):
     def joint_state(self, x):
         if self.coordinates == "active":
             return x[:3], x[3:]
-        return x[self.active], x[self.nq + self.active]
+        joints = x[self._joint_indices]  # one gather: [alpha, alpha_dot]
+        return joints[:3], joints[3:]
 
     def _configuration(self, x: np.ndarray) -> np.ndarray:
         if self.coordinates == "active":
@@ -341,12 +446,18 @@ class PinocchioPlant(Plant):
         return self._source.platform_position(self._configuration(x))
 
     def closure_residual(self, x):
-        return float(np.abs(self._source.closure_residual(self._configuration(x))).max())
+        return self._source.closure_gap(self._configuration(x))
 
     def finish_step(self, x, t):
         if self.coordinates == "active":
             return x
-        gap = self.closure_residual(x)
+        return self.finish_step_residual(x, t)[0]
+
+    def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
+        """:meth:`finish_step` and the closure residual of the state it returns, computed once."""
+        if self.coordinates == "active":
+            return x, self.closure_residual(x)
+        gap = self._source.closure_gap(x[: self.nq])  # closure_residual(x)
         if not gap <= self.failure_tolerance:
             raise SimulationError(f"the loop-closure gap exploded to {gap:.3e} m", t)
         if gap > self.projection_tolerance:
@@ -356,7 +467,35 @@ class PinocchioPlant(Plant):
             except AssemblyError as exc:
                 raise SimulationError(f"cannot re-close the loops: {exc}", t) from None
             self.projections += 1
-        return x
+            gap = self.closure_residual(x)
+        return x, gap
+
+    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
+        """One RK4 step of length h [s] under the held torque tau from t = stage h / 2, reading the
+        truth table of :meth:`precompute_truth` (step h / 2) by index: the result of
+        ``simulate._rk4`` on :meth:`derivative`, bit for bit, without its per-call overhead.
+        ``None`` where this fast path does not apply (active coordinates, no table for h)."""
+        table = getattr(self, "_table", None)
+        if self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
+            return None
+        masses, normals, disturbances = table
+        if stage + 2 >= len(masses):
+            return None
+        # the stages of simulate._rk4 at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
+        dynamics, rotational = self._tree_dynamics, self._rotational_table
+        torques, active, friction = self._tau, self.active, self._friction_vector
+        k1, k2, k3, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
+        q, v = x[: self.nq], x[self.nq :]
+        i, half = stage, 0.5 * h
+        _joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
+        ddq = dynamics(q, v, masses[i], rotational[i])
+        _rk4_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
+        _rk4_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
+        _rk4_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
+        ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
+        return _rk4_combine(x, k1, k2, k3, v4, ddq, h / 6.0)
 
     def metadata(self):
         return {**super().metadata(), **self.metadata_extra}

@@ -15,6 +15,7 @@ leaves the workspace fails at once with the time and the point).
 from __future__ import annotations
 
 import json
+import math
 import platform
 import sys
 import time as _time
@@ -26,6 +27,7 @@ import numpy as np
 from .atomic import atomic_open
 from .control.base import Controller, Reference, as_controller
 from .errors import DeltaPinError, InvalidParameterError, NonFiniteError, SimulationError
+from .fast_model import njit
 from .kinematics import as_vector3
 from .plant import Plant, make_plant
 from .progress import Progress
@@ -37,6 +39,7 @@ MODES = ("sampled", "continuous")
 INTEGRATORS = ("rk4", "lsoda", "bdf2")
 INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
 MAX_JOINT_SPEED = 1e3  # [rad/s] a state beyond this has diverged
+_FAST_SAMPLED = True  # sampled mode: use a plant's held_rk4 fast path (False: the generic RK4 only)
 _ARRAYS = ("t", "alpha", "alpha_dot", "alpha_d", "alpha_dot_d", "xyz", "xyz_d", "tau", "closure_residual")
 
 
@@ -150,8 +153,9 @@ class _Loop:
         self.controller = controller
         self.plant = plant
 
-    def control(self, t: float, x: np.ndarray, reference: Reference, z: np.ndarray):
-        alpha, alpha_dot = self.plant.joint_state(x)
+    def control(self, t: float, x: np.ndarray, reference: Reference, z: np.ndarray, joints=None):
+        """(tau, z_dot, output) at t; ``joints``: x's (alpha, alpha_dot) if already known."""
+        alpha, alpha_dot = self.plant.joint_state(x) if joints is None else joints
         out = self.controller.evaluate(t, alpha, alpha_dot, reference, z)
         tau = np.asarray(out.tau, dtype=float)
         if tau.shape != (self.plant.dof,):
@@ -160,7 +164,7 @@ class _Loop:
                 f"expected ({self.plant.dof},)",
                 t,
             )
-        if not np.all(np.isfinite(tau)):
+        if not _all_finite(tau):
             raise SimulationError(
                 f"controller {self.controller.name!r} returned a non-finite torque {tau.tolist()}", t
             )
@@ -168,14 +172,33 @@ class _Loop:
 
     def check_state(self, t: float, x: np.ndarray, z: np.ndarray) -> None:
         alpha, alpha_dot = self.plant.joint_state(x)
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+        if not (np.isfinite(x).all() and np.isfinite(z).all()):
             raise SimulationError(f"the state became non-finite (alpha={alpha.tolist()})", t)
-        if np.abs(alpha_dot).max() > MAX_JOINT_SPEED:
+        speed = np.abs(alpha_dot).max()
+        if speed > MAX_JOINT_SPEED:
             raise SimulationError(
-                f"the run diverged: |alpha_dot| = {np.abs(alpha_dot).max():.3g} rad/s "
-                f"> {MAX_JOINT_SPEED:g} rad/s",
-                t,
+                f"the run diverged: |alpha_dot| = {speed:.3g} rad/s > {MAX_JOINT_SPEED:g} rad/s", t
             )
+
+
+@njit(cache=True)
+def _all_finite(values):
+    """``np.isfinite(values).all()`` for a 1-d array, without the temporaries."""
+    for value in values:  # noqa: SIM110 - a plain loop for numba
+        if not math.isfinite(value):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _within_limits(x, z, alpha_dot, max_speed):
+    """Whether :meth:`_Loop.check_state` passes: x and z finite, |alpha_dot| <= max_speed."""
+    if not (_all_finite(x) and _all_finite(z)):
+        return False
+    for value in alpha_dot:  # noqa: SIM110 - a plain loop for numba
+        if abs(value) > max_speed:
+            return False
+    return True
 
 
 def _rk4(f, t: float, y: np.ndarray, h: float) -> np.ndarray:
@@ -373,14 +396,31 @@ def simulate(
     residual = np.zeros(n)
     internals: dict[str, list] = {}
 
-    def sample(k: int, x: np.ndarray, z: np.ndarray):
-        tau, z_dot, out = loop.control(t[k], x, table(t[k]), z)
-        alpha, alpha_dot = plant.joint_state(x)
-        record["alpha"][k], record["alpha_dot"][k], record["tau"][k] = alpha, alpha_dot, tau
-        record["xyz"][k] = plant.platform_position(x)
-        residual[k] = plant.closure_residual(x)
+    record_alpha, record_alpha_dot, record_tau, record_xyz = (
+        record[name] for name in ("alpha", "alpha_dot", "tau", "xyz")
+    )
+
+    # the reference at the samples: table rows k per_sample (what table(t[k]) returns there)
+    reference_rows = (
+        table.alpha[::per_sample],
+        table.alpha_dot[::per_sample],
+        table.alpha_ddot[::per_sample],
+    )
+
+    def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
+        """Control at t_k and record the sample; ``gap``: x's closure residual if known."""
+        joints = plant.joint_state(x)
+        record_alpha[k], record_alpha_dot[k] = joints
+        reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
+        tau, z_dot, out = loop.control(t[k], x, reference, z, joints)
+        record_tau[k] = tau
+        record_xyz[k] = plant.platform_position(x)
+        residual[k] = plant.closure_residual(x) if gap is None else gap
         for name, value in out.internals.items():
-            internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+            values = internals.get(name)
+            if values is None:
+                values = internals[name] = []
+            values.append(np.asarray(value, dtype=float))
         return tau, z_dot
 
     def closed_loop(t_now: float, y: np.ndarray) -> np.ndarray:
@@ -391,17 +431,25 @@ def simulate(
     wall = _time.perf_counter()
     bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
     stride = max(steps // 100, 1)
+    gap = None  # the closure residual of x when the step computed it
+    fast = mode == "sampled" and _FAST_SAMPLED
     if integrator == "lsoda":
         x, z = _integrate_lsoda(closed_loop, sample, loop, plant, x, z, t, rtol, atol, bar)
     else:
         for k in range(steps):
             if k % stride == 0 and k:
                 bar.update(round(stride * dt, 9))
-            tau, z_dot = sample(k, x, z)
+            tau, z_dot = sample(k, x, z, gap)
             if mode == "sampled":
                 for j in range(substeps):
-                    x = _rk4(lambda ts, xs: plant.derivative(ts, xs, tau), t[k] + j * h, x, h)  # noqa: B023
-                    x = plant.finish_step(x, t[k] + (j + 1) * h)
+                    # the plant's own RK4 step under the held torque if it has one (truth read by
+                    # stage index, same numbers), else the generic step on plant.derivative
+                    x_next = plant.held_rk4(x, tau, 2 * (k * substeps + j), h) if fast else None
+                    if x_next is None:
+                        x = _rk4(lambda ts, xs: plant.derivative(ts, xs, tau), t[k] + j * h, x, h)  # noqa: B023
+                        x, gap = plant.finish_step(x, t[k] + (j + 1) * h), None
+                    else:
+                        x, gap = plant.finish_step_residual(x_next, t[k] + (j + 1) * h)
                 z = z + dt * z_dot
             else:
                 y = np.concatenate([x, z])
@@ -409,8 +457,9 @@ def simulate(
                     y = _rk4(closed_loop, t[k] + j * h, y, h)
                     y[:nx] = plant.finish_step(y[:nx], t[k] + (j + 1) * h)
                 x, z = y[:nx], y[nx:]
-            loop.check_state(t[k + 1], x, z)
-    sample(steps, x, z)
+            if not (fast and _within_limits(x, z, plant.joint_state(x)[1], MAX_JOINT_SPEED)):
+                loop.check_state(t[k + 1], x, z)  # raises where the state is bad
+    sample(steps, x, z, gap)
     bar.close()
     wall = _time.perf_counter() - wall
 
