@@ -9,6 +9,7 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 FAST = {
     "validate_model.py": ["--samples", "5"],
+    "batch_tune_xi.py": ["--t-end", "0.5", "--xi", "0.001,0.05"],
     "swap_dimensions.py": [],
     "track_path_design1.py": ["--t-end", "0.3", "--plant", "analytic", "--out", "{tmp}/design1.npz"],
     "compare_controllers.py": ["--t-end", "0.2", "--out", "{tmp}/compare"],
