@@ -32,7 +32,17 @@ except ImportError:  # pragma: no cover
         return lambda function: function
 
 
-__all__ = ["FAST_BACKEND", "delta_dynamics", "delta_kinematics", "delta_terms", "pack_geometry", "solve3"]
+__all__ = [
+    "FAST_BACKEND",
+    "delta_dynamics",
+    "delta_dynamics_into",
+    "delta_kinematics",
+    "delta_kinematics_into",
+    "delta_terms",
+    "pack_geometry",
+    "solve3",
+    "solve3_into",
+]
 
 _COS = np.cos(chain_azimuths())
 _SIN = np.sin(chain_azimuths())
@@ -54,29 +64,42 @@ def pack_geometry(params: DeltaParameters) -> np.ndarray:
 
 
 @njit(cache=True)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _inverse_into(s, inverse):
+    """inverse = S^-1 for S with rows s_i, by cross products: columns (s_2 x s_3, s_3 x s_1,
+    s_1 x s_2) / det(S). No pivoting: for the well-conditioned S and M of this model."""
+    for column in range(3):
+        a, b = (column + 1) % 3, (column + 2) % 3
+        inverse[0, column] = s[a, 1] * s[b, 2] - s[a, 2] * s[b, 1]
+        inverse[1, column] = s[a, 2] * s[b, 0] - s[a, 0] * s[b, 2]
+        inverse[2, column] = s[a, 0] * s[b, 1] - s[a, 1] * s[b, 0]
+    det = s[0, 0] * inverse[0, 0] + s[0, 1] * inverse[1, 0] + s[0, 2] * inverse[2, 0]
+    for i in range(3):
+        for j in range(3):
+            inverse[i, j] /= det
 
 
 @njit(cache=True)
 def _inverse_columns(s):
-    """Columns of S^-1 for S with rows s_i: (s_2 x s_3, s_3 x s_1, s_1 x s_2) / det(S)."""
+    """Columns of S^-1 for S with rows s_i (see :func:`_inverse_into`)."""
     inverse = np.empty((3, 3))
-    c0 = _cross(s[1], s[2])
-    c1 = _cross(s[2], s[0])
-    c2 = _cross(s[0], s[1])
-    det = s[0, 0] * c0[0] + s[0, 1] * c0[1] + s[0, 2] * c0[2]
-    for k in range(3):
-        inverse[k, 0] = c0[k] / det
-        inverse[k, 1] = c1[k] / det
-        inverse[k, 2] = c2[k] / det
+    _inverse_into(s, inverse)
     return inverse
+
+
+@njit(cache=True)
+def solve3_into(A, b, x, work):
+    """x = A^-1 b for a 3x3 A by cross products (``work``: a 3x3 scratch array)."""
+    _inverse_into(A, work)
+    for i in range(3):
+        x[i] = work[i, 0] * b[0] + work[i, 1] * b[1] + work[i, 2] * b[2]
 
 
 @njit(cache=True)
 def solve3(A, b):
     """Solve A x = b for a 3x3 matrix by Cramer's rule (no pivoting: for SPD M and S only)."""
-    return _inverse_columns(A) @ b
+    x = np.empty(3)
+    solve3_into(A, b, x, np.empty((3, 3)))
+    return x
 
 
 @njit(cache=True)
@@ -104,24 +127,42 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
 def delta_dynamics(geometry, m_eq, alpha, J, J_dot):
     """M, C, G of eqs. 7-9 from the kinematics of :func:`delta_kinematics` (linear in m_eq [kg]:
     one kinematics serves several platform masses)."""
+    M, C, G = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
+    delta_dynamics_into(geometry, m_eq, alpha, J, J_dot, M, C, G)
+    return M, C, G
+
+
+@njit(cache=True)
+def delta_dynamics_into(geometry, m_eq, alpha, J, J_dot, M, C, G):
+    """:func:`delta_dynamics` into preallocated M, C (3, 3) and G (3,)."""
     arm_inertia, arm_gravity, g = geometry[4], geometry[5], geometry[6]
-    M = m_eq * (J.T @ J)
-    C = m_eq * (J.T @ J_dot)
-    G = np.empty(3)
     for i in range(3):
+        for j in range(3):
+            M[i, j] = m_eq * (J[0, i] * J[0, j] + J[1, i] * J[1, j] + J[2, i] * J[2, j])
+            C[i, j] = m_eq * (J[0, i] * J_dot[0, j] + J[1, i] * J_dot[1, j] + J[2, i] * J_dot[2, j])
         M[i, i] += arm_inertia
         G[i] = -arm_gravity * math.cos(alpha[i]) + m_eq * g * J[2, i]
-    return M, C, G
 
 
 @njit(cache=True)
 def delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot):
     """FK, J and J_dot of eqs. 3-6 and 10 at one state: ``(ok, xyz, J, J_dot)``; ``ok`` is False
-    without an FK solution."""
+    without an FK solution (then xyz, J, J_dot are zeros)."""
+    xyz, J, J_dot = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
+    ok = delta_kinematics_into(
+        geometry, cos_phi, sin_phi, alpha, alpha_dot, xyz, J, J_dot, np.empty((6, 3, 3))
+    )
+    if not ok:
+        return False, np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
+    return True, xyz, J, J_dot
+
+
+@njit(cache=True)
+def delta_kinematics_into(geometry, cos_phi, sin_phi, alpha, alpha_dot, xyz, J, J_dot, work):
+    """:func:`delta_kinematics` into preallocated xyz (3,), J, J_dot (3, 3) with a (6, 3, 3)
+    scratch array; returns ``ok``."""
     R, r, l_a, l_b = geometry[0], geometry[1], geometry[2], geometry[3]
-    centres = np.empty((3, 3))
-    tangents = np.empty((3, 3))
-    curvatures = np.empty((3, 3))
+    centres, tangents, curvatures, s, inverse, W = work[0], work[1], work[2], work[3], work[4], work[5]
     for i in range(3):
         ca = math.cos(alpha[i])
         sa = math.sin(alpha[i])
@@ -136,49 +177,60 @@ def delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot):
         curvatures[i, 1] = -l_a * ca * sin_phi[i]
         curvatures[i, 2] = l_a * sa
     # FK: planes 2 (P_0 - P_k) . p = |P_0|^2 - |P_k|^2 meet on a line p0 + t n
-    n1 = 2.0 * (centres[0] - centres[1])
-    n2 = 2.0 * (centres[0] - centres[2])
-    q0 = centres[0] @ centres[0]
-    d1 = q0 - centres[1] @ centres[1]
-    d2 = q0 - centres[2] @ centres[2]
-    n = _cross(n1, n2)
-    nn = n @ n
-    xyz = np.zeros(3)
-    empty = np.zeros((3, 3))
+    n1x = 2.0 * (centres[0, 0] - centres[1, 0])
+    n1y = 2.0 * (centres[0, 1] - centres[1, 1])
+    n1z = 2.0 * (centres[0, 2] - centres[1, 2])
+    n2x = 2.0 * (centres[0, 0] - centres[2, 0])
+    n2y = 2.0 * (centres[0, 1] - centres[2, 1])
+    n2z = 2.0 * (centres[0, 2] - centres[2, 2])
+    q0 = centres[0, 0] ** 2 + centres[0, 1] ** 2 + centres[0, 2] ** 2
+    d1 = q0 - (centres[1, 0] ** 2 + centres[1, 1] ** 2 + centres[1, 2] ** 2)
+    d2 = q0 - (centres[2, 0] ** 2 + centres[2, 1] ** 2 + centres[2, 2] ** 2)
+    nx, ny, nz = n1y * n2z - n1z * n2y, n1z * n2x - n1x * n2z, n1x * n2y - n1y * n2x
+    nn = nx * nx + ny * ny + nz * nz
     if nn < 1e-24:
-        return False, xyz, empty, empty
-    p0 = (d1 * _cross(n2, n) + d2 * _cross(n, n1)) / nn
-    direction = n / math.sqrt(nn)
-    if direction[2] > 0.0:
-        direction = -direction
-    offset = p0 - centres[0]
-    half_b = direction @ offset
-    discriminant = half_b * half_b - (offset @ offset - l_b * l_b)
+        return False
+    # p0 = (d1 (n2 x n) + d2 (n x n1)) / |n|^2
+    p0x = (d1 * (n2y * nz - n2z * ny) + d2 * (ny * n1z - nz * n1y)) / nn
+    p0y = (d1 * (n2z * nx - n2x * nz) + d2 * (nz * n1x - nx * n1z)) / nn
+    p0z = (d1 * (n2x * ny - n2y * nx) + d2 * (nx * n1y - ny * n1x)) / nn
+    norm = math.sqrt(nn)
+    ux, uy, uz = nx / norm, ny / norm, nz / norm
+    if uz > 0.0:
+        ux, uy, uz = -ux, -uy, -uz
+    ox, oy, oz = p0x - centres[0, 0], p0y - centres[0, 1], p0z - centres[0, 2]
+    half_b = ux * ox + uy * oy + uz * oz
+    discriminant = half_b * half_b - (ox * ox + oy * oy + oz * oz - l_b * l_b)
     if discriminant < 0.0:
-        return False, xyz, empty, empty
-    xyz = p0 + (-half_b + math.sqrt(discriminant)) * direction
+        return False
+    t = -half_b + math.sqrt(discriminant)
+    xyz[0], xyz[1], xyz[2] = p0x + t * ux, p0y + t * uy, p0z + t * uz
     # J = S^-1 diag(s_i . B_i'), s_i = p - P_i
-    s = np.empty((3, 3))
     for i in range(3):
-        s[i] = xyz - centres[i]
-    inverse = _inverse_columns(s)
-    J = np.empty((3, 3))
+        for k in range(3):
+            s[i, k] = xyz[k] - centres[i, k]
+    _inverse_into(s, inverse)
     for i in range(3):
-        d_i = s[i] @ tangents[i]
+        d_i = s[i, 0] * tangents[i, 0] + s[i, 1] * tangents[i, 1] + s[i, 2] * tangents[i, 2]
         for k in range(3):
             J[k, i] = inverse[k, i] * d_i
-    xyz_dot = np.zeros(3)  # J @ alpha_dot, written out: alpha_dot may be a strided view
-    for k in range(3):
-        for i in range(3):
-            xyz_dot[k] += J[k, i] * alpha_dot[i]
+    # xyz_dot = J alpha_dot, written out: alpha_dot may be a strided view
+    vx = J[0, 0] * alpha_dot[0] + J[0, 1] * alpha_dot[1] + J[0, 2] * alpha_dot[2]
+    vy = J[1, 0] * alpha_dot[0] + J[1, 1] * alpha_dot[1] + J[1, 2] * alpha_dot[2]
+    vz = J[2, 0] * alpha_dot[0] + J[2, 1] * alpha_dot[1] + J[2, 2] * alpha_dot[2]
     # J_dot = S^-1 (diag(d_dot) - S_dot J), s_i_dot = p_dot - B_i' alpha_dot_i
-    W = np.empty((3, 3))
     for i in range(3):
-        s_dot = xyz_dot - tangents[i] * alpha_dot[i]
+        sx = vx - tangents[i, 0] * alpha_dot[i]
+        sy = vy - tangents[i, 1] * alpha_dot[i]
+        sz = vz - tangents[i, 2] * alpha_dot[i]
         for j in range(3):
-            W[i, j] = -(s_dot[0] * J[0, j] + s_dot[1] * J[1, j] + s_dot[2] * J[2, j])
-        W[i, i] += s_dot @ tangents[i] + (s[i] @ curvatures[i]) * alpha_dot[i]
-    return True, xyz, J, inverse @ W
+            W[i, j] = -(sx * J[0, j] + sy * J[1, j] + sz * J[2, j])
+        curvature = s[i, 0] * curvatures[i, 0] + s[i, 1] * curvatures[i, 1] + s[i, 2] * curvatures[i, 2]
+        W[i, i] += sx * tangents[i, 0] + sy * tangents[i, 1] + sz * tangents[i, 2] + curvature * alpha_dot[i]
+    for i in range(3):
+        for j in range(3):
+            J_dot[i, j] = inverse[i, 0] * W[0, j] + inverse[i, 1] * W[1, j] + inverse[i, 2] * W[2, j]
+    return True
 
 
 def chain_trigonometry() -> tuple[np.ndarray, np.ndarray]:
