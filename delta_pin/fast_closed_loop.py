@@ -39,8 +39,8 @@ import math
 
 import numpy as np
 
-from .control.fast_adaptive_robust import adaptive_robust_kernel, adaptive_robust_law
-from .fast_model import delta_dynamics, delta_kinematics, njit, solve3, stribeck_kernel
+from .control.fast_adaptive_robust import adaptive_robust_kernel, adaptive_robust_law_into
+from .fast_model import delta_dynamics_into, delta_kinematics_into, njit, solve3_into, stribeck_kernel
 
 __all__ = ["NEWTON_TOLERANCE", "closed_loop_batch"]
 
@@ -53,8 +53,15 @@ OK, NO_FK, NO_CONVERGENCE, DIVERGED = 0, 1, 2, 3
 
 
 @njit(cache=True)
-def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
-    """Closed-loop derivative at one state: (ok, y_dot, tau, info, platform position xyz).
+def _workspace(nr):
+    """Scratch arrays of :func:`_rhs_into` for one run: (matrices (13, 3, 3), vectors (7, 8))."""
+    return np.empty((13, 3, 3)), np.zeros((7, 8))
+
+
+@njit(cache=True)
+def _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs):
+    """Closed-loop derivative at one state into y_dot; returns ``ok``. tau, the controller's info
+    and the platform position are left in ``vecs[2, :3]``, ``vecs[3]`` and ``vecs[4, :3]``.
 
     ``plant`` = [geometry (7), 1.5 m_b, friction on, r_a, v_s, mu_s, mu_d, mu_v, sign scale,
     same geometry as the controller's nominal model]; ``truth`` = [m_o, F_n (3), F (3)];
@@ -64,50 +71,60 @@ def _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr):
     alpha = y[0:3]
     velocity = y[3:6]
     rho = y[6 : 6 + nr]
-    y_dot = np.zeros(6 + nr)
-    ok, xyz, J, J_dot = delta_kinematics(plant[0:7], cos_phi, sin_phi, alpha, velocity)
-    if not ok:
-        return False, y_dot, np.zeros(3), np.zeros(8), np.zeros(3)
+    J, J_dot, M_bar, C_bar, M, C = mats[0], mats[1], mats[8], mats[9], mats[10], mats[11]
+    G_bar, G, tau, info, xyz, rhs, rho_dot = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6]
+    if not delta_kinematics_into(plant[0:7], cos_phi, sin_phi, alpha, velocity, xyz, J, J_dot, mats[2:8]):
+        return False
     if plant[15] > 0.0:
-        M_bar, C_bar, G_bar = delta_dynamics(plant[0:7], pc[32], alpha, J, J_dot)
-        tau, rho_dot, info = adaptive_robust_law(
-            pc, M_bar, C_bar, G_bar, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho
+        delta_dynamics_into(plant[0:7], pc[32], alpha, J, J_dot, M_bar, C_bar, G_bar)
+        adaptive_robust_law_into(
+            pc, M_bar, C_bar, G_bar, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho, tau, rho_dot, info
         )
     else:
-        tau, rho_dot, info = adaptive_robust_kernel(
+        tau_, rho_dot_, info_ = adaptive_robust_kernel(
             pc, cos_phi, sin_phi, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho
         )
-        if info[0] == 0.0:
-            return False, y_dot, tau, info, np.zeros(3)
-    M, C, G = delta_dynamics(plant[0:7], truth[0] + plant[7], alpha, J, J_dot)
-    passive = truth[4:7].copy()
+        if info_[0] == 0.0:
+            return False
+        tau[0:3], rho_dot[0:nr], info[0:8] = tau_, rho_dot_, info_
+    delta_dynamics_into(plant[0:7], truth[0] + plant[7], alpha, J, J_dot, M, C, G)
+    for i in range(3):
+        rhs[i] = tau[i] - (C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2])
+        rhs[i] -= G[i] + truth[4 + i]
     if plant[8] > 0.0:
-        passive += stribeck_kernel(
+        friction = stribeck_kernel(
             plant[9], plant[10], plant[11], plant[12], plant[13], velocity, truth[1:4], plant[14]
         )
-    acceleration = solve3(M, tau - C @ velocity - G - passive)
-    y_dot[0:3] = velocity
-    y_dot[3:6] = acceleration
-    y_dot[6 : 6 + nr] = rho_dot
-    return True, y_dot, tau, info, xyz
+        for i in range(3):
+            rhs[i] -= friction[i]
+    solve3_into(M, rhs, y_dot[3:6], mats[12])
+    for i in range(3):
+        y_dot[i] = velocity[i]
+    for i in range(nr):
+        y_dot[6 + i] = rho_dot[i]
+    return True
 
 
 @njit(cache=True)
-def _residual(pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, y, nr):
+def _residual(pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, y, nr, mats, vecs):
     """(ok, y - anchor - ch f(y), f(y))."""
-    ok, y_dot, _, _, _ = _rhs(pc, cos_phi, sin_phi, plant, truth, ref, y, nr)
+    y_dot = np.empty(y.shape[0])
+    ok = _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs)
     return ok, y - anchor - ch * y_dot, y_dot
 
 
 @njit(cache=True)
-def _jacobian(pc, cos_phi, sin_phi, plant, truth, ref, y, y_dot, nr, J):
+def _jacobian(pc, cos_phi, sin_phi, plant, truth, ref, y, y_dot, nr, J, mats, vecs):
     """Forward-difference df/dy at y into J (n, n); one evaluation per column."""
+    shifted = y.copy()
+    shifted_dot = np.empty(y.shape[0])
     for i in range(y.shape[0]):
         step = 1e-8 * max(1.0, abs(y[i]))
-        shifted = y.copy()
-        shifted[i] += step
-        _, shifted_dot, _, _, _ = _rhs(pc, cos_phi, sin_phi, plant, truth, ref, shifted, nr)
-        J[:, i] = (shifted_dot - y_dot) / step
+        shifted[i] = y[i] + step
+        _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, shifted, nr, shifted_dot, mats, vecs)
+        shifted[i] = y[i]
+        for k in range(y.shape[0]):
+            J[k, i] = (shifted_dot[k] - y_dot[k]) / step
 
 
 @njit(cache=True)
@@ -149,14 +166,16 @@ def _lu_solve(LU, pivots, b):
 
 
 @njit(cache=True)
-def _implicit_step(pc, cos_phi, sin_phi, plant, truth, ref, anchor, c, h, guess, nr, J, jacobian_valid):
+def _implicit_step(
+    pc, cos_phi, sin_phi, plant, truth, ref, anchor, c, h, guess, nr, J, jacobian_valid, mats, vecs
+):
     """Solve y = anchor + c h f(t, y) from ``guess`` by Newton with backtracking: (status, y,
     evaluations, J valid). J (updated in place) is reused across steps while the iteration
     contracts fast; it is re-computed at the current iterate when it does not."""
     ch = c * h
     n = 6 + nr
     y = guess.copy()
-    ok, residual, y_dot = _residual(pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, y, nr)
+    ok, residual, y_dot = _residual(pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, y, nr, mats, vecs)
     evaluations = 1
     if not ok:
         return NO_FK, y, evaluations, jacobian_valid
@@ -167,7 +186,7 @@ def _implicit_step(pc, cos_phi, sin_phi, plant, truth, ref, anchor, c, h, guess,
     LU, pivots = np.eye(n), np.arange(n)
     for _ in range(MAX_NEWTON_ITERATIONS):
         if not jacobian_valid or since_refresh >= STALE_ITERATIONS:
-            _jacobian(pc, cos_phi, sin_phi, plant, truth, ref, y, y_dot, nr, J)
+            _jacobian(pc, cos_phi, sin_phi, plant, truth, ref, y, y_dot, nr, J, mats, vecs)
             evaluations += n
             jacobian_valid, since_refresh, previous, factored = True, 0, np.inf, False
         if not factored:  # one factorisation of I - ch J per Jacobian (and step)
@@ -190,7 +209,7 @@ def _implicit_step(pc, cos_phi, sin_phi, plant, truth, ref, anchor, c, h, guess,
         while True:  # backtracking: the steep friction sign and the layer's kink defeat plain Newton
             trial = y + fraction * delta
             ok, trial_residual, trial_dot = _residual(
-                pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, trial, nr
+                pc, cos_phi, sin_phi, plant, truth, ref, anchor, ch, trial, nr, mats, vecs
             )
             evaluations += 1
             trial_norm = math.sqrt(trial_residual @ trial_residual) if ok else np.inf
@@ -208,7 +227,7 @@ def _implicit_step(pc, cos_phi, sin_phi, plant, truth, ref, anchor, c, h, guess,
 
 
 @njit(cache=True)
-def _split_step(pc, cos_phi, sin_phi, plant, truth0, truth1, ref0, ref1, y, h, nr, depth):
+def _split_step(pc, cos_phi, sin_phi, plant, truth0, truth1, ref0, ref1, y, h, nr, depth, mats, vecs):
     """Cross one grid step by 2^depth implicit Euler steps (the reference and truth interpolated
     linearly inside the step): the fallback where Newton fails on the whole step (the reaching
     phase of the sliding mode). (status, y, evaluations)."""
@@ -221,7 +240,7 @@ def _split_step(pc, cos_phi, sin_phi, plant, truth0, truth1, ref0, ref1, y, h, n
         truth = (1.0 - w) * truth0 + w * truth1
         ref = (1.0 - w) * ref0 + w * ref1
         status, y_new, used, valid = _implicit_step(
-            pc, cos_phi, sin_phi, plant, truth, ref, y, 1.0, h / parts, y, nr, J, valid
+            pc, cos_phi, sin_phi, plant, truth, ref, y, 1.0, h / parts, y, nr, J, valid, mats, vecs
         )
         evaluations += used
         if status != OK:
@@ -244,16 +263,17 @@ def _run_one(
     taken = 0  # BDF steps taken: the first is implicit Euler, the predictor's order grows to 2
     J = np.zeros((y.shape[0], y.shape[0]))
     valid = False
+    mats, vecs = _workspace(nr)
+    y_dot = np.empty(y.shape[0])
     for k in range(steps + 1):
         index = k * substeps
-        ok, _, tau, info, xyz = _rhs(pc, cos_phi, sin_phi, plant, truth[index], ref[index], y, nr)
-        if not ok:
+        if not _rhs_into(pc, cos_phi, sin_phi, plant, truth[index], ref[index], y, nr, y_dot, mats, vecs):
             return NO_FK, k * substeps * h
         out[k, 0:6] = y[0:6]
-        out[k, 6:9] = tau
-        out[k, 9:12] = xyz
+        out[k, 6:9] = vecs[2, 0:3]
+        out[k, 9:12] = vecs[4, 0:3]
         out[k, 12 : 12 + nr] = y[6 : 6 + nr]
-        info_out[k] = info
+        info_out[k] = vecs[3]
         if k == steps:
             break
         for j in range(substeps):
@@ -265,7 +285,21 @@ def _run_one(
             else:  # quadratic extrapolation through the last three points
                 anchor, c, guess = (4.0 * y - y_prev) / 3.0, 2.0 / 3.0, 3.0 * (y - y_prev) + y_prev2
             status, y_new, used, valid = _implicit_step(
-                pc, cos_phi, sin_phi, plant, truth[index], ref[index], anchor, c, h, guess, nr, J, valid
+                pc,
+                cos_phi,
+                sin_phi,
+                plant,
+                truth[index],
+                ref[index],
+                anchor,
+                c,
+                h,
+                guess,
+                nr,
+                J,
+                valid,
+                mats,
+                vecs,
             )
             counters[0] += used
             depth = 0
@@ -284,6 +318,8 @@ def _run_one(
                     h,
                     nr,
                     depth,
+                    mats,
+                    vecs,
                 )
                 counters[0] += used
             if depth > 0:
