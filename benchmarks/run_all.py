@@ -25,7 +25,7 @@ BENCHMARKS = {
     "bench_simulate.py": ["--repeats", "3"],
     "bench_mujoco.py": ["--repeats", "3"],
     "bench_validate.py": ["--repeats", "5"],
-    "bench_sweep.py": ["--repeats", "3"],
+    "bench_sweep.py": ["--repeats", "3", "--full"],
     "bench_meshcat_export.py": ["--repeats", "5"],
 }
 QUICK = {
