@@ -1,10 +1,14 @@
-"""Batched continuous-mode runs of designs I and II on the analytic plant (compiled BDF2).
+"""Batched runs of designs I and II on the analytic plant, compiled: continuous mode (BDF2) and
+sampled mode (zero-order hold, RK4).
 
 :func:`simulate_batch` advances many runs that share the robot, the path and the timing but differ
 in gains, uncertainty or initial state through one compiled call
-(:func:`delta_pin.fast_closed_loop.closed_loop_batch`); each run's result is the same, bit for bit,
-as the run made alone (``simulate(..., integrator="bdf2")`` is a batch of one). The integrator and
-its accuracy are described in :mod:`delta_pin.fast_closed_loop`.
+(:func:`delta_pin.fast_closed_loop.closed_loop_batch`). In continuous mode each run's result is
+the same, bit for bit, as the run made alone (``simulate(..., integrator="bdf2")`` is a batch of
+one); the integrator and its accuracy are described in :mod:`delta_pin.fast_closed_loop`. In
+sampled mode the compiled loop does the arithmetic of :func:`~delta_pin.simulate.simulate`'s
+sampled RK4 (same stages, same truth and reference rows): runs agree with ``simulate`` to
+rounding (tests/test_batch.py: <= 1e-12 relative).
 
 Example:
     >>> robot = load_delta()
@@ -72,13 +76,15 @@ def simulate_batch(
     t_end: float,
     dt: float = 1e-3,
     substeps: int = 1,
+    mode: str = "continuous",
     alpha0=None,
     alpha_dot0=None,
     friction=None,
     uncertainties: Sequence | None = None,
     errors: str = "raise",
 ) -> list:
-    """Simulate one continuous-mode run per controller (design I or II) with compiled BDF2.
+    """Simulate one run per controller (design I or II), compiled: BDF2 in continuous mode, RK4
+    under a zero-order hold in sampled mode.
 
     Args:
         robot: the robot; every run uses it.
@@ -87,8 +93,9 @@ def simulate_batch(
         trajectory: the shared path (``None``: hold ``alpha0``).
         plant: ``"analytic"`` (or an :class:`~delta_pin.plant.AnalyticPlant`, whose friction and
             uncertainty then serve the first run).
-        t_end, dt: duration and sample period [s]; BDF2 steps are dt / substeps.
-        substeps: BDF2 steps per sample (>= 1).
+        t_end, dt: duration and sample period [s]; integrator steps are dt / substeps.
+        substeps: BDF2 or RK4 steps per sample (>= 1).
+        mode: ``"continuous"`` (BDF2) or ``"sampled"`` (zero-order hold, RK4).
         alpha0, alpha_dot0: initial angles [rad] and velocities [rad/s] of every run, or one row
             per run ((B, 3)); defaults as :func:`~delta_pin.simulate.simulate`.
         friction: :class:`~delta_pin.plant.Friction` of every run, ``True`` or ``None``.
@@ -121,6 +128,9 @@ def simulate_batch(
         raise InvalidParameterError("all controllers of a batch must have the same vector_rho")
     if not (isinstance(substeps, int) and substeps >= 1):
         raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
+    if mode not in ("continuous", "sampled"):
+        raise InvalidParameterError(f"mode={mode!r} must be 'continuous' or 'sampled'")
+    sampled = mode == "sampled"
     for name, value in (("dt", dt), ("t_end", t_end)):
         if not (isinstance(value, int | float) and value > 0.0 and np.isfinite(value)):
             raise InvalidParameterError(f"{name}={value!r} must be a positive number of seconds")
@@ -139,11 +149,14 @@ def simulate_batch(
 
     alpha0_rows = np.asarray(alpha0, dtype=float) if alpha0 is not None else None
     per_run_alpha0 = alpha0_rows is not None and alpha0_rows.ndim == 2
+    # the reference on the integrator's grid (continuous) or at the samples (sampled), the truth on
+    # the step grid (BDF2) or the half-step grid (RK4 stages), as simulate() tabulates them
+    per_sample = 1 if sampled else substeps
     table, sample_xyz, start = _reference(
-        robot, trajectory, alpha0_rows[0] if per_run_alpha0 else alpha0, 3, steps, dt, substeps
+        robot, trajectory, alpha0_rows[0] if per_run_alpha0 else alpha0, 3, steps, dt, per_sample
     )
     reference = np.hstack([table.alpha, table.alpha_dot, table.alpha_ddot])
-    grid = np.arange(steps * substeps + 1) * h
+    grid = np.arange(2 * steps * substeps + 1) * (h / 2.0) if sampled else np.arange(steps * substeps + 1) * h
     truths = np.empty((count, len(grid), 7))
     initial = []
     for b, (controller, run_plant) in enumerate(zip(controllers, plants)):
@@ -170,10 +183,11 @@ def simulate_batch(
         truths,
         reference,
         np.array(initial),
-        h,
+        dt if sampled else h,
         substeps,
         steps,
         MAX_JOINT_SPEED,
+        sampled,
     )
     wall = (time.perf_counter() - wall) / count
 
@@ -181,7 +195,9 @@ def simulate_batch(
     results = []
     for b, controller in enumerate(controllers):
         if status[b] != 0:
-            error = SimulationError(f"bdf2: {_FAILURES[int(status[b])]}", float(failure_time[b]))
+            error = SimulationError(
+                f"{'rk4' if sampled else 'bdf2'}: {_FAILURES[int(status[b])]}", float(failure_time[b])
+            )
             if errors == "raise":
                 raise error
             results.append(error)
@@ -192,25 +208,29 @@ def simulate_batch(
             controller,
             trajectory,
             plants[b],
-            mode="continuous",
+            mode=mode,
             dt=dt,
             t_end=steps * dt,
             substeps=substeps,
-            integrator="bdf2",
+            integrator="rk4" if sampled else "bdf2",
             alpha0=initial[b][:3].tolist(),
             alpha_dot0=initial[b][3:6].tolist(),
             wall_time=wall,
-            rhs_evaluations=int(counters[b, 0]),
-            split_steps=int(counters[b, 1]),
+            **(
+                {}
+                if sampled
+                else {"rhs_evaluations": int(counters[b, 0]), "split_steps": int(counters[b, 1])}
+            ),
             batch_size=count,
+            compiled=True,
         )
         results.append(
             Run(
                 t=t,
                 alpha=out[:, 0:3].copy(),
                 alpha_dot=out[:, 3:6].copy(),
-                alpha_d=np.array(table.alpha[::substeps]),
-                alpha_dot_d=np.array(table.alpha_dot[::substeps]),
+                alpha_d=np.array(table.alpha[::per_sample]),
+                alpha_dot_d=np.array(table.alpha_dot[::per_sample]),
                 xyz=out[:, 9:12].copy(),
                 xyz_d=np.array(sample_xyz),
                 tau=out[:, 6:9].copy(),

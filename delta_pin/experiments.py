@@ -186,16 +186,16 @@ def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = 
 
 def batch_group(spec: RunSpec) -> tuple | None:
     """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
-    when ``spec`` cannot be batched: only designs I/II in continuous mode with
-    ``integrator="bdf2"`` on the analytic plant can."""
+    when ``spec`` cannot be batched: designs I/II on the analytic plant, in continuous mode with
+    ``integrator="bdf2"`` or in sampled mode (RK4)."""
+    continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
+    sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (
-        spec.plant == "analytic"
-        and spec.mode == "continuous"
-        and spec.integrator == "bdf2"
-        and spec.controller in ("design1", "design2")
+        spec.plant == "analytic" and spec.controller in ("design1", "design2") and (continuous or sampled)
     ):
         return None
-    return (spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, bool(spec.gains.get("vector_rho")))
+    vector_rho = bool(spec.gains.get("vector_rho"))
+    return (spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
 
 
 def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
@@ -211,8 +211,9 @@ def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
     groups = {batch_group(spec) for spec in specs}
     if None in groups or len(groups) != 1:
         raise InvalidParameterError(
-            "run_batch needs specs of one batch group (designs I/II, continuous, bdf2, analytic, "
-            f"same path, duration, dt, alpha0, friction); got groups {sorted(map(str, groups))}"
+            "run_batch needs specs of one batch group (designs I/II on the analytic plant, continuous "
+            "with bdf2 or sampled; same path, duration, dt, alpha0, friction); got groups "
+            f"{sorted(map(str, groups))}"
         )
     robot = robot or load_delta()
     first = specs[0]
@@ -223,6 +224,7 @@ def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
         trajectory,
         t_end=first.duration,
         dt=first.dt,
+        mode=first.mode,
         alpha0=None if first.alpha0 is None else np.full(3, first.alpha0),
         friction=Friction() if first.friction else None,
         uncertainties=[build_uncertainty(spec) for spec in specs],

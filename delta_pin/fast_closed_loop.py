@@ -59,20 +59,18 @@ def _workspace(nr):
 
 
 @njit(cache=True)
-def _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs):
-    """Closed-loop derivative at one state into y_dot; returns ``ok``. tau, the controller's info
-    and the platform position are left in ``vecs[2, :3]``, ``vecs[3]`` and ``vecs[4, :3]``.
+def _control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, mats, vecs):
+    """The kinematics at y (J, J_dot in ``mats[0:2]``, xyz in ``vecs[4]``) and the controller's
+    output (tau in ``vecs[2]``, info in ``vecs[3]``, rho_dot in ``vecs[6]``); returns ``ok``.
 
     ``plant`` = [geometry (7), 1.5 m_b, friction on, r_a, v_s, mu_s, mu_d, mu_v, sign scale,
-    same geometry as the controller's nominal model]; ``truth`` = [m_o, F_n (3), F (3)];
-    ``ref`` = [alpha_d, alpha_dot_d, alpha_ddot_d]. When the nominal geometry is the plant's, the
-    kinematics (J, J_dot) are computed once: M, C, G are linear in the platform mass.
+    same geometry as the controller's nominal model]; ``ref`` = [alpha_d, alpha_dot_d,
+    alpha_ddot_d]. When the nominal geometry is the plant's, the kinematics serve both: M, C, G
+    are linear in the platform mass.
     """
-    alpha = y[0:3]
-    velocity = y[3:6]
-    rho = y[6 : 6 + nr]
-    J, J_dot, M_bar, C_bar, M, C = mats[0], mats[1], mats[8], mats[9], mats[10], mats[11]
-    G_bar, G, tau, info, xyz, rhs, rho_dot = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6]
+    alpha, velocity, rho = y[0:3], y[3:6], y[6 : 6 + nr]
+    J, J_dot, M_bar, C_bar = mats[0], mats[1], mats[8], mats[9]
+    G_bar, tau, info, xyz, rho_dot = vecs[0], vecs[2], vecs[3], vecs[4], vecs[6]
     if not delta_kinematics_into(plant[0:7], cos_phi, sin_phi, alpha, velocity, xyz, J, J_dot, mats[2:8]):
         return False
     if plant[15] > 0.0:
@@ -80,29 +78,116 @@ def _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs)
         adaptive_robust_law_into(
             pc, M_bar, C_bar, G_bar, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho, tau, rho_dot, info
         )
-    else:
-        tau_, rho_dot_, info_ = adaptive_robust_kernel(
-            pc, cos_phi, sin_phi, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho
-        )
-        if info_[0] == 0.0:
-            return False
-        tau[0:3], rho_dot[0:nr], info[0:8] = tau_, rho_dot_, info_
+        return True
+    tau_, rho_dot_, info_ = adaptive_robust_kernel(
+        pc, cos_phi, sin_phi, alpha, velocity, ref[0:3], ref[3:6], ref[6:9], rho
+    )
+    tau[0:3], rho_dot[0:nr], info[0:8] = tau_, rho_dot_, info_
+    return info_[0] != 0.0
+
+
+@njit(cache=True)
+def _plant_acceleration_into(plant, truth, alpha, velocity, tau, mats, vecs, acceleration):
+    """alpha_ddot of eq. 13, M alpha_ddot = tau - C alpha_dot - G - (F + M_f), for the truth
+    ``truth`` = [m_o, F_n (3), F (3)], with the kinematics already in ``mats[0:2]`` (the order of
+    operations of :meth:`AnalyticPlant.derivative <delta_pin.plant.AnalyticPlant.derivative>`)."""
+    J, J_dot, M, C = mats[0], mats[1], mats[10], mats[11]
+    G, rhs = vecs[1], vecs[5]
     delta_dynamics_into(plant[0:7], truth[0] + plant[7], alpha, J, J_dot, M, C, G)
-    for i in range(3):
-        rhs[i] = tau[i] - (C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2])
-        rhs[i] -= G[i] + truth[4 + i]
+    friction = np.zeros(3)
     if plant[8] > 0.0:
         friction = stribeck_kernel(
             plant[9], plant[10], plant[11], plant[12], plant[13], velocity, truth[1:4], plant[14]
         )
-        for i in range(3):
-            rhs[i] -= friction[i]
-    solve3_into(M, rhs, y_dot[3:6], mats[12])
     for i in range(3):
-        y_dot[i] = velocity[i]
+        coriolis = C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2]
+        rhs[i] = tau[i] - coriolis - G[i] - (truth[4 + i] + friction[i])
+    solve3_into(M, rhs, acceleration, mats[12])
+
+
+@njit(cache=True)
+def _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs):
+    """Closed-loop derivative at one state into y_dot; returns ``ok``. tau, the controller's info
+    and the platform position are left in ``vecs[2, :3]``, ``vecs[3]`` and ``vecs[4, :3]``
+    (see :func:`_control_into`, :func:`_plant_acceleration_into`)."""
+    if not _control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, mats, vecs):
+        return False
+    _plant_acceleration_into(plant, truth, y[0:3], y[3:6], vecs[2], mats, vecs, y_dot[3:6])
+    for i in range(3):
+        y_dot[i] = y[3 + i]
     for i in range(nr):
-        y_dot[6 + i] = rho_dot[i]
+        y_dot[6 + i] = vecs[6, i]
     return True
+
+
+@njit(cache=True)
+def _held_derivative(cos_phi, sin_phi, plant, truth, x, tau, mats, vecs, x_dot):
+    """[alpha_dot, alpha_ddot] of the plant alone under a held torque; returns ``ok``."""
+    if not delta_kinematics_into(
+        plant[0:7], cos_phi, sin_phi, x[0:3], x[3:6], vecs[4], mats[0], mats[1], mats[2:8]
+    ):
+        return False
+    _plant_acceleration_into(plant, truth, x[0:3], x[3:6], tau, mats, vecs, x_dot[3:6])
+    for i in range(3):
+        x_dot[i] = x[3 + i]
+    return True
+
+
+@njit(cache=True)
+def _run_one_sampled(
+    pc, cos_phi, sin_phi, plant, truth, ref, y0, dt, substeps, steps, max_speed, out, info_out
+):
+    """Sampled mode (zero-order hold, as :func:`delta_pin.simulate.simulate`): at each sample the
+    controller, then ``substeps`` RK4 steps of the plant under the held torque (truth rows on the
+    h / 2 grid), then rho_hat += dt rho_hat_dot. ``out``/``info_out`` as :func:`_run_one`.
+    Returns (status, failure time)."""
+    nr = y0.shape[0] - 6
+    mats, vecs = _workspace(nr)
+    y = y0.copy()
+    h = dt / substeps
+    tau = np.empty(3)
+    rho_dot = np.empty(nr)
+    k1, k2, k3, k4, stage = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    for k in range(steps + 1):
+        if not _control_into(pc, cos_phi, sin_phi, plant, ref[k], y, nr, mats, vecs):
+            return NO_FK, k * dt
+        out[k, 0:6] = y[0:6]
+        out[k, 6:9] = vecs[2, 0:3]
+        out[k, 9:12] = vecs[4, 0:3]
+        out[k, 12 : 12 + nr] = y[6 : 6 + nr]
+        info_out[k] = vecs[3]
+        if k == steps:
+            break
+        tau[:] = vecs[2, 0:3]
+        rho_dot[:] = vecs[6, 0:nr]
+        x = y[0:6].copy()
+        for j in range(substeps):
+            row = 2 * (k * substeps + j)  # the stages of simulate._rk4: rows row, row+1, row+1, row+2
+            ok = _held_derivative(cos_phi, sin_phi, plant, truth[row], x, tau, mats, vecs, k1)
+            for i in range(6):
+                stage[i] = x[i] + 0.5 * h * k1[i]
+            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, mats, vecs, k2)
+            for i in range(6):
+                stage[i] = x[i] + 0.5 * h * k2[i]
+            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, mats, vecs, k3)
+            for i in range(6):
+                stage[i] = x[i] + h * k3[i]
+            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 2], stage, tau, mats, vecs, k4)
+            if not ok:
+                return NO_FK, (k * substeps + j) * h
+            for i in range(6):
+                x[i] = x[i] + (h / 6.0) * (((k1[i] + 2.0 * k2[i]) + 2.0 * k3[i]) + k4[i])
+        for i in range(6):
+            y[i] = x[i]
+        for i in range(nr):
+            y[6 + i] = y[6 + i] + dt * rho_dot[i]
+        for i in range(6 + nr):
+            if not math.isfinite(y[i]):
+                return DIVERGED, (k + 1) * dt
+        for i in range(3):
+            if abs(y[3 + i]) > max_speed:
+                return DIVERGED, (k + 1) * dt
+    return OK, 0.0
 
 
 @njit(cache=True)
@@ -338,17 +423,20 @@ def _run_one(
 
 
 @njit(cache=True)
-def closed_loop_batch(pcs, cos_phi, sin_phi, plant, truths, ref, y0s, h, substeps, steps, max_speed):
+def closed_loop_batch(pcs, cos_phi, sin_phi, plant, truths, ref, y0s, h, substeps, steps, max_speed, sampled):
     """Integrate a batch of runs (one after another, compiled).
 
     Args:
         pcs: packed controllers (B, 40) (:func:`~delta_pin.control.fast_adaptive_robust.pack_controller`).
-        plant: packed plant (16,) (see :func:`_rhs`).
-        truths: (B, steps substeps + 1, 7) truth tables on the step grid.
-        ref: (steps substeps + 1, 9) reference on the step grid.
+        plant: packed plant (16,) (see :func:`_control_into`).
+        truths: (B, rows, 7) truth tables: on the step grid (continuous: steps substeps + 1 rows)
+            or on the half-step grid (sampled: 2 steps substeps + 1 rows).
+        ref: reference rows (9,) on the step grid (continuous) or at the samples (sampled).
         y0s: (B, 6 + nr) initial states.
-        h: step [s]; substeps: steps per sample; steps: samples - 1.
+        h: step [s] (continuous) or sample period dt [s] (sampled); substeps: steps per sample;
+            steps: samples - 1.
         max_speed: |alpha_dot| [rad/s] beyond which a run has diverged.
+        sampled: zero-order hold and RK4 (:func:`_run_one_sampled`) instead of BDF2.
 
     Returns:
         (samples (B, steps + 1, 12 + nr), info (B, steps + 1, 8), status (B,), failure time (B,)).
@@ -361,6 +449,23 @@ def closed_loop_batch(pcs, cos_phi, sin_phi, plant, truths, ref, y0s, h, substep
     failure_time = np.zeros(count)
     counters = np.zeros((count, 2), dtype=np.int64)
     for b in range(count):
+        if sampled:
+            status[b], failure_time[b] = _run_one_sampled(
+                pcs[b],
+                cos_phi,
+                sin_phi,
+                plant,
+                truths[b],
+                ref,
+                y0s[b],
+                h,
+                substeps,
+                steps,
+                max_speed,
+                samples[b],
+                info[b],
+            )
+            continue
         status[b], failure_time[b] = _run_one(
             pcs[b],
             cos_phi,

@@ -139,3 +139,27 @@ def test_bdf2_refuses_what_it_cannot_run(robot):
         RunSpec(integrator="euler")
     with pytest.raises(InvalidParameterError, match="batch group"):
         run_batch([RunSpec(plant="analytic", integrator="bdf2"), RunSpec(plant="analytic")], robot)
+
+
+def test_sampled_batch_is_simulate_sampled_to_rounding(robot):
+    """Sampled mode, compiled: the same stages, truth rows and reference rows as simulate()."""
+    specs = [
+        RunSpec(controller="design1", plant="analytic", mode="sampled", sampling_aware=True, t_end=1.0),
+        RunSpec(
+            controller="design2", plant="analytic", mode="sampled", sampling_aware=True, t_end=1.0, seed=5
+        ),
+        RunSpec(controller="design1", plant="analytic", mode="sampled", t_end=1.0),  # diverges (paper gains)
+    ]
+    assert len({batch_group(s) for s in specs}) == 1
+    together = run_batch(specs, robot)
+    for spec, run in zip(specs[:2], together[:2]):
+        alone = run_spec(spec, robot)  # the Python loop of simulate()
+        assert run.metadata["compiled"] and not alone.metadata.get("compiled")
+        for name in ("alpha", "alpha_dot", "tau", "xyz"):
+            np.testing.assert_allclose(getattr(run, name), getattr(alone, name), rtol=1e-12, atol=1e-14)
+        for name in ("rho_hat", "Lambda", "robust_gain"):
+            np.testing.assert_allclose(run.internals[name], alone.internals[name], rtol=1e-12, atol=1e-14)
+    with pytest.raises(dp.SimulationError) as alone:
+        run_spec(specs[2], robot)
+    assert isinstance(together[2], dp.SimulationError)
+    assert together[2].time == pytest.approx(alone.value.time) == pytest.approx(0.112)
