@@ -94,14 +94,18 @@ def _plant_acceleration_into(plant, truth, alpha, velocity, tau, mats, vecs, acc
     J, J_dot, M, C = mats[0], mats[1], mats[10], mats[11]
     G, rhs = vecs[1], vecs[5]
     delta_dynamics_into(plant[0:7], truth[0] + plant[7], alpha, J, J_dot, M, C, G)
-    friction = np.zeros(3)
+    for i in range(3):
+        coriolis = C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2]
+        rhs[i] = tau[i] - coriolis - G[i]
     if plant[8] > 0.0:
         friction = stribeck_kernel(
             plant[9], plant[10], plant[11], plant[12], plant[13], velocity, truth[1:4], plant[14]
         )
-    for i in range(3):
-        coriolis = C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2]
-        rhs[i] = tau[i] - coriolis - G[i] - (truth[4 + i] + friction[i])
+        for i in range(3):
+            rhs[i] -= truth[4 + i] + friction[i]
+    else:
+        for i in range(3):
+            rhs[i] -= truth[4 + i]
     solve3_into(M, rhs, acceleration, mats[12])
 
 
