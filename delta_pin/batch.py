@@ -216,11 +216,8 @@ def simulate_batch(
             alpha0=initial[b][:3].tolist(),
             alpha_dot0=initial[b][3:6].tolist(),
             wall_time=wall,
-            **(
-                {}
-                if sampled
-                else {"rhs_evaluations": int(counters[b, 0]), "split_steps": int(counters[b, 1])}
-            ),
+            rhs_evaluations=int(counters[b, 0]),
+            split_steps=int(counters[b, 1]),
             batch_size=count,
             compiled=True,
         )

@@ -98,19 +98,14 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .experiments import RunSpec, run_spec
+    from .experiments import run_spec
     from .metrics import compute_metrics
 
-    spec = RunSpec(
+    spec = _spec_from_args(
+        args,
         controller=args.controller,
         path=args.path,
-        plant=args.plant,
-        mode=args.mode,
-        integrator=args.integrator,
-        t_end=args.t_end,
-        dt=args.dt,
         friction_compensation=not args.no_friction_compensation,
-        sampling_aware=args.sampling_aware,
         delta_m=args.uncertainty,
         delta_fc=args.uncertainty,
         delta_f=args.uncertainty,
@@ -159,6 +154,7 @@ def _split(text: str) -> list[str]:
 
 
 def _spec_from_args(args: argparse.Namespace, **changes):
+    """The RunSpec of the timing options every study command shares, plus ``changes``."""
     from .experiments import RunSpec
 
     return RunSpec(

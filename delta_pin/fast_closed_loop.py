@@ -138,13 +138,26 @@ def _held_derivative(cos_phi, sin_phi, plant, truth, x, tau, mats, vecs, x_dot):
 
 
 @njit(cache=True)
+def _record(row, info_row, y, vecs):
+    """One sample: [alpha, alpha_dot, tau, xyz, rho_hat] into ``row`` and the controller's info
+    into ``info_row``, from the state y and the outputs :func:`_control_into` left in ``vecs``."""
+    nr = y.shape[0] - 6
+    row[0:6] = y[0:6]
+    row[6:9] = vecs[2, 0:3]
+    row[9:12] = vecs[4, 0:3]
+    row[12 : 12 + nr] = y[6 : 6 + nr]
+    info_row[:] = vecs[3]
+
+
+@njit(cache=True)
 def _run_one_sampled(
-    pc, cos_phi, sin_phi, plant, truth, ref, y0, dt, substeps, steps, max_speed, out, info_out
+    pc, cos_phi, sin_phi, plant, truth, ref, y0, dt, substeps, steps, max_speed, out, info_out, counters
 ):
     """Sampled mode (zero-order hold, as :func:`delta_pin.simulate.simulate`): at each sample the
     controller, then ``substeps`` RK4 steps of the plant under the held torque (truth rows on the
-    h / 2 grid), then rho_hat += dt rho_hat_dot. ``out``/``info_out`` as :func:`_run_one`.
-    Returns (status, failure time)."""
+    h / 2 grid), then rho_hat += dt rho_hat_dot. ``out``/``info_out``/``counters`` as
+    :func:`_run_one` (controller evaluations and plant stages both count). Returns (status,
+    failure time)."""
     nr = y0.shape[0] - 6
     mats, vecs = _workspace(nr)
     y = y0.copy()
@@ -155,11 +168,8 @@ def _run_one_sampled(
     for k in range(steps + 1):
         if not _control_into(pc, cos_phi, sin_phi, plant, ref[k], y, nr, mats, vecs):
             return NO_FK, k * dt
-        out[k, 0:6] = y[0:6]
-        out[k, 6:9] = vecs[2, 0:3]
-        out[k, 9:12] = vecs[4, 0:3]
-        out[k, 12 : 12 + nr] = y[6 : 6 + nr]
-        info_out[k] = vecs[3]
+        _record(out[k], info_out[k], y, vecs)
+        counters[0] += 1
         if k == steps:
             break
         tau[:] = vecs[2, 0:3]
@@ -177,6 +187,7 @@ def _run_one_sampled(
             for i in range(6):
                 stage[i] = x[i] + h * k3[i]
             ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 2], stage, tau, mats, vecs, k4)
+            counters[0] += 4
             if not ok:
                 return NO_FK, (k * substeps + j) * h
             for i in range(6):
@@ -358,11 +369,7 @@ def _run_one(
         index = k * substeps
         if not _rhs_into(pc, cos_phi, sin_phi, plant, truth[index], ref[index], y, nr, y_dot, mats, vecs):
             return NO_FK, k * substeps * h
-        out[k, 0:6] = y[0:6]
-        out[k, 6:9] = vecs[2, 0:3]
-        out[k, 9:12] = vecs[4, 0:3]
-        out[k, 12 : 12 + nr] = y[6 : 6 + nr]
-        info_out[k] = vecs[3]
+        _record(out[k], info_out[k], y, vecs)
         if k == steps:
             break
         for j in range(substeps):
@@ -453,24 +460,8 @@ def closed_loop_batch(pcs, cos_phi, sin_phi, plant, truths, ref, y0s, h, substep
     failure_time = np.zeros(count)
     counters = np.zeros((count, 2), dtype=np.int64)
     for b in range(count):
-        if sampled:
-            status[b], failure_time[b] = _run_one_sampled(
-                pcs[b],
-                cos_phi,
-                sin_phi,
-                plant,
-                truths[b],
-                ref,
-                y0s[b],
-                h,
-                substeps,
-                steps,
-                max_speed,
-                samples[b],
-                info[b],
-            )
-            continue
-        status[b], failure_time[b] = _run_one(
+        run = _run_one_sampled if sampled else _run_one
+        status[b], failure_time[b] = run(
             pcs[b],
             cos_phi,
             sin_phi,

@@ -456,7 +456,7 @@ class PinocchioPlant(Plant):
     def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
         """:meth:`finish_step` and the closure residual of the state it returns, computed once."""
         if self.coordinates == "active":
-            return x, self.closure_residual(x)
+            return super().finish_step_residual(x, t)
         gap = self._source.closure_gap(x[: self.nq])  # closure_residual(x)
         if not gap <= self.failure_tolerance:
             raise SimulationError(f"the loop-closure gap exploded to {gap:.3e} m", t)
