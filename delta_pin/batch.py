@@ -1,5 +1,5 @@
-"""Batched runs of designs I and II on the analytic plant, compiled: continuous mode (BDF2) and
-sampled mode (zero-order hold, RK4).
+"""Batched runs of designs I and II, compiled: on the analytic plant in continuous mode (BDF2) and
+sampled mode (zero-order hold, RK4); on the Pinocchio plant in sampled mode.
 
 :func:`simulate_batch` advances many runs that share the robot, the path and the timing but differ
 in gains, uncertainty or initial state through one compiled call
@@ -8,7 +8,10 @@ the same, bit for bit, as the run made alone (``simulate(..., integrator="bdf2")
 one); the integrator and its accuracy are described in :mod:`delta_pin.fast_closed_loop`. In
 sampled mode the compiled loop does the arithmetic of :func:`~delta_pin.simulate.simulate`'s
 sampled RK4 (same stages, same truth and reference rows): runs agree with ``simulate`` to
-rounding (tests/test_batch.py: <= 1e-12 relative).
+rounding (tests/test_batch.py: <= 1e-12 relative). On the Pinocchio plant (full coordinates) the
+sampled loop of :mod:`delta_pin.fast_tree_loop` calls Pinocchio's C++ through
+:mod:`delta_pin.native` and gives the arrays of ``simulate``'s sampled Pinocchio run
+(tests/test_fast_tree_loop.py); it needs the native library.
 
 Example:
     >>> robot = load_delta()
@@ -28,7 +31,7 @@ import numpy as np
 from .control.adaptive_robust import AdaptiveRobustController
 from .errors import InvalidParameterError, SimulationError
 from .fast_model import chain_trigonometry, pack_geometry
-from .plant import AnalyticPlant, Plant, make_plant
+from .plant import AnalyticPlant, PinocchioPlant, Plant, make_plant
 from .robot import Delta
 
 __all__ = ["batchable", "simulate_batch"]
@@ -41,15 +44,27 @@ _FAILURES = {
 MAX_JOINT_SPEED = 1e3  # [rad/s], as simulate's
 
 
-def batchable(controller, plant="analytic") -> bool:
-    """Whether ``controller`` on ``plant`` can take the compiled BDF2 path: design I or II with
-    its compiled step (the Delta's analytic nominal model) on the analytic plant."""
-    is_analytic = plant == "analytic" or isinstance(plant, AnalyticPlant)
-    return (
-        is_analytic
-        and isinstance(controller, AdaptiveRobustController)
+def _is_tree(plant) -> bool:
+    return plant == "pinocchio" or (isinstance(plant, PinocchioPlant) and plant.coordinates == "full")
+
+
+def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
+    """Whether ``controller`` on ``plant`` can take a compiled path: design I or II with its
+    compiled step (the Delta's analytic nominal model), on the analytic plant (both modes) or, in
+    sampled mode, on the Pinocchio plant in full coordinates where the native library of
+    :mod:`delta_pin.native` is available."""
+    if not (
+        isinstance(controller, AdaptiveRobustController)
         and getattr(controller, "_compiled", None) is not None
-    )
+    ):
+        return False
+    if plant == "analytic" or isinstance(plant, AnalyticPlant):
+        return True
+    if mode == "sampled" and _is_tree(plant):
+        from . import native
+
+        return native.load() is not None
+    return False
 
 
 def _packed_plant(plant: Plant, packed_controllers: np.ndarray) -> np.ndarray:
@@ -91,7 +106,8 @@ def simulate_batch(
         controllers: designs I/II on the Delta's analytic nominal model, all with the same
             ``vector_rho``; gains and options may differ.
         trajectory: the shared path (``None``: hold ``alpha0``).
-        plant: ``"analytic"`` (or an :class:`~delta_pin.plant.AnalyticPlant`, whose friction and
+        plant: ``"analytic"``, or ``"pinocchio"`` in sampled mode (full coordinates, needs the
+            native library), or such a :class:`~delta_pin.plant.Plant` (its friction and
             uncertainty then serve the first run).
         t_end, dt: duration and sample period [s]; integrator steps are dt / substeps.
         substeps: BDF2 or RK4 steps per sample (>= 1).
@@ -117,19 +133,21 @@ def simulate_batch(
         raise InvalidParameterError("controllers must hold at least one controller")
     if errors not in ("raise", "return"):
         raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")
+    if mode not in ("continuous", "sampled"):
+        raise InvalidParameterError(f"mode={mode!r} must be 'continuous' or 'sampled'")
     for index, controller in enumerate(controllers):
-        if not batchable(controller, plant):
+        if not batchable(controller, plant, mode):
             raise InvalidParameterError(
                 f"controllers[{index}] ({getattr(controller, 'name', controller)!r}) on plant "
-                f"{getattr(plant, 'name', plant)!r}: integrator 'bdf2' runs designs I/II with their "
-                "compiled step on the analytic plant only; use integrator='lsoda'"
+                f"{getattr(plant, 'name', plant)!r} in {mode} mode: the compiled loops run designs "
+                "I/II with their compiled step on the analytic plant, or in sampled mode on the "
+                "Pinocchio plant (full coordinates, native library); use integrator='lsoda' or "
+                "simulate(..., compiled=False)"
             )
     if len({c.vector_rho for c in controllers}) > 1:
         raise InvalidParameterError("all controllers of a batch must have the same vector_rho")
     if not (isinstance(substeps, int) and substeps >= 1):
         raise InvalidParameterError(f"substeps={substeps!r} must be an integer >= 1")
-    if mode not in ("continuous", "sampled"):
-        raise InvalidParameterError(f"mode={mode!r} must be 'continuous' or 'sampled'")
     sampled = mode == "sampled"
     for name, value in (("dt", dt), ("t_end", t_end)):
         if not (isinstance(value, int | float) and value > 0.0 and np.isfinite(value)):
@@ -138,8 +156,10 @@ def simulate_batch(
     uncertainties = [None] * count if uncertainties is None else list(uncertainties)
     if len(uncertainties) != count:
         raise InvalidParameterError(f"uncertainties has {len(uncertainties)} entries for {count} controllers")
+    tree = _is_tree(plant)
+    kind = "pinocchio" if tree else "analytic"
     plants = [
-        plant if isinstance(plant, Plant) and i == 0 else make_plant("analytic", robot, friction, u)
+        plant if isinstance(plant, Plant) and i == 0 else make_plant(kind, robot, friction, u)
         for i, u in enumerate(uncertainties)
     ]
     steps = round(t_end / dt)
@@ -172,32 +192,54 @@ def simulate_batch(
     packed_controllers = np.array([c._compiled[1] for c in controllers])
     cos_phi, sin_phi = chain_trigonometry()
 
-    from .fast_closed_loop import closed_loop_batch
-
     wall = time.perf_counter()
-    samples, info, status, failure_time, counters = closed_loop_batch(
-        packed_controllers,
-        cos_phi,
-        sin_phi,
-        _packed_plant(plants[0], packed_controllers),
-        truths,
-        reference,
-        np.array(initial),
-        dt if sampled else h,
-        substeps,
-        steps,
-        MAX_JOINT_SPEED,
-        sampled,
-    )
+    if tree:
+        samples, info, gaps, failures, counters = _tree_runs(
+            controllers,
+            plants,
+            packed_controllers,
+            cos_phi,
+            sin_phi,
+            truths,
+            reference,
+            initial,
+            dt,
+            substeps,
+            steps,
+        )
+    else:
+        from .fast_closed_loop import closed_loop_batch
+
+        samples, info, status, failure_time, counters = closed_loop_batch(
+            packed_controllers,
+            cos_phi,
+            sin_phi,
+            _packed_plant(plants[0], packed_controllers),
+            truths,
+            reference,
+            np.array(initial),
+            dt if sampled else h,
+            substeps,
+            steps,
+            MAX_JOINT_SPEED,
+            sampled,
+        )
+        gaps = np.zeros((count, steps + 1))
+        failures = [
+            None
+            if status[b] == 0
+            else SimulationError(
+                f"{'rk4' if sampled else 'bdf2'}: {_FAILURES[int(status[b])]}", float(failure_time[b])
+            )
+            for b in range(count)
+        ]
     wall = (time.perf_counter() - wall) / count
 
     t = np.arange(steps + 1) * dt
     results = []
     for b, controller in enumerate(controllers):
-        if status[b] != 0:
-            error = SimulationError(
-                f"{'rk4' if sampled else 'bdf2'}: {_FAILURES[int(status[b])]}", float(failure_time[b])
-            )
+        error = failures[b]
+        if error is not None:
             if errors == "raise":
                 raise error
             results.append(error)
@@ -221,6 +263,8 @@ def simulate_batch(
             batch_size=count,
             compiled=True,
         )
+        if getattr(plants[b], "projections", 0):
+            metadata["closure_projections"] = plants[b].projections
         results.append(
             Run(
                 t=t,
@@ -231,7 +275,7 @@ def simulate_batch(
                 xyz=out[:, 9:12].copy(),
                 xyz_d=np.array(sample_xyz),
                 tau=out[:, 6:9].copy(),
-                closure_residual=np.zeros(steps + 1),
+                closure_residual=gaps[b].copy(),
                 internals={
                     "rho_hat": out[:, 12:].copy(),
                     "Lambda": info[b, :, 1].copy(),
@@ -244,3 +288,84 @@ def simulate_batch(
             )
         )
     return results
+
+
+def _tree_runs(
+    controllers, plants, packed_controllers, cos_phi, sin_phi, truths, reference, initial, dt, substeps, steps
+):
+    """Sampled runs on Pinocchio plants, one compiled loop each
+    (:func:`~delta_pin.fast_tree_loop.tree_sampled_loop`). Where the loop stops for a projection,
+    the plant's own :meth:`~delta_pin.plant.PinocchioPlant.finish_step_residual` projects the state
+    and the loop resumes; where it stops on a failure, the failing step is re-evaluated by the
+    Python code that ``simulate`` runs, so that the error is the one ``simulate`` raises.
+
+    Returns:
+        (samples (B, steps + 1, 12 + nr), info (B, steps + 1, 8), gaps (B, steps + 1),
+        failures (B,): ``None`` or the run's :class:`~delta_pin.errors.SimulationError`,
+        counters (B, 2)).
+    """
+    from .fast_tree_loop import OK, PROJECT, tree_sampled_loop
+    from .simulate import _Loop
+
+    count, nr = len(controllers), len(initial[0]) - 6
+    samples = np.full((count, steps + 1, 12 + nr), np.nan)
+    info = np.full((count, steps + 1, 8), np.nan)
+    gaps = np.full((count, steps + 1), np.nan)
+    counters = np.zeros((count, 2), dtype=np.int64)
+    failures: list = [None] * count
+    h = dt / substeps
+    limits = np.array([MAX_JOINT_SPEED, 0.0, 0.0])
+    for b, (controller, plant) in enumerate(zip(controllers, plants)):
+        model = plant._source
+        tree = plant.native_tree()
+        handles = np.array([tree.address_dynamics, tree.address_gap, tree.handle], dtype=np.int64)
+        plant.precompute_truth(h / 2.0, truths.shape[1])  # the tables simulate() reads
+        masses, normals, disturbances = (np.ascontiguousarray(column, dtype=float) for column in plant._table)
+        truth = (masses, np.ascontiguousarray(plant._rotational_table), normals, disturbances)
+        limits[1:] = plant.projection_tolerance, plant.failure_tolerance
+        x0 = plant.initial_state(initial[b][:3], initial[b][3:6])
+        state = np.concatenate([[0.0, 0.0, 0.0], x0, initial[b][6:], np.zeros(3 + nr)])
+        nx = len(x0)
+        packed_plant = _packed_plant(plant, packed_controllers[b : b + 1])
+        while True:
+            status, when = tree_sampled_loop(
+                packed_controllers[b], cos_phi, sin_phi, packed_plant, handles,
+                model.active_indices.astype(np.int64), model.platform_indices.astype(np.int64),
+                truth, plant._friction_vector, reference, dt, substeps, steps, limits,
+                state, samples[b], info[b], gaps[b], counters[b],
+            )  # fmt: skip
+            x, rho = state[3 : 3 + nx], state[3 + nx : 3 + nx + nr]
+            if status == PROJECT:  # project with the plant's routine, then resume
+                try:
+                    state[3 : 3 + nx], state[2] = plant.finish_step_residual(x.copy(), when)
+                except SimulationError as error:
+                    failures[b] = error
+                    break
+                continue
+            if status == OK:
+                break
+            loop = _Loop(controller, plant)
+            failures[b] = _tree_failure(status, when, loop, x.copy(), rho.copy(), reference[int(state[0])])
+            break
+    return samples, info, gaps, failures, counters
+
+
+def _tree_failure(status: int, when: float, loop, x: np.ndarray, rho: np.ndarray, reference_row) -> Exception:
+    """The error ``simulate``'s Python loop raises where the compiled tree loop stopped with
+    ``status`` at ``when`` [s] in state (x, rho): the same Python check is run on that state."""
+    from .control.base import Reference
+    from .errors import DeltaPinError
+    from .fast_tree_loop import DIVERGED, EXPLODED, NO_FK
+
+    try:
+        if status == NO_FK:
+            row = reference_row
+            loop.control(when, x, Reference(row[0:3], row[3:6], row[6:9]), rho)
+        elif status == DIVERGED:
+            loop.check_state(when, x, rho)
+        elif status == EXPLODED:
+            loop.plant.finish_step_residual(x, when)
+    except DeltaPinError as error:
+        return error
+    reasons = {NO_FK: "the controller's kinematics failed", DIVERGED: "the run diverged"}
+    return SimulationError(f"rk4 on the tree: {reasons.get(status, 'Pinocchio failed')}", when)

@@ -160,9 +160,11 @@ def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None
     return LQR(nominal, start, **fc, **gains)
 
 
-def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = False) -> Run:
-    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` as in
-    :func:`~delta_pin.simulate.simulate`."""
+def run_spec(
+    spec: RunSpec, robot: Delta | None = None, progress: bool | None = False, compiled: bool | None = None
+) -> Run:
+    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` and
+    ``compiled`` as in :func:`~delta_pin.simulate.simulate`."""
     robot = robot or load_delta()
     trajectory = build_trajectory(spec.path)
     controller = build_controller(spec, robot, trajectory)
@@ -179,6 +181,7 @@ def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = 
         friction=Friction() if spec.friction else None,
         uncertainty=build_uncertainty(spec),
         progress=progress,
+        compiled=compiled,
     )
     run.metadata["spec"] = spec.as_dict()
     return run

@@ -322,7 +322,8 @@ class PinocchioPlant(Plant):
         self.data = self.model.createData()
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
-        gains = pin.BaumgarteCorrectorParameters(baumgarte_frequency**2, 2.0 * baumgarte_frequency)
+        self.baumgarte_gains = (baumgarte_frequency**2, 2.0 * baumgarte_frequency)  # (Kp, Kd)
+        gains = pin.BaumgarteCorrectorParameters(*self.baumgarte_gains)
         for cm in source.constraint_models:
             copy = pin.RigidConstraintModel(cm)
             copy.setBaumgarteCorrectorParameters(gains)
@@ -353,6 +354,7 @@ class PinocchioPlant(Plant):
         points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[3:]]
         self._stages = (*stages[:3], *(view for point in points for view in point))
         self._last_q: np.ndarray | None = None
+        self._native_tree = None
         self.metadata_extra = {
             "coordinates": coordinates,
             "baumgarte_frequency": baumgarte_frequency,
@@ -496,6 +498,22 @@ class PinocchioPlant(Plant):
         _rk4_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
         ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
         return _rk4_combine(x, k1, k2, k3, v4, ddq, h / 6.0)
+
+    def native_tree(self):
+        """This plant's tree and closures in the native library
+        (:class:`delta_pin.native.TreeDynamics`, built once), for compiled loops.
+
+        Raises:
+            NativeUnavailableError: the native library cannot be built here.
+        """
+        if self._native_tree is None:
+            from . import native
+
+            self._native_tree = native.TreeDynamics(
+                native.load(strict=True), self.model, self.constraint_models, self.baumgarte_gains,
+                self._platform_joint,
+            )  # fmt: skip
+        return self._native_tree
 
     def metadata(self):
         return {**super().metadata(), **self.metadata_extra}

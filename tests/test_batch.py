@@ -21,6 +21,7 @@ from delta_pin.experiments import (
     run_batch,
     run_spec,
 )
+from delta_pin.plant import PinocchioPlant
 from delta_pin.sweep import _chunks, evaluate_spec, run_sweep, spec_key
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
@@ -127,7 +128,10 @@ def test_sweep_batches_bdf2_points_and_matches_point_by_point(robot, tmp_path):
 def test_bdf2_refuses_what_it_cannot_run(robot):
     nominal = dp.DeltaNominalModel(robot)
     assert not batchable(dp.ComputedTorque(nominal))
-    assert not batchable(dp.design1(nominal), plant="pinocchio")
+    assert not batchable(dp.design1(nominal), plant="pinocchio")  # continuous mode
+    assert not batchable(
+        dp.design1(nominal), plant=PinocchioPlant(robot, coordinates="active"), mode="sampled"
+    )
     assert not batchable(dp.design1(nominal, compiled=False))
     with pytest.raises(InvalidParameterError, match=r"controllers\[1\].*ctc.*lsoda"):
         simulate_batch(robot, [dp.design1(nominal), dp.ComputedTorque(nominal)], dp.PathI(), t_end=0.1)
@@ -153,13 +157,13 @@ def test_sampled_batch_is_simulate_sampled_to_rounding(robot):
     assert len({batch_group(s) for s in specs}) == 1
     together = run_batch(specs, robot)
     for spec, run in zip(specs[:2], together[:2]):
-        alone = run_spec(spec, robot)  # the Python loop of simulate()
+        alone = run_spec(spec, robot, compiled=False)  # the Python loop of simulate()
         assert run.metadata["compiled"] and not alone.metadata.get("compiled")
         for name in ("alpha", "alpha_dot", "tau", "xyz"):
             np.testing.assert_allclose(getattr(run, name), getattr(alone, name), rtol=1e-12, atol=1e-14)
         for name in ("rho_hat", "Lambda", "robust_gain"):
             np.testing.assert_allclose(run.internals[name], alone.internals[name], rtol=1e-12, atol=1e-14)
     with pytest.raises(dp.SimulationError) as alone:
-        run_spec(specs[2], robot)
+        run_spec(specs[2], robot, compiled=False)
     assert isinstance(together[2], dp.SimulationError)
     assert together[2].time == pytest.approx(alone.value.time) == pytest.approx(0.112)

@@ -1,0 +1,280 @@
+"""The constrained tree dynamics as a small C++ library, for compiled simulation loops.
+
+``pin.constraintDynamics`` costs ~7.6 us per call from Python, a third of it in the binding. The
+compiled loops of :mod:`delta_pin.fast_closed_loop` call Pinocchio's C++ directly instead, through
+``tree_dynamics.cpp``: a C ABI around the same explicitly instantiated ``constraintDynamics`` of
+``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit
+(tests/test_native.py).
+
+The library is built on first use (~20 s) with the system's C++ compiler (``$CXX`` or ``c++``)
+against the headers and libraries of the installed ``pin`` wheel and Eigen's headers (the
+``cmeel-eigen`` wheel), and cached in ``$DELTA_PIN_CACHE`` (default ``~/.cache/delta-pin``) under
+a name that hashes the source, the flags and the Pinocchio version; it is written atomically, so
+parallel processes may build it at once. Where it cannot be built (no compiler, no headers) or
+``DELTA_PIN_NATIVE=0``, :func:`load` returns ``None`` after one warning and callers keep the
+Python path (the same results, slower).
+
+Example:
+    >>> library = load()
+    >>> tree = TreeDynamics(library, plant) if library is not None else None
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["JOINT_TYPES", "NativeUnavailableError", "TreeDynamics", "build", "load"]
+
+SOURCE = Path(__file__).with_name("tree_dynamics.cpp")
+# what pinocchio's CMake targets define for their users (lib/cmake/pinocchio/pinocchioTargets.cmake)
+DEFINES = (
+    "PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",
+    "BOOST_MPL_LIMIT_LIST_SIZE=30",
+    "BOOST_MPL_LIMIT_VECTOR_SIZE=30",
+    "BOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
+    "BOOST_FUSION_INVOKE_MAX_ARITY=12",
+    "NDEBUG",
+)
+FLAGS = ("-O2", "-std=c++17", "-fPIC", "-shared", "-Wno-deprecated-declarations")
+JOINT_TYPES = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelPX", "JointModelPY", "JointModelPZ")
+
+_loaded: dict[str, object] = {}
+
+
+class NativeUnavailableError(RuntimeError):
+    """The native library cannot be built or loaded here (the message says why)."""
+
+
+def _prefix() -> Path:
+    """The ``cmeel.prefix`` directory of the installed ``pin`` wheel (headers and libraries)."""
+    import pinocchio
+
+    for parent in Path(pinocchio.__file__).resolve().parents:
+        if parent.name == "cmeel.prefix":
+            return parent
+    raise NativeUnavailableError(f"pinocchio at {pinocchio.__file__} is not a cmeel wheel: no headers found")
+
+
+def _cache_dir() -> Path:
+    root = os.environ.get("DELTA_PIN_CACHE")
+    if root:
+        return Path(root)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "delta-pin"
+
+
+def _command(prefix: Path, output: Path) -> list[str]:
+    compiler = os.environ.get("CXX", "c++")
+    if shutil.which(compiler) is None:
+        raise NativeUnavailableError(f"no C++ compiler {compiler!r} on PATH (set CXX)")
+    include = prefix / "include"
+    if not (include / "eigen3" / "Eigen" / "Core").exists():
+        raise NativeUnavailableError(f"Eigen's headers are missing under {include} (pip install cmeel-eigen)")
+    if not (include / "pinocchio" / "algorithm" / "constrained-dynamics.hpp").exists():
+        raise NativeUnavailableError(f"Pinocchio's headers are missing under {include}")
+    lib = prefix / "lib"
+    return [
+        compiler,
+        *FLAGS,
+        *(f"-D{d}" for d in DEFINES),
+        f"-I{include}",
+        f"-I{include / 'eigen3'}",
+        str(SOURCE),
+        "-o",
+        str(output),
+        f"-L{lib}",
+        "-lpinocchio_default",
+        f"-Wl,-rpath,{lib}",
+    ]
+
+
+def _library_path(prefix: Path) -> Path:
+    import pinocchio
+
+    key = hashlib.sha256(
+        SOURCE.read_bytes()
+        + repr((FLAGS, DEFINES, pinocchio.__version__, str(prefix), os.environ.get("CXX", "c++"))).encode()
+    ).hexdigest()[:16]
+    return _cache_dir() / f"tree_dynamics-{key}.so"
+
+
+def build(verbose: bool = False) -> Path:
+    """Build the library into the cache (if not there yet) and return its path.
+
+    Raises:
+        NativeUnavailableError: no compiler or headers, or the compiler failed (its output included).
+    """
+    prefix = _prefix()
+    path = _library_path(prefix)
+    if path.exists():
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, temporary = tempfile.mkstemp(suffix=".so", dir=path.parent)
+    os.close(fd)
+    try:
+        command = _command(prefix, Path(temporary))
+        print(
+            f"delta-pin: building the native tree dynamics once (~45 s) into {path.parent}",
+            file=sys.stderr,
+        )
+        if verbose:
+            print(" ".join(command), file=sys.stderr)
+        done = subprocess.run(command, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise NativeUnavailableError(f"compiling {SOURCE.name} failed:\n{done.stderr[-4000:]}")
+        os.replace(temporary, path)  # atomic: a parallel build writes the same file
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+    return path
+
+
+def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
+    int_p, double_p, void_p = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double), ctypes.c_void_p
+    library.dpn_create.restype = void_p
+    library.dpn_create.argtypes = [
+        ctypes.c_int, int_p, int_p, double_p, double_p, double_p,
+        ctypes.c_int, int_p, double_p, ctypes.c_double, ctypes.c_double, ctypes.c_int,
+        ctypes.c_char_p, ctypes.c_int,
+    ]  # fmt: skip
+    library.dpn_destroy.argtypes = [void_p]
+    library.dpn_nv.argtypes = [void_p]
+    library.dpn_dynamics.restype = ctypes.c_int
+    library.dpn_dynamics.argtypes = [
+        void_p,
+        double_p,
+        double_p,
+        double_p,
+        ctypes.c_double,
+        double_p,
+        double_p,
+    ]
+    library.dpn_closure_gap.restype = ctypes.c_double
+    library.dpn_closure_gap.argtypes = [void_p, double_p]
+    return library
+
+
+def load(strict: bool = False) -> ctypes.CDLL | None:
+    """The native library (built on first use), or ``None`` with one warning where it cannot be
+    had; ``strict=True`` raises :class:`NativeUnavailableError` instead. ``DELTA_PIN_NATIVE=0`` turns it
+    off."""
+    if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
+        if strict:
+            raise NativeUnavailableError("turned off by DELTA_PIN_NATIVE=0")
+        return None
+    if "library" not in _loaded:
+        try:
+            _loaded["library"] = _declare(ctypes.CDLL(str(build())))
+        except (NativeUnavailableError, OSError) as exc:
+            _loaded["library"] = None
+            _loaded["reason"] = str(exc)
+            warnings.warn(
+                f"delta-pin's native tree dynamics are unavailable, using the Python path: {exc}",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+    if _loaded["library"] is None and strict:
+        raise NativeUnavailableError(_loaded.get("reason", "unavailable"))
+    return _loaded["library"]  # type: ignore[return-value]
+
+
+def _pointer(array: np.ndarray, kind=ctypes.c_double):
+    return array.ctypes.data_as(ctypes.POINTER(kind))
+
+
+def _placement_numbers(placement) -> np.ndarray:
+    return np.concatenate([placement.rotation.ravel(), placement.translation])
+
+
+class TreeDynamics:
+    """A plant's tree and closures in the native library (one ``pin.Data`` of its own).
+
+    Args:
+        library: :func:`load`'s library.
+        model: the ``pin.Model`` (1-DOF axis joints only).
+        constraint_models: its ``RigidConstraintModel`` point closures (CONTACT_3D, LOCAL).
+        baumgarte: (Kp, Kd) of the closures' Baumgarte corrector.
+        platform_joint: the joint whose body inertia :meth:`dynamics` rewrites with the mass.
+
+    Attributes:
+        handle: the address of the C++ tree (for compiled callers), ``address_dynamics`` and
+            ``address_gap`` the addresses of ``dpn_dynamics`` and ``dpn_closure_gap``.
+    """
+
+    def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:
+        joints = model.njoints - 1
+        types = []
+        for i in range(1, model.njoints):
+            name = model.joints[i].shortname()
+            if name not in JOINT_TYPES:
+                raise NativeUnavailableError(
+                    f"joint {model.names[i]!r} is a {name}: only {JOINT_TYPES} are native"
+                )
+            types.append(JOINT_TYPES.index(name))
+        parents = np.array([model.parents[i] for i in range(1, model.njoints)], dtype=np.intc)
+        placements = np.array([_placement_numbers(model.jointPlacements[i]) for i in range(1, model.njoints)])
+        inertias = np.array(
+            [
+                [model.inertias[i].mass, *model.inertias[i].lever, *model.inertias[i].inertia.ravel()]
+                for i in range(1, model.njoints)
+            ]
+        )
+        closure_joints = np.array([[c.joint1_id, c.joint2_id] for c in constraint_models], dtype=np.intc)
+        anchors = np.array(
+            [
+                [*_placement_numbers(c.joint1_placement), *_placement_numbers(c.joint2_placement)]
+                for c in constraint_models
+            ]
+        )
+        types_array = np.array(types, dtype=np.intc)
+        gravity = np.array(model.gravity.linear, dtype=float)
+        message = ctypes.create_string_buffer(512)
+        handle = library.dpn_create(
+            joints, _pointer(parents, ctypes.c_int), _pointer(types_array, ctypes.c_int),
+            _pointer(placements), _pointer(inertias), _pointer(gravity),
+            len(constraint_models), _pointer(closure_joints, ctypes.c_int), _pointer(anchors),
+            float(baumgarte[0]), float(baumgarte[1]), int(platform_joint), message, len(message),
+        )  # fmt: skip
+        if not handle:
+            raise NativeUnavailableError(f"the native tree could not be built: {message.value.decode()}")
+        self._library = library
+        self.handle = int(handle)
+        self.nv = model.nv
+        self.address_dynamics = ctypes.cast(library.dpn_dynamics, ctypes.c_void_p).value
+        self.address_gap = ctypes.cast(library.dpn_closure_gap, ctypes.c_void_p).value
+
+    def dynamics(self, q, v, tau, mass: float, rotational) -> np.ndarray:
+        """ddq (nv,) at (q, v) under joint torques tau (nv,) with platform mass [kg] and
+        rotational inertia about the COM (3, 3) [kg m^2] (from Python, for tests)."""
+        q, v, tau = (np.ascontiguousarray(a, dtype=float) for a in (q, v, tau))
+        rotational = np.ascontiguousarray(rotational, dtype=float)
+        ddq = np.empty(self.nv)
+        if self._library.dpn_dynamics(
+            self.handle,
+            _pointer(q),
+            _pointer(v),
+            _pointer(tau),
+            float(mass),
+            _pointer(rotational),
+            _pointer(ddq),
+        ):
+            raise RuntimeError("Pinocchio's constraintDynamics failed")
+        return ddq
+
+    def closure_gap(self, q) -> float:
+        """Largest closure gap [m] at q."""
+        return self._library.dpn_closure_gap(self.handle, _pointer(np.ascontiguousarray(q, dtype=float)))
+
+    def __del__(self) -> None:
+        handle, self.handle = getattr(self, "handle", 0), 0
+        if handle:
+            self._library.dpn_destroy(handle)

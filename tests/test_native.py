@@ -1,0 +1,63 @@
+"""The native tree dynamics (delta_pin/native) against Pinocchio's Python binding, and its
+graceful absence."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from delta_pin import native
+from delta_pin.plant import PinocchioPlant
+
+pytestmark = pytest.mark.skipif(
+    native.load() is None, reason=f"native library unavailable: {native._loaded.get('reason')}"
+)
+
+
+def test_tree_dynamics_equal_pin_constraint_dynamics(robot, rng):
+    """The same compiled constraintDynamics behind both calls: equal bit for bit, at random
+    closed states, torques and platform masses (the inertia rewrite included)."""
+    plant = PinocchioPlant(robot)
+    tree = plant.native_tree()
+    for mass in (plant._mass, 0.7, 1.3, 0.7):
+        alpha = rng.uniform(-0.3, 0.6, 3)
+        x = plant.initial_state(alpha, rng.normal(size=3))
+        q, v = x[: plant.nq], x[plant.nq :]
+        tau = rng.normal(size=plant.model.nv)
+        plant._tau[:] = tau
+        expected = plant._tree_dynamics(q, v, mass).copy()
+        got = tree.dynamics(q, v, tau, mass, plant._rotational_inertia(mass))
+        np.testing.assert_array_equal(got, expected)
+        assert np.abs(got).max() > 1.0  # a real acceleration, not zeros
+
+
+def test_closure_gap_equals_the_python_gap(robot, rng):
+    plant = PinocchioPlant(robot)
+    tree = plant.native_tree()
+    q = plant.initial_state(np.array([0.1, 0.2, 0.3]), np.zeros(3))[: plant.nq]
+    assert tree.closure_gap(q) == robot.pinocchio.closure_gap(q) <= 1e-13
+    moved = q + rng.normal(scale=1e-3, size=q.shape)
+    assert tree.closure_gap(moved) == pytest.approx(robot.pinocchio.closure_gap(moved), rel=1e-14)
+    assert tree.closure_gap(moved) > 1e-4
+    moved[3] = np.nan
+    assert np.isnan(tree.closure_gap(moved))
+
+
+def test_joints_beyond_the_axis_joints_are_refused():
+    model = pin.buildSampleModelHumanoidRandom()  # a free flyer and spherical joints
+    with pytest.raises(native.NativeUnavailableError, match="JointModelFreeFlyer"):
+        native.TreeDynamics(native.load(), model, [], (0.0, 0.0), 1)
+
+
+def test_a_missing_compiler_is_named(monkeypatch, tmp_path):
+    monkeypatch.setenv("DELTA_PIN_CACHE", str(tmp_path))
+    monkeypatch.setenv("CXX", "no-such-c++")
+    with pytest.raises(native.NativeUnavailableError, match="no-such-c\\+\\+"):
+        native.build()
+    assert list(tmp_path.iterdir()) == []  # nothing half-written left behind
+
+
+def test_the_native_path_can_be_turned_off(monkeypatch):
+    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
+    assert native.load() is None
+    with pytest.raises(native.NativeUnavailableError, match="DELTA_PIN_NATIVE=0"):
+        native.load(strict=True)
