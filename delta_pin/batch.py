@@ -37,21 +37,26 @@ from .robot import Delta
 __all__ = ["batchable", "simulate_batch"]
 
 _FAILURES = {
-    1: "the state left the workspace (no forward kinematics)",
+    1: "the state left the workspace (no forward kinematics, or the loops do not close)",
     2: "Newton's method did not converge even on 1024 sub-steps",
     3: "the run diverged (|alpha_dot| > 1000 rad/s or a non-finite state)",
 }
 MAX_JOINT_SPEED = 1e3  # [rad/s], as simulate's
 
 
-def _is_tree(plant) -> bool:
-    return plant == "pinocchio" or (isinstance(plant, PinocchioPlant) and plant.coordinates == "full")
+def _is_tree(plant, mode: str = "sampled") -> bool:
+    """Whether ``plant`` is the Pinocchio plant the compiled loops take in ``mode``: in full
+    coordinates in sampled mode; either representation in continuous mode (BDF2 integrates the
+    active coordinates and completes q(alpha) at every evaluation)."""
+    if plant == "pinocchio":
+        return True
+    return isinstance(plant, PinocchioPlant) and (mode == "continuous" or plant.coordinates == "full")
 
 
 def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
     """Whether ``controller`` on ``plant`` can take a compiled path: design I or II with its
-    compiled step (the Delta's analytic nominal model), on the analytic plant (both modes) or, in
-    sampled mode, on the Pinocchio plant in full coordinates where the native library of
+    compiled step (the Delta's analytic nominal model), on the analytic plant or on the Pinocchio
+    plant (in sampled mode in full coordinates) where the native library of
     :mod:`delta_pin.native` is available."""
     if not (
         isinstance(controller, AdaptiveRobustController)
@@ -60,7 +65,7 @@ def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
         return False
     if plant == "analytic" or isinstance(plant, AnalyticPlant):
         return True
-    if mode == "sampled" and _is_tree(plant):
+    if _is_tree(plant, mode):
         from . import native
 
         return native.load() is not None
@@ -156,7 +161,7 @@ def simulate_batch(
     uncertainties = [None] * count if uncertainties is None else list(uncertainties)
     if len(uncertainties) != count:
         raise InvalidParameterError(f"uncertainties has {len(uncertainties)} entries for {count} controllers")
-    tree = _is_tree(plant)
+    tree = _is_tree(plant, mode)
     kind = "pinocchio" if tree else "analytic"
     plants = [
         plant if isinstance(plant, Plant) and i == 0 else make_plant(kind, robot, friction, u)
@@ -193,7 +198,7 @@ def simulate_batch(
     cos_phi, sin_phi = chain_trigonometry()
 
     wall = time.perf_counter()
-    if tree:
+    if tree and sampled:
         samples, info, gaps, failures, counters = _tree_runs(
             controllers,
             plants,
@@ -210,21 +215,31 @@ def simulate_batch(
     else:
         from .fast_closed_loop import closed_loop_batch
 
-        samples, info, status, failure_time, counters = closed_loop_batch(
-            packed_controllers,
-            cos_phi,
-            sin_phi,
-            _packed_plant(plants[0], packed_controllers),
-            truths,
-            reference,
-            np.array(initial),
-            dt if sampled else h,
-            substeps,
-            steps,
-            MAX_JOINT_SPEED,
-            sampled,
-        )
-        gaps = np.zeros((count, steps + 1))
+        packed_plant = _packed_plant(plants[0], packed_controllers)
+        step = dt if sampled else h
+        timing = (step, substeps, steps, MAX_JOINT_SPEED, sampled)
+        if tree:  # one compiled call per run, each with its own plant and completion start
+            parts = [
+                closed_loop_batch(
+                    packed_controllers[b : b + 1],
+                    cos_phi,
+                    sin_phi,
+                    _tree_plant(packed_plant, plants[b], initial[b][:3]),
+                    truths[b : b + 1],
+                    reference,
+                    np.array(initial[b : b + 1]),
+                    *timing,
+                )
+                for b in range(count)
+            ]
+            samples, info, status, failure_time, counters = (np.concatenate(p) for p in zip(*parts))
+            gaps = samples[:, :, -1]
+        else:
+            samples, info, status, failure_time, counters = closed_loop_batch(
+                packed_controllers, cos_phi, sin_phi, packed_plant, truths, reference, np.array(initial),
+                *timing,
+            )  # fmt: skip
+            gaps = np.zeros((count, steps + 1))
         failures = [
             None
             if status[b] == 0
@@ -236,6 +251,7 @@ def simulate_batch(
     wall = (time.perf_counter() - wall) / count
 
     t = np.arange(steps + 1) * dt
+    nr = len(initial[0]) - 6
     results = []
     for b, controller in enumerate(controllers):
         error = failures[b]
@@ -277,7 +293,7 @@ def simulate_batch(
                 tau=out[:, 6:9].copy(),
                 closure_residual=gaps[b].copy(),
                 internals={
-                    "rho_hat": out[:, 12:].copy(),
+                    "rho_hat": out[:, 12 : 12 + nr].copy(),
                     "Lambda": info[b, :, 1].copy(),
                     "robust_gain": info[b, :, 2].copy(),
                     "omega_norm": info[b, :, 3].copy(),
@@ -369,3 +385,17 @@ def _tree_failure(status: int, when: float, loop, x: np.ndarray, rho: np.ndarray
         return error
     reasons = {NO_FK: "the controller's kinematics failed", DIVERGED: "the run diverged"}
     return SimulationError(f"rk4 on the tree: {reasons.get(status, 'Pinocchio failed')}", when)
+
+
+def _tree_plant(packed_plant: np.ndarray, plant: PinocchioPlant, alpha0: np.ndarray) -> np.ndarray:
+    """The packed plant extended by the plant's native tree in active coordinates (see
+    :func:`~delta_pin.fast_closed_loop._plant_acceleration_into`), its completions restarted
+    from the closed configuration at ``alpha0``."""
+    tree = plant.native_tree()
+    source = plant._source
+    tree.set_active(source.active_indices, source.platform_indices, source.configuration(alpha0))
+    addresses = [tree.address_active, tree.handle]
+    if max(addresses) >= 2**53:  # pragma: no cover - user-space addresses are below 2^48
+        raise InvalidParameterError("native addresses beyond 2^53 cannot travel in a float64 vector")
+    nominal = plant._nominal_inertia
+    return np.concatenate([packed_plant, addresses, [nominal.mass], plant._nominal_rotational.ravel()])

@@ -41,9 +41,11 @@ import numpy as np
 
 from .control.fast_adaptive_robust import adaptive_robust_kernel, adaptive_robust_law_into
 from .fast_model import delta_dynamics_into, delta_kinematics_into, njit, solve3_into, stribeck_kernel
+from .native.calls import call_active_dynamics
 
 __all__ = ["NEWTON_TOLERANCE", "closed_loop_batch"]
 
+TREE = 16  # the packed plant's length; beyond it: the native tree (see _plant_acceleration_into)
 NEWTON_TOLERANCE = 1e-10  # largest Newton correction accepted as converged (rad, rad/s, -)
 MAX_NEWTON_ITERATIONS = 12
 STALE_ITERATIONS = 3  # Newton iterations on a reused Jacobian before it is re-computed
@@ -64,9 +66,11 @@ def _control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, mats, vecs):
     output (tau in ``vecs[2]``, info in ``vecs[3]``, rho_dot in ``vecs[6]``); returns ``ok``.
 
     ``plant`` = [geometry (7), 1.5 m_b, friction on, r_a, v_s, mu_s, mu_d, mu_v, sign scale,
-    same geometry as the controller's nominal model]; ``ref`` = [alpha_d, alpha_dot_d,
-    alpha_ddot_d]. When the nominal geometry is the plant's, the kinematics serve both: M, C, G
-    are linear in the platform mass.
+    same geometry as the controller's nominal model] (the Pinocchio plant in active coordinates
+    appends [address of ``dpn_active_dynamics``, tree handle, nominal platform mass, nominal
+    platform rotational inertia (9)]: addresses are exact in float64 below 2^53); ``ref`` =
+    [alpha_d, alpha_dot_d, alpha_ddot_d]. When the nominal geometry is the plant's, the
+    kinematics serve both: M, C, G are linear in the platform mass.
     """
     alpha, velocity, rho = y[0:3], y[3:6], y[6 : 6 + nr]
     J, J_dot, M_bar, C_bar = mats[0], mats[1], mats[8], mats[9]
@@ -89,14 +93,25 @@ def _control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, mats, vecs):
 @njit(cache=True)
 def _plant_acceleration_into(plant, truth, alpha, velocity, tau, mats, vecs, acceleration):
     """alpha_ddot of eq. 13, M alpha_ddot = tau - C alpha_dot - G - (F + M_f), for the truth
-    ``truth`` = [m_o, F_n (3), F (3)], with the kinematics already in ``mats[0:2]`` (the order of
-    operations of :meth:`AnalyticPlant.derivative <delta_pin.plant.AnalyticPlant.derivative>`)."""
-    J, J_dot, M, C = mats[0], mats[1], mats[10], mats[11]
-    G, rhs = vecs[1], vecs[5]
-    delta_dynamics_into(plant[0:7], truth[0] + plant[7], alpha, J, J_dot, M, C, G)
-    for i in range(3):
-        coriolis = C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2]
-        rhs[i] = tau[i] - coriolis - G[i]
+    ``truth`` = [m_o, F_n (3), F (3)]; returns ``ok``.
+
+    Analytic plant (``plant`` of 16 numbers): with the kinematics already in ``mats[0:2]`` (the
+    order of operations of :meth:`AnalyticPlant.derivative
+    <delta_pin.plant.AnalyticPlant.derivative>`). Pinocchio plant in active coordinates (``plant``
+    extended by :data:`TREE`): the net torques tau - (F + M_f) go to Pinocchio's constrained
+    dynamics (:mod:`delta_pin.native`), which completes q(alpha) and leaves the platform position
+    in ``vecs[4, 0:3]`` and the closure gap [m] in ``vecs[4, 3]``."""
+    rhs = vecs[5]
+    tree = plant.shape[0] > TREE
+    if tree:
+        for i in range(3):
+            rhs[i] = tau[i]
+    else:
+        J, J_dot, M, C, G = mats[0], mats[1], mats[10], mats[11], vecs[1]
+        delta_dynamics_into(plant[0:7], truth[0] + plant[7], alpha, J, J_dot, M, C, G)
+        for i in range(3):
+            coriolis = C[i, 0] * velocity[0] + C[i, 1] * velocity[1] + C[i, 2] * velocity[2]
+            rhs[i] = tau[i] - coriolis - G[i]
     if plant[8] > 0.0:
         friction = stribeck_kernel(
             plant[9], plant[10], plant[11], plant[12], plant[13], velocity, truth[1:4], plant[14]
@@ -106,7 +121,20 @@ def _plant_acceleration_into(plant, truth, alpha, velocity, tau, mats, vecs, acc
     else:
         for i in range(3):
             rhs[i] -= truth[4 + i]
-    solve3_into(M, rhs, acceleration, mats[12])
+    if not tree:
+        solve3_into(M, rhs, acceleration, mats[12])
+        return True
+    # the platform's rotational inertia scales with its mass (PinocchioPlant._rotational_inertia)
+    rotational = mats[12]
+    scale = truth[0] / plant[TREE + 2]
+    for i in range(3):
+        for j in range(3):
+            rotational[i, j] = plant[TREE + 3 + 3 * i + j] * scale
+    status = call_active_dynamics(
+        np.int64(plant[TREE]), np.int64(plant[TREE + 1]), alpha, velocity, rhs[0:3], truth[0],
+        rotational, acceleration, vecs[4, 0:3], vecs[4, 3:4],
+    )  # fmt: skip
+    return status == 0
 
 
 @njit(cache=True)
@@ -116,7 +144,8 @@ def _rhs_into(pc, cos_phi, sin_phi, plant, truth, ref, y, nr, y_dot, mats, vecs)
     (see :func:`_control_into`, :func:`_plant_acceleration_into`)."""
     if not _control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, mats, vecs):
         return False
-    _plant_acceleration_into(plant, truth, y[0:3], y[3:6], vecs[2], mats, vecs, y_dot[3:6])
+    if not _plant_acceleration_into(plant, truth, y[0:3], y[3:6], vecs[2], mats, vecs, y_dot[3:6]):
+        return False
     for i in range(3):
         y_dot[i] = y[3 + i]
     for i in range(nr):
@@ -131,7 +160,8 @@ def _held_derivative(cos_phi, sin_phi, plant, truth, x, tau, mats, vecs, x_dot):
         plant[0:7], cos_phi, sin_phi, x[0:3], x[3:6], vecs[4], mats[0], mats[1], mats[2:8]
     ):
         return False
-    _plant_acceleration_into(plant, truth, x[0:3], x[3:6], tau, mats, vecs, x_dot[3:6])
+    if not _plant_acceleration_into(plant, truth, x[0:3], x[3:6], tau, mats, vecs, x_dot[3:6]):
+        return False
     for i in range(3):
         x_dot[i] = x[3 + i]
     return True
@@ -139,13 +169,16 @@ def _held_derivative(cos_phi, sin_phi, plant, truth, x, tau, mats, vecs, x_dot):
 
 @njit(cache=True)
 def _record(row, info_row, y, vecs):
-    """One sample: [alpha, alpha_dot, tau, xyz, rho_hat] into ``row`` and the controller's info
-    into ``info_row``, from the state y and the outputs :func:`_control_into` left in ``vecs``."""
+    """One sample: [alpha, alpha_dot, tau, xyz, rho_hat(, closure gap)] into ``row`` and the
+    controller's info into ``info_row``, from the state y and the outputs :func:`_rhs_into` left
+    in ``vecs`` (the gap where ``row`` has room for it: the Pinocchio plant)."""
     nr = y.shape[0] - 6
     row[0:6] = y[0:6]
     row[6:9] = vecs[2, 0:3]
     row[9:12] = vecs[4, 0:3]
     row[12 : 12 + nr] = y[6 : 6 + nr]
+    if row.shape[0] > 12 + nr:
+        row[12 + nr] = vecs[4, 3]
     info_row[:] = vecs[3]
 
 
@@ -454,27 +487,16 @@ def closed_loop_batch(pcs, cos_phi, sin_phi, plant, truths, ref, y0s, h, substep
     """
     count = pcs.shape[0]
     nr = y0s.shape[1] - 6
-    samples = np.full((count, steps + 1, 12 + nr), np.nan)
+    gap_column = 1 if plant.shape[0] > TREE else 0  # the Pinocchio plant records its closure gap
+    samples = np.full((count, steps + 1, 12 + nr + gap_column), np.nan)
     info = np.full((count, steps + 1, 8), np.nan)
     status = np.zeros(count, dtype=np.int64)
     failure_time = np.zeros(count)
     counters = np.zeros((count, 2), dtype=np.int64)
     for b in range(count):
-        run = _run_one_sampled if sampled else _run_one
-        status[b], failure_time[b] = run(
-            pcs[b],
-            cos_phi,
-            sin_phi,
-            plant,
-            truths[b],
-            ref,
-            y0s[b],
-            h,
-            substeps,
-            steps,
-            max_speed,
-            samples[b],
-            info[b],
-            counters[b],
-        )
+        arguments = (pcs[b], cos_phi, sin_phi, plant, truths[b], ref, y0s[b], h, substeps, steps, max_speed)
+        if sampled:
+            status[b], failure_time[b] = _run_one_sampled(*arguments, samples[b], info[b], counters[b])
+        else:
+            status[b], failure_time[b] = _run_one(*arguments, samples[b], info[b], counters[b])
     return samples, info, status, failure_time, counters

@@ -1,5 +1,8 @@
-"""The compiled sampled loop on the Pinocchio plant (delta_pin/fast_tree_loop.py) against
-simulate()'s Python loop, which stays the reference (``compiled=False``)."""
+"""Compiled closed loops on the Pinocchio plant through the native library.
+
+Sampled mode (delta_pin/fast_tree_loop.py) against simulate()'s Python loop, which stays the
+reference (``compiled=False``); continuous mode (BDF2 in active coordinates,
+delta_pin/fast_closed_loop.py) against LSODA on the same plant and against the analytic plant."""
 
 import numpy as np
 import pytest
@@ -8,7 +11,7 @@ import delta_pin as dp
 from delta_pin import native
 from delta_pin.batch import batchable, simulate_batch
 from delta_pin.errors import InvalidParameterError, SimulationError
-from delta_pin.experiments import RunSpec, run_spec
+from delta_pin.experiments import RunSpec, build_controller, build_uncertainty, run_spec
 from delta_pin.plant import Friction, PinocchioPlant
 
 pytestmark = pytest.mark.skipif(
@@ -77,13 +80,15 @@ def test_a_failing_run_fails_as_the_python_loop_does(robot):
     assert errors[0].time == errors[1].time == pytest.approx(0.11)
 
 
-def test_what_the_tree_loop_cannot_run_is_refused(robot):
+def test_what_the_tree_loops_cannot_run_is_refused(robot):
     nominal = dp.DeltaNominalModel(robot)
+    active = PinocchioPlant(robot, coordinates="active")
     assert batchable(dp.design1(nominal), "pinocchio", mode="sampled")
-    assert not batchable(dp.design1(nominal), "pinocchio", mode="continuous")
+    assert batchable(dp.design1(nominal), active, mode="continuous")
+    assert not batchable(dp.design1(nominal), active, mode="sampled")
     assert not batchable(dp.ComputedTorque(nominal), "pinocchio", mode="sampled")
-    with pytest.raises(InvalidParameterError, match="continuous mode"):
-        simulate_batch(robot, [dp.design1(nominal)], dp.PathI(), plant="pinocchio", t_end=0.1)
+    with pytest.raises(InvalidParameterError, match="sampled mode"):
+        simulate_batch(robot, [dp.design1(nominal)], dp.PathI(), plant=active, mode="sampled", t_end=0.1)
     with pytest.raises(InvalidParameterError, match="compiled=False"):
         dp.simulate(robot, dp.ComputedTorque(nominal), dp.PathI(), t_end=0.1, compiled=True)
 
@@ -96,3 +101,58 @@ def test_without_the_native_library_simulate_falls_back_to_python(robot, monkeyp
     assert not run.metadata.get("compiled")
     with pytest.raises(InvalidParameterError, match="native library"):
         run_spec(spec, robot, compiled=True)
+
+
+ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
+
+
+def _continuous(robot, plant, t_end, **options):
+    """Design I, paper gains and scenario (friction, Delta = 0.3), continuous mode."""
+    spec = RunSpec(controller="design1", t_end=t_end)
+    trajectory = dp.PathI()
+    return dp.simulate(
+        robot,
+        build_controller(spec, robot, trajectory),
+        trajectory,
+        plant=plant,
+        t_end=t_end,
+        mode="continuous",
+        alpha0=ALPHA0,
+        friction=dp.Friction(),
+        uncertainty=build_uncertainty(spec),
+        **options,
+    )
+
+
+def test_continuous_pinocchio_bdf2_equals_the_analytic_bdf2_on_the_lumped_robot(robot):
+    """On the Table 1 robot the two plants agree to ~1e-13 (tests/test_validation.py), so the
+    same integrator gives the same run: the tree is completed and solved at every evaluation."""
+    tree = _continuous(robot, "pinocchio", 0.5, integrator="bdf2")
+    analytic = _continuous(robot, "analytic", 0.5, integrator="bdf2")
+    np.testing.assert_allclose(tree.alpha, analytic.alpha, rtol=0, atol=1e-11)  # measured 0
+    np.testing.assert_allclose(tree.internals["rho_hat"], analytic.internals["rho_hat"], rtol=1e-11)
+    np.testing.assert_allclose(tree.xyz, analytic.xyz, rtol=0, atol=1e-12)  # Pinocchio's q vs the FK
+    assert tree.closure_residual.max() <= 1e-13  # the completion's tolerance
+    assert tree.metadata["plant"] == "pinocchio" and tree.metadata["integrator"] == "bdf2"
+
+
+@pytest.fixture(scope="module")
+def rod_robot():
+    return dp.load_delta(forearm_inertia="rod")
+
+
+def test_continuous_pinocchio_bdf2_follows_lsoda_on_the_same_plant(rod_robot):
+    """Forearms as uniform rods: a plant the analytic model does not describe. BDF2 at 1 ms
+    against LSODA (rtol 1e-9) on the Pinocchio plant: the bounds of the analytic plant's test
+    (tests/test_batch.py), and 1e-5 rad away from the analytic plant's run."""
+    t_end = 1.2
+    lsoda = _continuous(rod_robot, "pinocchio", t_end, integrator="lsoda", rtol=1e-9, atol=1e-11)
+    bdf2 = _continuous(rod_robot, "pinocchio", t_end, integrator="bdf2")
+    analytic = _continuous(rod_robot, "analytic", t_end, integrator="bdf2")
+    error = np.abs(bdf2.alpha - lsoda.alpha).max(axis=1)
+    assert error[lsoda.t >= 1.0].max() < 2e-6  # after the reaching phase
+    assert error.max() < 1e-3  # the reaching phase (measured 4.2e-4 rad)
+    rho = lsoda.internals["rho_hat"]
+    assert np.abs(bdf2.internals["rho_hat"] - rho).max() < 2e-3 * rho.max()
+    assert np.abs(analytic.alpha - lsoda.alpha).max() > 5e-6  # the rods matter (measured 1.4e-5)
+    assert bdf2.closure_residual.max() <= 1e-13

@@ -131,6 +131,7 @@ def build(verbose: bool = False) -> Path:
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:
             raise NativeUnavailableError(f"compiling {SOURCE.name} failed:\n{done.stderr[-4000:]}")
+        os.chmod(temporary, 0o755)  # mkstemp's 0600 would hide it from other users of the cache
         os.replace(temporary, path)  # atomic: a parallel build writes the same file
     finally:
         if os.path.exists(temporary):
@@ -160,6 +161,12 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
     ]
     library.dpn_closure_gap.restype = ctypes.c_double
     library.dpn_closure_gap.argtypes = [void_p, double_p]
+    library.dpn_set_active.restype = ctypes.c_int
+    library.dpn_set_active.argtypes = [void_p, int_p, int_p, ctypes.c_double, ctypes.c_int, double_p]
+    library.dpn_active_dynamics.restype = ctypes.c_int
+    library.dpn_active_dynamics.argtypes = [void_p, double_p, double_p, double_p, ctypes.c_double] + [
+        double_p
+    ] * 4
     return library
 
 
@@ -206,8 +213,10 @@ class TreeDynamics:
         platform_joint: the joint whose body inertia :meth:`dynamics` rewrites with the mass.
 
     Attributes:
-        handle: the address of the C++ tree (for compiled callers), ``address_dynamics`` and
-            ``address_gap`` the addresses of ``dpn_dynamics`` and ``dpn_closure_gap``.
+        handle: the address of the C++ tree (for compiled callers); ``address_dynamics``,
+            ``address_gap`` and ``address_active``: those of ``dpn_dynamics``,
+            ``dpn_closure_gap`` and ``dpn_active_dynamics`` (see
+            :mod:`delta_pin.native.calls`).
     """
 
     def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:
@@ -251,6 +260,33 @@ class TreeDynamics:
         self.nv = model.nv
         self.address_dynamics = ctypes.cast(library.dpn_dynamics, ctypes.c_void_p).value
         self.address_gap = ctypes.cast(library.dpn_closure_gap, ctypes.c_void_p).value
+        self.address_active = ctypes.cast(library.dpn_active_dynamics, ctypes.c_void_p).value
+
+    def set_active(self, active, platform, q0, tolerance: float = 1e-13, max_iterations: int = 30) -> None:
+        """Set up the active coordinates: indices of alpha (3) and of the platform slides (3) in
+        q, and restart the completions of q(alpha) from the closed configuration ``q0`` (the
+        Newton tolerance [m] and iteration limit of ``DeltaPinocchioModel.configuration``)."""
+        active = np.ascontiguousarray(active, dtype=np.intc)
+        platform = np.ascontiguousarray(platform, dtype=np.intc)
+        q0 = np.ascontiguousarray(q0, dtype=float)
+        self._library.dpn_set_active(
+            self.handle, _pointer(active, ctypes.c_int), _pointer(platform, ctypes.c_int),
+            float(tolerance), int(max_iterations), _pointer(q0),
+        )  # fmt: skip
+
+    def active_dynamics(self, alpha, alpha_dot, torque, mass: float, rotational):
+        """(alpha_ddot (3,), xyz (3,), closure gap [m]) in active coordinates (after
+        :meth:`set_active`) under net active torques [N m] (from Python, for tests)."""
+        alpha, alpha_dot, torque = (np.ascontiguousarray(a, dtype=float) for a in (alpha, alpha_dot, torque))
+        rotational = np.ascontiguousarray(rotational, dtype=float)
+        alpha_ddot, xyz, gap = np.empty(3), np.empty(3), np.empty(1)
+        status = self._library.dpn_active_dynamics(
+            self.handle, _pointer(alpha), _pointer(alpha_dot), _pointer(torque), float(mass),
+            _pointer(rotational), _pointer(alpha_ddot), _pointer(xyz), _pointer(gap),
+        )  # fmt: skip
+        if status:
+            raise RuntimeError(f"dpn_active_dynamics failed with status {status}")
+        return alpha_ddot, xyz, float(gap[0])
 
     def dynamics(self, q, v, tau, mass: float, rotational) -> np.ndarray:
         """ddq (nv,) at (q, v) under joint torques tau (nv,) with platform mass [kg] and

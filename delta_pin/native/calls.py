@@ -1,8 +1,9 @@
 """Calls into the native library from numba-compiled code, through function addresses.
 
-The addresses (``TreeDynamics.address_dynamics``, ``address_gap``) and the tree handle are plain
-integers passed at run time, so the compiled callers stay cacheable (numba would bake a ctypes
-function's address into the machine code instead). Arrays must be contiguous float64.
+The addresses (``TreeDynamics.addresses``) and the tree handle are plain integers passed at run
+time, so the compiled callers stay cacheable (numba would bake a ctypes function's address into
+the machine code instead). Array arguments go as pointers to their first element: they must be
+contiguous float64.
 """
 
 from __future__ import annotations
@@ -11,48 +12,50 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["call_closure_gap", "call_tree_dynamics"]
+__all__ = ["call_active_dynamics", "call_closure_gap", "call_tree_dynamics"]
 
 _DOUBLE = ir.DoubleType()
-_DOUBLE_P = _DOUBLE.as_pointer()
 _VOID_P = ir.IntType(8).as_pointer()
+_RETURNS = {"i": (types.int32, ir.IntType(32)), "d": (types.float64, _DOUBLE)}
 
 
-def _data(context, builder, array_type, value):
-    return context.make_array(array_type)(context, builder, value).data
+def _codegen(returns: str, arguments: str):
+    """Code generation for ``call(address, handle, *args)``: the C function at ``address`` called
+    as ``f(void *handle, *args)``; ``arguments`` spells each argument: ``p`` an array passed as a
+    pointer to its data, ``d`` a double. ``returns``: ``i`` (int) or ``d`` (double)."""
+    llvm_return = _RETURNS[returns][1]
+    llvm_arguments = [_VOID_P] + [_DOUBLE if kind == "d" else _DOUBLE.as_pointer() for kind in arguments]
+
+    def codegen(context, builder, sig, values):
+        function = builder.inttoptr(values[0], ir.FunctionType(llvm_return, llvm_arguments).as_pointer())
+        passed = [builder.inttoptr(values[1], _VOID_P)]
+        for kind, array_type, value in zip(arguments, sig.args[2:], values[2:]):
+            passed.append(
+                value if kind == "d" else context.make_array(array_type)(context, builder, value).data
+            )
+        return builder.call(function, passed)
+
+    return codegen
 
 
 @intrinsic
 def call_tree_dynamics(typingctx, address, handle, q, v, tau, mass, rotational, ddq):
-    """``dpn_dynamics(handle, q, v, tau, mass, rotational, ddq)`` at ``address``; returns its
-    status (0: ok)."""
+    """``dpn_dynamics(handle, q, v, tau, mass, rotational, ddq)``: 0 where it succeeds."""
     signature = types.int32(address, handle, q, v, tau, mass, rotational, ddq)
+    return signature, _codegen("i", "pppdpp")
 
-    def codegen(context, builder, sig, args):
-        function_type = ir.FunctionType(
-            ir.IntType(32), [_VOID_P, _DOUBLE_P, _DOUBLE_P, _DOUBLE_P, _DOUBLE, _DOUBLE_P, _DOUBLE_P]
-        )
-        function = builder.inttoptr(args[0], function_type.as_pointer())
-        arguments = [builder.inttoptr(args[1], _VOID_P)]
-        for index in (2, 3, 4):
-            arguments.append(_data(context, builder, sig.args[index], args[index]))
-        arguments.append(args[5])
-        for index in (6, 7):
-            arguments.append(_data(context, builder, sig.args[index], args[index]))
-        return builder.call(function, arguments)
 
-    return signature, codegen
+@intrinsic
+def call_active_dynamics(
+    typingctx, address, handle, alpha, alpha_dot, torque, mass, rotational, out, xyz, gap
+):
+    """``dpn_active_dynamics(handle, alpha, alpha_dot, torque, mass, rotational, alpha_ddot, xyz,
+    gap)``: 0 where it succeeds, 2 where the loops do not close."""
+    signature = types.int32(address, handle, alpha, alpha_dot, torque, mass, rotational, out, xyz, gap)
+    return signature, _codegen("i", "pppdpppp")
 
 
 @intrinsic
 def call_closure_gap(typingctx, address, handle, q):
-    """``dpn_closure_gap(handle, q)`` at ``address``: the largest closure gap [m]."""
-    signature = types.float64(address, handle, q)
-
-    def codegen(context, builder, sig, args):
-        function_type = ir.FunctionType(_DOUBLE, [_VOID_P, _DOUBLE_P])
-        function = builder.inttoptr(args[0], function_type.as_pointer())
-        handle = builder.inttoptr(args[1], _VOID_P)
-        return builder.call(function, [handle, _data(context, builder, sig.args[2], args[2])])
-
-    return signature, codegen
+    """``dpn_closure_gap(handle, q)``: the largest closure gap [m]."""
+    return types.float64(address, handle, q), _codegen("d", "p")

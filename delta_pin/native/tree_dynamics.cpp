@@ -11,8 +11,15 @@
 //
 // Only 1-DOF joints along the frame axes (RX, RY, RZ, PX, PY, PZ) are accepted: delta-pin's
 // models are made of those (nq == nv).
+//
+// `dpn_active_dynamics` is the same plant in active coordinates (PinocchioPlant with
+// coordinates="active"): q(alpha) completed by Newton on the passive coordinates from a
+// first-order predictor off the previous completion, v = S alpha_dot with S = dq/dalpha from the
+// closure Jacobian, then alpha_ddot from constraintDynamics -- the loops closed to the tolerance at
+// every evaluation, for implicit integrators on the small state [alpha, alpha_dot].
 
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
+#include <pinocchio/algorithm/jacobian.hpp>
 #include <pinocchio/algorithm/kinematics.hpp>
 #include <pinocchio/multibody.hpp>
 
@@ -41,6 +48,14 @@ namespace
     Eigen::VectorXd q, v, tau;
     JointIndex platform_joint = 0;
     double platform_mass = 0.0;
+    // active coordinates (dpn_set_active): indices, completion state and scratch
+    std::vector<int> active, passive, platform;
+    double tolerance = 1e-13;
+    int max_iterations = 30;
+    Eigen::VectorXd last_q;
+    Eigen::MatrixXd last_S, jacobian, joint_jacobian, passive_jacobian, active_jacobian, passive_rates;
+    Eigen::VectorXd residual, correction;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu;
   };
 
   // A placement from 12 numbers: the rotation row by row, then the translation.
@@ -67,6 +82,79 @@ namespace
       return JointModelPZ();
     }
     throw std::invalid_argument("joint type code " + std::to_string(type) + " is not in 0..5");
+  }
+
+  Eigen::Matrix3d skew(const Eigen::Vector3d & a)
+  {
+    Eigen::Matrix3d m;
+    m << 0.0, -a[2], a[1], a[2], 0.0, -a[0], -a[1], a[0], 0.0;
+    return m;
+  }
+
+  // Stacked world-frame closure gaps p_anchor1 - p_anchor2 at tree->q into tree->residual, and
+  // with `with_jacobian` their Jacobian d(gap)/dq (3 n_closures x nv) into tree->jacobian.
+  void closure_residual(Tree * tree, bool with_jacobian)
+  {
+    Model & model = tree->model;
+    Data & data = tree->data;
+    if (with_jacobian)
+    {
+      computeJointJacobians(model, data, tree->q);
+      tree->jacobian.setZero();
+    }
+    else
+      forwardKinematics(model, data, tree->q);
+    for (size_t c = 0; c < tree->constraint_models.size(); ++c)
+    {
+      const RigidConstraintModel & constraint = tree->constraint_models[c];
+      const JointIndex joints[2] = {constraint.joint1_id, constraint.joint2_id};
+      const SE3 * anchors[2] = {&constraint.joint1_placement, &constraint.joint2_placement};
+      for (int side = 0; side < 2; ++side)
+      {
+        const SE3 & oMi = data.oMi[joints[side]];
+        const Eigen::Vector3d point = oMi.act(anchors[side]->translation());
+        const double sign = side == 0 ? 1.0 : -1.0;
+        tree->residual.segment<3>(3 * (Eigen::Index)c) += sign * point;
+        if (with_jacobian && joints[side] > 0)
+        {
+          tree->joint_jacobian.setZero();
+          getJointJacobian(model, data, joints[side], LOCAL_WORLD_ALIGNED, tree->joint_jacobian);
+          // velocity of a point of the joint's body: v_o + omega x (p - o)
+          tree->jacobian.middleRows<3>(3 * (Eigen::Index)c) +=
+            sign
+            * (tree->joint_jacobian.topRows<3>()
+               - skew(point - oMi.translation()) * tree->joint_jacobian.bottomRows<3>());
+        }
+      }
+    }
+  }
+
+  // ddq of the tree at (tree->q, tree->v) under tree->tau, the platform inertia set for `mass`
+  // first (as PinocchioPlant._set_platform_mass: only when the mass changes).
+  const Eigen::VectorXd & solve_tree(Tree * tree, double mass, const double * rotational)
+  {
+    if (mass != tree->platform_mass)
+    {
+      Inertia & inertia = tree->model.inertias[tree->platform_joint];
+      inertia = Inertia(
+        mass, inertia.lever(), Symmetric3(Eigen::Matrix3d(Eigen::Map<const RowMatrix3>(rotational))));
+      tree->platform_mass = mass;
+    }
+    return constraintDynamics(
+      tree->model, tree->data, tree->q, tree->v, tree->tau, tree->constraint_models,
+      tree->constraint_datas, tree->settings);
+  }
+
+  double largest(const Eigen::VectorXd & values)
+  {
+    double result = 0.0;
+    for (Eigen::Index i = 0; i < values.size(); ++i)
+    {
+      if (std::isnan(values[i]))
+        return std::nan("");
+      result = std::max(result, std::abs(values[i]));
+    }
+    return result;
   }
 
   void report(const std::exception & error, char * message, int size)
@@ -168,20 +256,113 @@ int dpn_dynamics(
   const Eigen::Index n = tree->model.nv;
   try
   {
-    if (mass != tree->platform_mass)
-    {
-      Inertia & inertia = tree->model.inertias[tree->platform_joint];
-      inertia = Inertia(
-        mass, inertia.lever(), Symmetric3(Eigen::Matrix3d(Eigen::Map<const RowMatrix3>(rotational))));
-      tree->platform_mass = mass;
-    }
     tree->q = Eigen::Map<const Eigen::VectorXd>(q, n);
     tree->v = Eigen::Map<const Eigen::VectorXd>(v, n);
     tree->tau = Eigen::Map<const Eigen::VectorXd>(tau, n);
-    const Eigen::VectorXd & a = constraintDynamics(
-      tree->model, tree->data, tree->q, tree->v, tree->tau, tree->constraint_models,
-      tree->constraint_datas, tree->settings);
-    Eigen::Map<Eigen::VectorXd>(ddq, n) = a;
+    Eigen::Map<Eigen::VectorXd>(ddq, n) = solve_tree(tree, mass, rotational);
+    return 0;
+  }
+  catch (const std::exception &)
+  {
+    return 1;
+  }
+}
+
+// Active coordinates: the indices of alpha in q (3), of the platform slides (3), the completion
+// tolerance [m] and iteration limit; then start the completions from the closed configuration q0.
+// Returns 0, or 1 where q0 does not close the loops to the tolerance.
+int dpn_set_active(
+  void * handle, const int * active, const int * platform, double tolerance, int max_iterations,
+  const double * q0)
+{
+  Tree * tree = static_cast<Tree *>(handle);
+  const int nv = tree->model.nv;
+  tree->active.assign(active, active + 3);
+  tree->platform.assign(platform, platform + 3);
+  tree->passive.clear();
+  for (int i = 0; i < nv; ++i)
+    if (std::find(tree->active.begin(), tree->active.end(), i) == tree->active.end())
+      tree->passive.push_back(i);
+  tree->tolerance = tolerance;
+  tree->max_iterations = max_iterations;
+  const Eigen::Index rows = 3 * (Eigen::Index)tree->constraint_models.size();
+  tree->residual.resize(rows);
+  tree->jacobian.resize(rows, nv);
+  tree->joint_jacobian.resize(6, nv);
+  tree->passive_jacobian.resize(rows, (Eigen::Index)tree->passive.size());
+  tree->active_jacobian.resize(rows, 3);
+  tree->passive_rates.resize((Eigen::Index)tree->passive.size(), 3);
+  tree->correction.resize((Eigen::Index)tree->passive.size());
+  tree->lu = Eigen::PartialPivLU<Eigen::MatrixXd>((Eigen::Index)tree->passive.size());
+  tree->last_q = Eigen::Map<const Eigen::VectorXd>(q0, nv);
+  tree->last_S = Eigen::MatrixXd::Zero(nv, 3);  // no predictor for the first completion
+  return 0;
+}
+
+// alpha_ddot (3) of the plant in active coordinates at (alpha, alpha_dot) under net active-joint
+// torques `torque` (3: tau - F - M_f), platform mass and rotational inertia as dpn_dynamics; the
+// platform position xyz (3) [m] and the closure gap [m] of the completed configuration go to
+// `xyz` and `gap`. Returns 0; 2 where the loops do not close (Newton fails); 1 where Pinocchio
+// throws.
+int dpn_active_dynamics(
+  void * handle, const double * alpha, const double * alpha_dot, const double * torque, double mass,
+  const double * rotational, double * alpha_ddot, double * xyz, double * gap)
+{
+  Tree * tree = static_cast<Tree *>(handle);
+  const Eigen::Index passive = (Eigen::Index)tree->passive.size();
+  try
+  {
+    // predictor: q = q_last + S_last (alpha - alpha_last)
+    Eigen::Vector3d step;
+    for (int i = 0; i < 3; ++i)
+      step[i] = alpha[i] - tree->last_q[tree->active[i]];
+    tree->q.noalias() = tree->last_q + tree->last_S * step;
+    for (int i = 0; i < 3; ++i)
+      tree->q[tree->active[i]] = alpha[i];
+    // Newton on the passive coordinates (DeltaPinocchioModel.configuration)
+    bool closed = false;
+    for (int iteration = 0; iteration <= tree->max_iterations; ++iteration)
+    {
+      tree->residual.setZero();
+      closure_residual(tree, true);
+      for (Eigen::Index j = 0; j < passive; ++j)
+        tree->passive_jacobian.col(j) = tree->jacobian.col(tree->passive[(size_t)j]);
+      *gap = largest(tree->residual);
+      if (*gap <= tree->tolerance)
+      {
+        closed = true;
+        break;
+      }
+      if (iteration == tree->max_iterations || std::isnan(*gap))
+        break;
+      tree->lu.compute(tree->passive_jacobian);
+      tree->correction = tree->lu.solve(tree->residual);
+      for (Eigen::Index j = 0; j < passive; ++j)
+        tree->q[tree->passive[(size_t)j]] -= tree->correction[j];
+    }
+    if (!closed)
+      return 2;
+    // S = dq/dalpha at the closed configuration: [I; -J_p^-1 J_a] (DeltaPinocchioModel.velocity_map)
+    for (int i = 0; i < 3; ++i)
+      tree->active_jacobian.col(i) = tree->jacobian.col(tree->active[i]);
+    tree->lu.compute(tree->passive_jacobian);
+    tree->passive_rates = tree->lu.solve(tree->active_jacobian);
+    tree->last_S.setZero();
+    for (int i = 0; i < 3; ++i)
+      tree->last_S(tree->active[i], i) = 1.0;
+    for (Eigen::Index j = 0; j < passive; ++j)
+      tree->last_S.row(tree->passive[(size_t)j]) = -tree->passive_rates.row(j);
+    tree->last_q = tree->q;
+    tree->v.noalias() = tree->last_S * Eigen::Map<const Eigen::Vector3d>(alpha_dot);
+    tree->tau.setZero();
+    for (int i = 0; i < 3; ++i)
+      tree->tau[tree->active[i]] = torque[i];
+    const Eigen::VectorXd & ddq = solve_tree(tree, mass, rotational);
+    for (int i = 0; i < 3; ++i)
+    {
+      alpha_ddot[i] = ddq[tree->active[i]];
+      xyz[i] = tree->q[tree->platform[i]];
+    }
     return 0;
   }
   catch (const std::exception &)
