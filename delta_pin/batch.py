@@ -1,5 +1,5 @@
-"""Batched runs of designs I and II, compiled: on the analytic plant in continuous mode (BDF2) and
-sampled mode (zero-order hold, RK4); on the Pinocchio plant in sampled mode.
+"""Batched runs of designs I and II, compiled, on either plant: continuous mode (BDF2) and sampled
+mode (zero-order hold, RK4).
 
 :func:`simulate_batch` advances many runs that share the robot, the path and the timing but differ
 in gains, uncertainty or initial state through one compiled call
@@ -11,7 +11,9 @@ sampled RK4 (same stages, same truth and reference rows): runs agree with ``simu
 rounding (tests/test_batch.py: <= 1e-12 relative). On the Pinocchio plant (full coordinates) the
 sampled loop of :mod:`delta_pin.fast_tree_loop` calls Pinocchio's C++ through
 :mod:`delta_pin.native` and gives the arrays of ``simulate``'s sampled Pinocchio run
-(tests/test_fast_tree_loop.py); it needs the native library.
+(tests/test_fast_tree_loop.py). In continuous mode on the Pinocchio plant, BDF2 integrates the
+active coordinates and Pinocchio completes q(alpha) at every evaluation (see
+:mod:`delta_pin.fast_closed_loop`). The Pinocchio plant needs the native library.
 
 Example:
     >>> robot = load_delta()
@@ -145,9 +147,9 @@ def simulate_batch(
             raise InvalidParameterError(
                 f"controllers[{index}] ({getattr(controller, 'name', controller)!r}) on plant "
                 f"{getattr(plant, 'name', plant)!r} in {mode} mode: the compiled loops run designs "
-                "I/II with their compiled step on the analytic plant, or in sampled mode on the "
-                "Pinocchio plant (full coordinates, native library); use integrator='lsoda' or "
-                "simulate(..., compiled=False)"
+                "I/II with their compiled step on the analytic plant, or on the Pinocchio plant "
+                "with the native library (in sampled mode in full coordinates); use "
+                "integrator='lsoda' or simulate(..., compiled=False)"
             )
     if len({c.vector_rho for c in controllers}) > 1:
         raise InvalidParameterError("all controllers of a batch must have the same vector_rho")

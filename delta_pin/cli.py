@@ -200,8 +200,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 _INTEGRATOR_HELP = (
-    "auto: RK4 sampled, LSODA continuous; bdf2: compiled implicit BDF2 (designs I/II, analytic "
-    "plant, continuous; sweeps batch it)"
+    "auto: RK4 sampled, LSODA continuous; bdf2: compiled implicit BDF2 (designs I/II, continuous, "
+    "either plant (Pinocchio: native library); sweeps batch it)"
 )
 
 

@@ -50,7 +50,7 @@ class RunSpec:
         plant: ``"pinocchio"`` or ``"analytic"``.
         mode: ``"continuous"`` or ``"sampled"``.
         integrator: ``"auto"`` (RK4 sampled, LSODA continuous), ``"rk4"``, ``"lsoda"`` or
-            ``"bdf2"`` (compiled, designs I/II on the analytic plant; batched by sweeps).
+            ``"bdf2"`` (compiled, designs I/II, continuous, on either plant; batched by sweeps).
         t_end: duration [s]; ``None`` for the path's default (15 s, 10 s, 3 s).
         dt: sample / control period [s].
         friction_compensation: include M̄_f in the controller.
@@ -189,16 +189,20 @@ def run_spec(
 
 def batch_group(spec: RunSpec) -> tuple | None:
     """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
-    when ``spec`` cannot be batched: designs I/II on the analytic plant, in continuous mode with
-    ``integrator="bdf2"`` or in sampled mode (RK4)."""
+    when ``spec`` cannot be batched: designs I/II in continuous mode with ``integrator="bdf2"`` or
+    in sampled mode (RK4), on the analytic plant or, where the native library of
+    :mod:`delta_pin.native` is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
-    if not (
-        spec.plant == "analytic" and spec.controller in ("design1", "design2") and (continuous or sampled)
-    ):
+    if not (spec.controller in ("design1", "design2") and (continuous or sampled)):
         return None
+    if spec.plant == "pinocchio":
+        from . import native
+
+        if native.load() is None:
+            return None
     vector_rho = bool(spec.gains.get("vector_rho"))
-    return (spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
+    return (spec.plant, spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
 
 
 def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
@@ -214,8 +218,8 @@ def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
     groups = {batch_group(spec) for spec in specs}
     if None in groups or len(groups) != 1:
         raise InvalidParameterError(
-            "run_batch needs specs of one batch group (designs I/II on the analytic plant, continuous "
-            "with bdf2 or sampled; same path, duration, dt, alpha0, friction); got groups "
+            "run_batch needs specs of one batch group (designs I/II, continuous with bdf2 or sampled; "
+            "same plant, path, duration, dt, alpha0, friction); got groups "
             f"{sorted(map(str, groups))}"
         )
     robot = robot or load_delta()
@@ -225,6 +229,7 @@ def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
         robot,
         [build_controller(spec, robot, trajectory) for spec in specs],
         trajectory,
+        plant=first.plant,
         t_end=first.duration,
         dt=first.dt,
         mode=first.mode,
