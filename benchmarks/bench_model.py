@@ -3,7 +3,8 @@
 Run: ``python benchmarks/bench_model.py [--repeats 5] [--calls 2000]``
 
 References measured in the same run: the readable numpy model (delta_pin.dynamics, the test
-oracle), the same kernel as plain scalar Python (numba's ``py_func``), the numba-compiled kernel,
+oracle), the same kernel as plain scalar Python (a child process with ``NUMBA_DISABLE_JIT=1``, so
+that every helper it calls is Python too), the numba-compiled kernel,
 the numpy model on a batch of 10 000 states (per state), and Pinocchio's projected reduced
 dynamics (closure solve, projection).
 """
@@ -11,32 +12,35 @@ dynamics (closure solve, projection).
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.dynamics import analytic_dynamics
-from delta_pin.fast_model import (
-    chain_trigonometry,
-    delta_dynamics,
-    delta_kinematics,
-    delta_terms,
-    pack_geometry,
-)
+from delta_pin.fast_model import chain_trigonometry, delta_terms, pack_geometry
+
+SCALAR_FLAG = "--scalar-python-only"  # the child process that times the kernel as plain Python
 
 
-def _scalar_python_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
-    """delta_terms with its two parts run as plain Python (``py_func``; their 3-vector helpers
-    stay compiled)."""
-    ok, xyz, J, J_dot = delta_kinematics.py_func(geometry, cos_phi, sin_phi, alpha, alpha_dot)
-    return ok, xyz, J, J_dot, *delta_dynamics.py_func(geometry, m_eq, alpha, J, J_dot)
+def _scalar_python_times(calls: int, repeats: int) -> list[float]:
+    """Per-call times of ``delta_terms`` as plain Python: this script again, with numba off."""
+    command = [sys.executable, __file__, SCALAR_FLAG, "--calls", str(calls), "--repeats", str(repeats)]
+    done = subprocess.run(
+        command, capture_output=True, text=True, check=True, env={**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    )
+    return json.loads(done.stdout.splitlines()[-1])
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--calls", type=int, default=2000)
+    parser.add_argument(SCALAR_FLAG, action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     robot = dp.load_delta()
     params = robot.params
@@ -46,18 +50,17 @@ def main() -> None:
     batch = 10_000
     alphas, alpha_dots = np.tile(alpha, (batch, 1)), np.tile(alpha_dot, (batch, 1))
     n, r = args.calls, args.repeats
+    if args.scalar_python_only:  # the child of _scalar_python_times: numba is off here
+        terms = lambda: delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot)  # noqa: E731
+        print(json.dumps(per_call(terms, n, r)))
+        return
     timings = [
         Timing(
             "numba kernel (fast_model.delta_terms)",
             per_call(lambda: delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot), n, r),
         ),
         Timing(
-            "same kernel as scalar Python (py_func)",
-            per_call(
-                lambda: _scalar_python_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot),
-                max(n // 10, 10),
-                r,
-            ),
+            "same kernel as scalar Python (NUMBA_DISABLE_JIT=1)", _scalar_python_times(max(n // 10, 10), r)
         ),
         Timing(
             "readable numpy model, one state",
