@@ -207,7 +207,7 @@ def simulate_batch(
             packed_controllers,
             cos_phi,
             sin_phi,
-            truths,
+            truths.shape[1],
             reference,
             initial,
             dt,
@@ -309,10 +309,11 @@ def simulate_batch(
 
 
 def _tree_runs(
-    controllers, plants, packed_controllers, cos_phi, sin_phi, truths, reference, initial, dt, substeps, steps
+    controllers, plants, packed_controllers, cos_phi, sin_phi, rows, reference, initial, dt, substeps, steps
 ):
     """Sampled runs on Pinocchio plants, one compiled loop each
-    (:func:`~delta_pin.fast_tree_loop.tree_sampled_loop`). Where the loop stops for a projection,
+    (:func:`~delta_pin.fast_tree_loop.tree_sampled_loop`), each plant's truth tabulated on ``rows``
+    half steps as ``simulate`` does. Where the loop stops for a projection,
     the plant's own :meth:`~delta_pin.plant.PinocchioPlant.finish_step_residual` projects the state
     and the loop resumes; where it stops on a failure, the failing step is re-evaluated by the
     Python code that ``simulate`` runs, so that the error is the one ``simulate`` raises.
@@ -337,7 +338,7 @@ def _tree_runs(
         model = plant._source
         tree = plant.native_tree()
         handles = np.array([tree.address_dynamics, tree.address_gap, tree.handle], dtype=np.int64)
-        plant.precompute_truth(h / 2.0, truths.shape[1])  # the tables simulate() reads
+        plant.precompute_truth(h / 2.0, rows)  # the tables simulate() reads
         masses, normals, disturbances = (np.ascontiguousarray(column, dtype=float) for column in plant._table)
         truth = (masses, np.ascontiguousarray(plant._rotational_table), normals, disturbances)
         limits[1:] = plant.projection_tolerance, plant.failure_tolerance
