@@ -207,7 +207,7 @@ def simulate_batch(
             packed_controllers,
             cos_phi,
             sin_phi,
-            truths.shape[1],
+            truths,
             reference,
             initial,
             dt,
@@ -309,11 +309,12 @@ def simulate_batch(
 
 
 def _tree_runs(
-    controllers, plants, packed_controllers, cos_phi, sin_phi, rows, reference, initial, dt, substeps, steps
+    controllers, plants, packed_controllers, cos_phi, sin_phi, truths, reference, initial, dt, substeps, steps
 ):
     """Sampled runs on Pinocchio plants, one compiled loop each
-    (:func:`~delta_pin.fast_tree_loop.tree_sampled_loop`), each plant's truth tabulated on ``rows``
-    half steps as ``simulate`` does. Where the loop stops for a projection,
+    (:func:`~delta_pin.fast_tree_loop.tree_sampled_loop`), each reading its truth table ``truths[b]``
+    (the half-step grid, as :meth:`~delta_pin.plant.Plant.precompute_truth` tabulates it for
+    ``simulate``) and the platform inertia at each of its masses. Where the loop stops for a projection,
     the plant's own :meth:`~delta_pin.plant.PinocchioPlant.finish_step_residual` projects the state
     and the loop resumes; where it stops on a failure, the failing step is re-evaluated by the
     Python code that ``simulate`` runs, so that the error is the one ``simulate`` raises.
@@ -332,15 +333,17 @@ def _tree_runs(
     gaps = np.full((count, steps + 1), np.nan)
     counters = np.zeros((count, 2), dtype=np.int64)
     failures: list = [None] * count
-    h = dt / substeps
     limits = np.array([MAX_JOINT_SPEED, 0.0, 0.0])
     for b, (controller, plant) in enumerate(zip(controllers, plants)):
         model = plant._source
+        active, platform = model.active_indices.astype(np.int64), model.platform_indices.astype(np.int64)
         tree = plant.native_tree()
         handles = np.array([tree.address_dynamics, tree.address_gap, tree.handle], dtype=np.int64)
-        plant.precompute_truth(h / 2.0, rows)  # the tables simulate() reads
-        masses, normals, disturbances = (np.ascontiguousarray(column, dtype=float) for column in plant._table)
-        truth = (masses, np.ascontiguousarray(plant._rotational_table), normals, disturbances)
+        table = truths[b]
+        masses, normals, disturbances = (
+            np.ascontiguousarray(table[:, c]) for c in (0, slice(1, 4), slice(4, 7))
+        )
+        truth = (masses, plant._rotational_inertia(masses[:, None, None]), normals, disturbances)
         limits[1:] = plant.projection_tolerance, plant.failure_tolerance
         x0 = plant.initial_state(initial[b][:3], initial[b][3:6])
         state = np.concatenate([[0.0, 0.0, 0.0], x0, initial[b][6:], np.zeros(3 + nr)])
@@ -348,10 +351,9 @@ def _tree_runs(
         packed_plant = _packed_plant(plant, packed_controllers[b : b + 1])
         while True:
             status, when = tree_sampled_loop(
-                packed_controllers[b], cos_phi, sin_phi, packed_plant, handles,
-                model.active_indices.astype(np.int64), model.platform_indices.astype(np.int64),
-                truth, plant._friction_vector, reference, dt, substeps, steps, limits,
-                state, samples[b], info[b], gaps[b], counters[b],
+                packed_controllers[b], cos_phi, sin_phi, packed_plant, handles, active, platform, truth,
+                plant._friction_vector, reference, dt, substeps, steps, limits, state,
+                samples[b], info[b], gaps[b], counters[b],
             )  # fmt: skip
             x, rho = state[3 : 3 + nx], state[3 + nx : 3 + nx + nr]
             if status == PROJECT:  # project with the plant's routine, then resume
@@ -378,8 +380,7 @@ def _tree_failure(status: int, when: float, loop, x: np.ndarray, rho: np.ndarray
 
     try:
         if status == NO_FK:
-            row = reference_row
-            loop.control(when, x, Reference(row[0:3], row[3:6], row[6:9]), rho)
+            loop.control(when, x, Reference(reference_row[0:3], reference_row[3:6], reference_row[6:9]), rho)
         elif status == DIVERGED:
             loop.check_state(when, x, rho)
         elif status == EXPLODED:

@@ -357,10 +357,11 @@ def simulate(
         raise InvalidParameterError(
             f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda' or 'bdf2'"
         )
-    if mode == "sampled" and compiled is not False:
+    if integrator == "bdf2" or (mode == "sampled" and compiled is not False):
         from .batch import batchable, simulate_batch
 
-        if compiled or batchable(controller, plant, mode):
+        # bdf2 and compiled=True always go there: simulate_batch names what it cannot run
+        if integrator == "bdf2" or compiled or batchable(controller, plant, mode):
             return simulate_batch(
                 robot,
                 [controller],
@@ -369,28 +370,12 @@ def simulate(
                 t_end=t_end,
                 dt=dt,
                 substeps=substeps,
-                mode="sampled",
+                mode=mode,
                 alpha0=alpha0,
                 alpha_dot0=alpha_dot0,
                 friction=friction,
                 uncertainties=[uncertainty],
             )[0]
-    if integrator == "bdf2":
-        from .batch import simulate_batch
-
-        return simulate_batch(
-            robot,
-            [controller],
-            trajectory,
-            plant=plant,
-            t_end=t_end,
-            dt=dt,
-            substeps=substeps,
-            alpha0=alpha0,
-            alpha_dot0=alpha_dot0,
-            friction=friction,
-            uncertainties=[uncertainty],
-        )[0]
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)
     plant = make_plant(

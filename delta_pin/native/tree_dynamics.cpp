@@ -97,6 +97,7 @@ namespace
   {
     Model & model = tree->model;
     Data & data = tree->data;
+    tree->residual.setZero();
     if (with_jacobian)
     {
       computeJointJacobians(model, data, tree->q);
@@ -223,6 +224,7 @@ void * dpn_create(
     tree->q = Eigen::VectorXd::Zero(model.nq);
     tree->v = Eigen::VectorXd::Zero(model.nv);
     tree->tau = Eigen::VectorXd::Zero(model.nv);
+    tree->residual = Eigen::VectorXd::Zero(3 * closures);
     tree->platform_joint = (JointIndex)platform_joint;
     tree->platform_mass = model.inertias[tree->platform_joint].mass();
     return tree;
@@ -285,8 +287,7 @@ int dpn_set_active(
       tree->passive.push_back(i);
   tree->tolerance = tolerance;
   tree->max_iterations = max_iterations;
-  const Eigen::Index rows = 3 * (Eigen::Index)tree->constraint_models.size();
-  tree->residual.resize(rows);
+  const Eigen::Index rows = tree->residual.size();
   tree->jacobian.resize(rows, nv);
   tree->joint_jacobian.resize(6, nv);
   tree->passive_jacobian.resize(rows, (Eigen::Index)tree->passive.size());
@@ -323,7 +324,6 @@ int dpn_active_dynamics(
     bool closed = false;
     for (int iteration = 0; iteration <= tree->max_iterations; ++iteration)
     {
-      tree->residual.setZero();
       closure_residual(tree, true);
       for (Eigen::Index j = 0; j < passive; ++j)
         tree->passive_jacobian.col(j) = tree->jacobian.col(tree->passive[(size_t)j]);
@@ -376,21 +376,8 @@ double dpn_closure_gap(void * handle, const double * q)
 {
   Tree * tree = static_cast<Tree *>(handle);
   tree->q = Eigen::Map<const Eigen::VectorXd>(q, tree->model.nv);
-  forwardKinematics(tree->model, tree->data, tree->q);
-  double gap = 0.0;
-  for (const RigidConstraintModel & constraint : tree->constraint_models)
-  {
-    const Eigen::Vector3d difference =
-      (tree->data.oMi[constraint.joint1_id] * constraint.joint1_placement).translation()
-      - (tree->data.oMi[constraint.joint2_id] * constraint.joint2_placement).translation();
-    for (int i = 0; i < 3; ++i)
-    {
-      if (std::isnan(difference[i]))
-        return std::nan("");
-      gap = std::max(gap, std::abs(difference[i]));
-    }
-  }
-  return gap;
+  closure_residual(tree, false);
+  return largest(tree->residual);
 }
 
 } // extern "C"
