@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import delta_pin as dp
-from delta_pin.simulate import simulate
+from delta_pin.sim.runner import simulate
 from delta_pin.viz.meshcat_export import export_html
 
 SETTINGS = {

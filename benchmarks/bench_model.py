@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/bench_model.py [--repeats 5] [--calls 2000]``
 
-References measured in the same run: the readable numpy model (delta_pin.dynamics, the test
+References measured in the same run: the readable numpy model (delta_pin.model.dynamics, the test
 oracle), the same kernel as plain scalar Python (a child process with ``NUMBA_DISABLE_JIT=1``, so
 that every helper it calls is Python too), the numba-compiled kernel,
 the numpy model on a batch of 10 000 states (per state), and Pinocchio's projected reduced
@@ -21,8 +21,9 @@ import numpy as np
 from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
-from delta_pin.dynamics import analytic_dynamics
-from delta_pin.fast_model import chain_trigonometry, delta_terms, pack_geometry
+from delta_pin.compiled.delta_kernels import delta_terms
+from delta_pin.model.dynamics import analytic_dynamics, kernel_geometry
+from delta_pin.model.kinematics import chain_trigonometry
 
 SCALAR_FLAG = "--scalar-python-only"  # the child process that times the kernel as plain Python
 
@@ -45,7 +46,7 @@ def main() -> None:
     robot = dp.load_delta()
     params = robot.params
     alpha, alpha_dot = np.array([0.3, 0.2, 0.4]), np.array([0.1, 0.2, -0.3])
-    geometry, (cos_phi, sin_phi) = pack_geometry(params), chain_trigonometry()
+    geometry, (cos_phi, sin_phi) = kernel_geometry(params), chain_trigonometry()
     m_eq = params.platform_equivalent_mass
     batch = 10_000
     alphas, alpha_dots = np.tile(alpha, (batch, 1)), np.tile(alpha_dot, (batch, 1))
@@ -56,7 +57,7 @@ def main() -> None:
         return
     timings = [
         Timing(
-            "numba kernel (fast_model.delta_terms)",
+            "numba kernel (compiled.delta_kernels.delta_terms)",
             per_call(lambda: delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot), n, r),
         ),
         Timing(

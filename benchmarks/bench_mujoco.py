@@ -38,7 +38,7 @@ except ImportError:  # pragma: no cover - depends on the environment
 import pinocchio as pin
 
 import delta_pin as dp
-from delta_pin.plant import PinocchioPlant
+from delta_pin.sim.plants import PinocchioPlant
 
 DT = 1e-3  # [s]
 ALPHA0 = 0.3322  # [rad] the paper's initial angle on every joint

@@ -6,11 +6,11 @@ Run: ``python benchmarks/bench_simulate.py [--repeats 3] [--t-end 15]``
 Scenario of the first table: path I from alpha_0 = 0.3322 rad, Stribeck friction and the paper's
 uncertainty (Delta_m = Delta_fc = Delta_f = 0.3), controller C1 + C2 (computed torque) with
 friction compensation. Sampled mode: RK4 at 1 kHz with zero-order hold; continuous mode: the
-integrator of ``delta_pin.simulate`` with the controller inside.
+integrator of ``delta_pin.sim.runner`` with the controller inside.
 
-Second table: design I on the Pinocchio plant as ``delta_pin.experiments.RunSpec`` runs it
+Second table: design I on the Pinocchio plant as ``delta_pin.studies.experiments.RunSpec`` runs it
 (Section V conditions), sampled at 1 kHz with the sampling-aware gain cap (target: 15 s in at most
-1 s, closure residual <= 1e-9 m; the compiled loop of ``delta_pin.fast_tree_loop``) and continuous
+1 s, closure residual <= 1e-9 m; the compiled loop of ``delta_pin.compiled.tree_loop``) and continuous
 with the paper's gains (target: 15 s in at most 1.3 s; compiled BDF2 in active coordinates,
 chosen on measurements: see README). Each target row has its reference in the same table: the
 Python loop (``compiled=False``) and LSODA, the default continuous integrator (timed once: ~20
@@ -27,8 +27,8 @@ import numpy as np
 from common import machine_info, measure, print_table, report_target
 
 import delta_pin as dp
-from delta_pin.experiments import RunSpec, run_spec
-from delta_pin.simulate import simulate
+from delta_pin.sim.runner import simulate
+from delta_pin.studies.experiments import RunSpec, run_spec
 
 WARMUP_T_END = 0.2  # [s]
 PAPER_T_END = 15.0  # [s] the duration the targets are stated for

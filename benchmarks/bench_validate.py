@@ -20,8 +20,8 @@ import numpy as np
 from common import Timing, machine_info, measure, print_table, report_target
 
 import delta_pin as dp
-from delta_pin.kinematics import forward_kinematics
-from delta_pin.validation import sample_states, validate
+from delta_pin.model.kinematics import forward_kinematics
+from delta_pin.model.validation import sample_states, validate
 
 TARGET = 2.0  # [s] delta-pin validate --samples 10000 (issue 7)
 

@@ -1,22 +1,23 @@
 """delta-pin: model-based control of Delta parallel robots, built on Pinocchio.
 
-The public names below are imported on first use (PEP 562), so that ``import delta_pin.X`` or a
-command such as ``delta-pin validate`` loads only the modules it needs (no SciPy, numba or
-controllers for a validation); ``delta_pin.Name`` and ``from delta_pin import Name`` work as usual.
+The public API is the table :data:`_PUBLIC` below: each name ``dp.X`` and the module that defines
+it. The table makes ``__all__`` and loads each module on first use (PEP 562), so that a command
+such as ``delta-pin validate`` imports only what it needs (no SciPy, numba or controllers for a
+validation). The layers behind it (``model``, ``control``, ``sim``, ``studies``, ``viz``; private
+``compiled``) are described in docs/architecture.md section 2.
 """
 
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING
 
-from .errors import (
+from delta_pin.errors import (
     AssemblyError,
     DeltaPinError,
     ForwardKinematicsError,
     InvalidParameterError,
+    NativeUnavailableError,
     NonFiniteError,
     SimulationError,
     UnreachablePoseError,
@@ -25,8 +26,7 @@ from .errors import (
 )
 
 if TYPE_CHECKING:
-    from .batch import simulate_batch
-    from .control import (
+    from delta_pin.control import (
         LQR,
         AdaptiveRobustController,
         AdaptiveRobustGains,
@@ -35,15 +35,15 @@ if TYPE_CHECKING:
         DeltaNominalModel,
         PDGravity,
         PinocchioNominalModel,
+        Reference,
         design1,
         design2,
     )
-    from .description import DeltaParameters, StribeckParameters, compile_urdf
-    from .dynamics import ReducedDynamics
-    from .plant import AnalyticPlant, Friction, PinocchioPlant, Plant
-    from .robot import Delta, load_delta
-    from .simulate import Run, load_run, simulate
-    from .trajectory import (
+    from delta_pin.model.description import DeltaParameters, StribeckParameters, compile_urdf
+    from delta_pin.model.dynamics import ReducedDynamics
+    from delta_pin.model.friction import Friction
+    from delta_pin.model.robot import Delta, load_delta
+    from delta_pin.model.trajectory import (
         AdeptCycle,
         JointReference,
         PathI,
@@ -52,7 +52,11 @@ if TYPE_CHECKING:
         Trajectory,
         check_workspace,
     )
-    from .uncertainty import (
+    from delta_pin.sim.batch import simulate_batch
+    from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant
+    from delta_pin.sim.run import Run, load_run
+    from delta_pin.sim.runner import simulate
+    from delta_pin.sim.uncertainty import (
         FunctionUncertainty,
         NoUncertainty,
         PaperUncertainty,
@@ -62,76 +66,13 @@ if TYPE_CHECKING:
 
 __version__ = "0.1.0"
 
-
-__all__ = [
-    "LQR",
-    "AdaptiveRobustController",
-    "AdaptiveRobustGains",
-    "AdeptCycle",
-    "AnalyticPlant",
-    "AssemblyError",
-    "ComputedTorque",
-    "Controller",
-    "Delta",
-    "DeltaNominalModel",
-    "DeltaParameters",
-    "DeltaPinError",
-    "ForwardKinematicsError",
-    "Friction",
-    "FunctionUncertainty",
-    "InvalidParameterError",
-    "JointReference",
-    "NoUncertainty",
-    "NonFiniteError",
-    "PDGravity",
-    "PaperUncertainty",
-    "PathI",
-    "PathII",
-    "PinocchioNominalModel",
-    "PinocchioPlant",
-    "Plant",
-    "RandomUncertainty",
-    "ReducedDynamics",
-    "Run",
-    "SimulationError",
-    "SplinePath",
-    "StribeckParameters",
-    "Trajectory",
-    "URDFConventionError",
-    "Uncertainty",
-    "UnreachablePoseError",
-    "XacroArgumentError",
-    "check_workspace",
-    "compile_urdf",
-    "design1",
-    "design2",
-    "load_delta",
-    "load_run",
-    "simulate",
-    "simulate_batch",
-]
-
-# submodule -> the public names it defines (the errors above are imported eagerly: they are tiny)
-_SUBMODULES = {
-    "control": (
-        "LQR",
-        "AdaptiveRobustController",
-        "AdaptiveRobustGains",
-        "ComputedTorque",
-        "Controller",
-        "DeltaNominalModel",
-        "PDGravity",
-        "PinocchioNominalModel",
-        "design1",
-        "design2",
-    ),
-    "batch": ("simulate_batch",),
-    "description": ("DeltaParameters", "StribeckParameters", "compile_urdf"),
-    "dynamics": ("ReducedDynamics",),
-    "plant": ("AnalyticPlant", "Friction", "PinocchioPlant", "Plant"),
-    "robot": ("Delta", "load_delta"),
-    "simulate": ("Run", "load_run", "simulate"),
-    "trajectory": (
+# module -> the public names it defines, loaded on first use
+_PUBLIC = {
+    "delta_pin.model.description": ("DeltaParameters", "StribeckParameters", "compile_urdf"),
+    "delta_pin.model.dynamics": ("ReducedDynamics",),
+    "delta_pin.model.friction": ("Friction",),
+    "delta_pin.model.robot": ("Delta", "load_delta"),
+    "delta_pin.model.trajectory": (
         "AdeptCycle",
         "JointReference",
         "PathI",
@@ -140,28 +81,54 @@ _SUBMODULES = {
         "Trajectory",
         "check_workspace",
     ),
-    "uncertainty": (
+    "delta_pin.control": (
+        "LQR",
+        "AdaptiveRobustController",
+        "AdaptiveRobustGains",
+        "ComputedTorque",
+        "Controller",
+        "DeltaNominalModel",
+        "PDGravity",
+        "PinocchioNominalModel",
+        "Reference",
+        "design1",
+        "design2",
+    ),
+    "delta_pin.sim.plants": ("AnalyticPlant", "PinocchioPlant", "Plant"),
+    "delta_pin.sim.uncertainty": (
         "FunctionUncertainty",
         "NoUncertainty",
         "PaperUncertainty",
         "RandomUncertainty",
         "Uncertainty",
     ),
+    "delta_pin.sim.run": ("Run", "load_run"),
+    "delta_pin.sim.runner": ("simulate",),
+    "delta_pin.sim.batch": ("simulate_batch",),
 }
-_LAZY = {name: module for module, names in _SUBMODULES.items() for name in names}
+_ERRORS = (
+    "AssemblyError",
+    "DeltaPinError",
+    "ForwardKinematicsError",
+    "InvalidParameterError",
+    "NativeUnavailableError",
+    "NonFiniteError",
+    "SimulationError",
+    "URDFConventionError",
+    "UnreachablePoseError",
+    "XacroArgumentError",
+)
+_LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
+_LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use
+__all__ = sorted([*_LAZY, *_ERRORS])
 
 
 def __getattr__(name: str):
     module = _LAZY.get(name)
     if module is not None:
-        value = getattr(importlib.import_module(f".{module}", __name__), name)
-    elif not name.startswith("_"):  # a submodule, e.g. delta_pin.kinematics
-        try:
-            value = importlib.import_module(f".{name}", __name__)
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{name}":
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+        value = getattr(importlib.import_module(module), name)
+    elif name in _LAYERS:
+        value = importlib.import_module(f"{__name__}.{name}")
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value
@@ -170,17 +137,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """Keeps ``delta_pin.simulate`` the function when its submodule ``delta_pin.simulate`` is
-    first imported (the import system binds a new submodule to the package attribute of the same
-    name; the eager imports used to rebind the function right after)."""
-
-    def __setattr__(self, name: str, value: object) -> None:
-        if name in _LAZY and isinstance(value, types.ModuleType):
-            return  # the public function of that name stays (loaded by __getattr__ when used)
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

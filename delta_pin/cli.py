@@ -10,8 +10,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .atomic import write_text_atomically
-from .errors import DeltaPinError, XacroArgumentError
+from delta_pin.errors import DeltaPinError, XacroArgumentError
+from delta_pin.utils.atomic import write_text_atomically
 
 __all__ = ["main"]
 
@@ -25,7 +25,7 @@ class _Choices(Sequence):
         self._module, self._name = module, name
 
     def _values(self) -> tuple:
-        return getattr(importlib.import_module(self._module, __package__), self._name)
+        return getattr(importlib.import_module(self._module), self._name)
 
     def __getitem__(self, index):
         return self._values()[index]
@@ -34,10 +34,10 @@ class _Choices(Sequence):
         return len(self._values())
 
 
-CONTROLLERS = _Choices(".experiments", "CONTROLLERS")
-PATHS = _Choices(".experiments", "PATHS")
-MODES = _Choices(".simulate", "MODES")
-INTEGRATOR_CHOICES = _Choices(".simulate", "INTEGRATOR_CHOICES")
+CONTROLLERS = _Choices("delta_pin.studies.experiments", "CONTROLLERS")
+PATHS = _Choices("delta_pin.studies.experiments", "PATHS")
+MODES = _Choices("delta_pin.sim.arguments", "MODES")
+INTEGRATOR_CHOICES = _Choices("delta_pin.sim.runner", "INTEGRATOR_CHOICES")
 
 
 def _add_choice_argument(parser: argparse.ArgumentParser, flag: str, choices: _Choices, **options) -> None:
@@ -72,13 +72,13 @@ def _add_robot_arguments(parser: argparse.ArgumentParser, allow_urdf: bool = Tru
 
 
 def _load_robot(args: argparse.Namespace):
-    from .robot import load_delta
+    from delta_pin.model.robot import load_delta
 
     return load_delta(getattr(args, "urdf", None), **_parse_settings(args.settings))
 
 
 def _cmd_urdf(args: argparse.Namespace) -> int:
-    from .description import compile_urdf
+    from delta_pin.model.description import compile_urdf
 
     text = compile_urdf(**_parse_settings(args.settings))
     if args.output is None:
@@ -90,7 +90,7 @@ def _cmd_urdf(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .validation import validate
+    from delta_pin.model.validation import validate
 
     report = validate(_load_robot(args), samples=args.samples, seed=args.seed, tol=args.tol)
     print(report.table())
@@ -98,8 +98,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .experiments import run_spec
-    from .metrics import compute_metrics
+    from delta_pin.studies.experiments import run_spec
+    from delta_pin.studies.metrics import compute_metrics
 
     spec = _spec_from_args(
         args,
@@ -131,14 +131,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
     print(f"wrote {out / 'run.npz'} and {out / 'summary.json'}")
     if args.html is not None:
-        from .viz.meshcat_export import export_html
+        from delta_pin.viz.meshcat_export import export_html
 
         print(f"wrote {export_html(run, args.html, robot)}")
     return 0
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from .reproduce import reproduce
+    from delta_pin.studies.reproduce import reproduce
 
     result = reproduce(args.out, quick=not args.full, **_executor_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
@@ -155,7 +155,7 @@ def _split(text: str) -> list[str]:
 
 def _spec_from_args(args: argparse.Namespace, **changes):
     """The RunSpec of the timing options every study command shares, plus ``changes``."""
-    from .experiments import RunSpec
+    from delta_pin.studies.experiments import RunSpec
 
     return RunSpec(
         plant=args.plant,
@@ -169,7 +169,7 @@ def _spec_from_args(args: argparse.Namespace, **changes):
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from .reproduce import _markdown_table, compare
+    from delta_pin.studies.reproduce import compare, markdown_table
 
     specs = [
         _spec_from_args(args, controller=c, path=p, friction_compensation=fc)
@@ -178,14 +178,14 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         for fc in ((True, False) if args.with_and_without_fc else (True,))
     ]
     metrics = compare(specs, args.out, **_executor_options(args))
-    print(_markdown_table(metrics))
+    print(markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
     return 0
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from .reproduce import sweep
-    from .sweep import parse_axes
+    from delta_pin.studies.reproduce import sweep
+    from delta_pin.studies.sweep import parse_axes
 
     base = _spec_from_args(args, controller=args.controller, path=args.path)
     rows = sweep(
@@ -220,7 +220,7 @@ def _executor_options(args: argparse.Namespace) -> dict:
     """Where the runs of a study execute, and on which robot (xacro arguments)."""
     robot_args = _parse_settings(args.settings)
     if robot_args:
-        from .description import compile_urdf
+        from delta_pin.model.description import compile_urdf
 
         compile_urdf(**robot_args)  # refuse a bad argument before any worker starts
     return {"workers": args.workers, "scheduler": args.scheduler, "robot_args": robot_args or None}
@@ -242,7 +242,7 @@ def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from .viz.meshcat_export import view_live
+    from delta_pin.viz.meshcat_export import view_live
 
     viewer = view_live(args.run, open_browser=args.open)
     print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop")

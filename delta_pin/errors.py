@@ -11,6 +11,7 @@ __all__ = [
     "DeltaPinError",
     "ForwardKinematicsError",
     "InvalidParameterError",
+    "NativeUnavailableError",
     "NonFiniteError",
     "SimulationError",
     "URDFConventionError",
@@ -36,7 +37,7 @@ class NonFiniteError(DeltaPinError, ValueError):
 
 
 class URDFConventionError(DeltaPinError):
-    """The URDF does not follow delta-pin's Delta convention (DESIGN.md section 3)."""
+    """The URDF does not follow delta-pin's Delta convention (docs/architecture.md section 3)."""
 
 
 class AssemblyError(DeltaPinError):
@@ -61,3 +62,8 @@ class SimulationError(DeltaPinError):
     def __init__(self, message: str, time: float) -> None:
         super().__init__(f"{message} (at t={time:.6g} s)")
         self.time = time
+
+
+class NativeUnavailableError(DeltaPinError, RuntimeError):
+    """The native library (Pinocchio's C++ behind delta-pin's C ABI) cannot be built or loaded
+    here: no C++ compiler, missing headers, or ``DELTA_PIN_NATIVE=0``."""

@@ -12,7 +12,7 @@ import argparse
 import numpy as np
 
 import delta_pin as dp
-from delta_pin.uncertainty import PAPER_NOMINAL_DISTURBANCE
+from delta_pin.sim.uncertainty import PAPER_NOMINAL_DISTURBANCE
 
 
 def main() -> None:

@@ -5,8 +5,8 @@ Run: ``python examples/compare_controllers.py [--t-end 3] [--out out/compare]``
 
 import argparse
 
-from delta_pin.experiments import RunSpec
-from delta_pin.reproduce import _markdown_table, compare
+from delta_pin.studies.experiments import RunSpec
+from delta_pin.studies.reproduce import compare, markdown_table
 
 
 def main() -> None:
@@ -19,7 +19,7 @@ def main() -> None:
         for p in ("I", "II")
         for c in ("design1", "design2", "lqr")
     ]
-    print(_markdown_table(compare(specs, args.out, workers=1)))
+    print(markdown_table(compare(specs, args.out, workers=1)))
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import argparse
 import numpy as np
 
 import delta_pin as dp
-from delta_pin.simulate import simulate
+from delta_pin.sim.runner import simulate
 from delta_pin.viz.meshcat_export import export_html
 
 

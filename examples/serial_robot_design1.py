@@ -8,7 +8,7 @@ import argparse
 import numpy as np
 
 import delta_pin as dp
-from delta_pin.serial import JointSinusoid, SerialPlant, load_example_robot
+from delta_pin.sim.serial import JointSinusoid, SerialPlant, load_example_robot
 
 
 def main() -> None:

@@ -8,8 +8,8 @@ import argparse
 
 import numpy as np
 
-from delta_pin.experiments import RunSpec
-from delta_pin.sweep import grid_specs, run_sweep
+from delta_pin.studies.experiments import RunSpec
+from delta_pin.studies.sweep import grid_specs, run_sweep
 
 
 def main() -> None:

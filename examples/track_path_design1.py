@@ -8,7 +8,7 @@ import argparse
 import numpy as np
 
 import delta_pin as dp
-from delta_pin.metrics import compute_metrics
+from delta_pin.studies.metrics import compute_metrics
 
 
 def main() -> None:

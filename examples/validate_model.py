@@ -6,7 +6,7 @@ Run: ``python examples/validate_model.py [--samples 200]``
 import argparse
 
 import delta_pin as dp
-from delta_pin.validation import validate
+from delta_pin.model.validation import validate
 
 
 def main() -> None:

@@ -1,4 +1,4 @@
-"""Compiled BDF2 closed loop and batched runs (delta_pin.batch, delta_pin.fast_closed_loop).
+"""Compiled BDF2 closed loop and batched runs (delta_pin.sim.batch, delta_pin.compiled.closed_loop).
 
 References: LSODA at rtol 1e-9 (an independent adaptive integrator) for accuracy, the run made
 alone for the batch, and the readable control law (evaluate_reference) for the recorded torques.
@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.batch import batchable, simulate_batch
 from delta_pin.control.base import Reference
 from delta_pin.errors import InvalidParameterError
-from delta_pin.experiments import (
+from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.studies.experiments import (
     RunSpec,
     batch_group,
     build_controller,
@@ -21,8 +22,7 @@ from delta_pin.experiments import (
     run_batch,
     run_spec,
 )
-from delta_pin.plant import PinocchioPlant
-from delta_pin.sweep import _chunks, evaluate_spec, run_sweep, spec_key
+from delta_pin.studies.sweep import _chunks, evaluate_spec, run_sweep, spec_key
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from delta_pin.cli import main
-from delta_pin.metrics import compute_metrics
-from delta_pin.simulate import load_run
+from delta_pin.sim.run import load_run
+from delta_pin.studies.metrics import compute_metrics
 
 FAST = ["--plant", "analytic", "--mode", "sampled", "--sampling-aware"]  # a sub-second run
 
@@ -104,7 +104,7 @@ def test_bad_input_is_a_clear_error(tmp_path, capsys):
 
 def test_unknown_gain_is_refused_with_its_name():
     from delta_pin.errors import InvalidParameterError
-    from delta_pin.experiments import RunSpec, run_spec
+    from delta_pin.studies.experiments import RunSpec, run_spec
 
     with pytest.raises(InvalidParameterError, match="kappa"):
         run_spec(RunSpec(plant="analytic", gains={"kappa": 1.0}, t_end=0.1))

@@ -8,7 +8,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.control import AdaptiveRobustGains, NominalModel, Reference
-from delta_pin.metrics import compute_metrics
+from delta_pin.studies.metrics import compute_metrics
 
 
 class UnitNominal(NominalModel):

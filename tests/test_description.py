@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.description import (
+from delta_pin.model.description import (
     chain_azimuths,
     compile_urdf,
     default_xacro_path,

@@ -6,7 +6,7 @@ import pinocchio as pin
 import pytest
 
 import delta_pin as dp
-from delta_pin.validation import sample_states
+from delta_pin.model.validation import sample_states
 
 H = 1e-6  # [rad] central differences: rtol 1e-6
 

@@ -1,17 +1,17 @@
 """The sampled mode's fast path on the Pinocchio plant (``PinocchioPlant.held_rk4``, the closure
 residual computed once per step) against the generic RK4 on ``Plant.derivative``."""
 
-import importlib
-
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from delta_pin.experiments import RunSpec, run_spec
-from delta_pin.plant import Friction, PinocchioPlant
-from delta_pin.uncertainty import FunctionUncertainty, PaperUncertainty
-
-simulate_module = importlib.import_module("delta_pin.simulate")
+from delta_pin.model.friction import Friction
+from delta_pin.sim import loop as loop_module
+from delta_pin.sim.integrators import rk4_step
+from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.sim.runner import simulate
+from delta_pin.sim.uncertainty import FunctionUncertainty, PaperUncertainty
+from delta_pin.studies.experiments import RunSpec, run_spec
 
 RUN_ARRAYS = ("alpha", "alpha_dot", "tau", "xyz", "closure_residual")
 
@@ -27,7 +27,7 @@ def _assert_same_run(fast, reference):
 def _both_paths(monkeypatch, run):
     """run() with the fast sampled path, then with the generic RK4 only."""
     fast = run()
-    monkeypatch.setattr(simulate_module, "_FAST_SAMPLED", False)
+    monkeypatch.setattr(loop_module, "USE_HELD_RK4", False)
     reference = run()
     return fast, reference
 
@@ -54,9 +54,7 @@ def test_fast_path_with_substeps_and_projections_equals_the_reference_path(robot
 
     def run():
         plants.append(PinocchioPlant(robot, Friction(), PaperUncertainty(), projection_tolerance=1e-15))
-        return simulate_module.simulate(
-            robot, controller, alpha0=alpha0, plant=plants[-1], t_end=0.05, substeps=substeps
-        )
+        return simulate(robot, controller, alpha0=alpha0, plant=plants[-1], t_end=0.05, substeps=substeps)
 
     fast, reference = _both_paths(monkeypatch, run)
     _assert_same_run(fast, reference)
@@ -72,7 +70,7 @@ def test_held_rk4_step_equals_rk4_on_derivative(robot):
     tau = np.array([0.4, -0.3, 0.2])
     for stage in (0, 2, 14, 38):
         t = stage * h / 2
-        expected = simulate_module._rk4(lambda ts, xs: plant.derivative(ts, xs, tau), t, x, h)
+        expected = rk4_step(lambda ts, xs: plant.derivative(ts, xs, tau), t, x, h)
         np.testing.assert_allclose(plant.held_rk4(x, tau, stage, h), expected, rtol=1e-12, atol=1e-300)
     assert plant.held_rk4(x, tau, 39, h) is None  # past the table
     assert plant.held_rk4(x, tau, 0, 2 * h) is None  # a table for another step

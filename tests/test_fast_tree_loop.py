@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin import native
-from delta_pin.batch import batchable, simulate_batch
+from delta_pin.compiled import native
 from delta_pin.errors import InvalidParameterError, SimulationError
-from delta_pin.experiments import (
+from delta_pin.model.friction import Friction
+from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.studies.experiments import (
     RunSpec,
     batch_group,
     build_controller,
@@ -19,7 +21,6 @@ from delta_pin.experiments import (
     run_batch,
     run_spec,
 )
-from delta_pin.plant import Friction, PinocchioPlant
 
 pytestmark = pytest.mark.skipif(
     native.load() is None, reason=f"native library unavailable: {native._loaded.get('reason')}"

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.validation import sample_states
+from delta_pin.model import kinematics
+from delta_pin.model.validation import sample_states
 
 H = 1e-6  # [rad] central-difference step; truncation ~h^2 and round-off ~1e-10 => rtol 1e-6
 
@@ -55,7 +56,7 @@ def test_jacobian_rate_matches_finite_differences(robot, other_robot):
                 r.jacobian_derivative_times_velocity(alpha, alpha_dot), fd @ alpha_dot, rtol=1e-6, atol=1e-9
             )
             np.testing.assert_allclose(
-                dp.kinematics.jacobian_derivative(r.params, alpha, alpha_dot), fd, rtol=1e-6, atol=1e-9
+                kinematics.jacobian_derivative(r.params, alpha, alpha_dot), fd, rtol=1e-6, atol=1e-9
             )
 
 

@@ -20,7 +20,8 @@ import pytest
 import delta_pin as dp
 from delta_pin.control import Controller, ControlOutput
 from delta_pin.errors import DeltaPinError, InvalidParameterError
-from delta_pin.simulate import Run, simulate
+from delta_pin.sim.run import Run
+from delta_pin.sim.runner import simulate
 from delta_pin.viz.meshcat_export import (
     DEFAULT_PATH_COLORS,
     EmptyRunError,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from delta_pin.metrics import compute_metrics
-from delta_pin.simulate import Run
+from delta_pin.sim.run import Run
+from delta_pin.studies.metrics import compute_metrics
 
 
 def _run(t, error, tau, xyz_error=None, rho=None):

@@ -5,8 +5,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from delta_pin import native
-from delta_pin.plant import PinocchioPlant
+from delta_pin.compiled import native
+from delta_pin.sim.plants import PinocchioPlant
 
 pytestmark = pytest.mark.skipif(
     native.load() is None, reason=f"native library unavailable: {native._loaded.get('reason')}"
@@ -25,7 +25,7 @@ def test_tree_dynamics_equal_pin_constraint_dynamics(robot, rng):
         tau = rng.normal(size=plant.model.nv)
         plant._tau[:] = tau
         expected = plant._tree_dynamics(q, v, mass).copy()
-        got = tree.dynamics(q, v, tau, mass, plant._rotational_inertia(mass))
+        got = tree.dynamics(q, v, tau, mass, plant.rotational_inertia(mass))
         np.testing.assert_array_equal(got, expected)
         assert np.abs(got).max() > 1.0  # a real acceleration, not zeros
 

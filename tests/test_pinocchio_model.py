@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin import kinematics
-from delta_pin.validation import sample_states
+from delta_pin.model import kinematics
+from delta_pin.model.validation import sample_states
 
 
 @pytest.fixture(scope="module")

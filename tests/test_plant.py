@@ -4,9 +4,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from delta_pin.plant import AnalyticPlant, Friction, PinocchioPlant
-from delta_pin.simulate import simulate
-from delta_pin.uncertainty import FunctionUncertainty
+from delta_pin.model.friction import Friction
+from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant
+from delta_pin.sim.runner import simulate
+from delta_pin.sim.uncertainty import FunctionUncertainty
 
 START = np.array([0.02, -0.01, -0.35])  # [m]
 

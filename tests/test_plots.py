@@ -15,7 +15,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 import delta_pin as dp  # noqa: E402
 from delta_pin.errors import DeltaPinError, InvalidParameterError  # noqa: E402
-from delta_pin.metrics import compute_metrics  # noqa: E402
+from delta_pin.studies.metrics import compute_metrics  # noqa: E402
 from delta_pin.viz.plots import (  # noqa: E402
     METRIC_LABELS,
     controller_label,

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from delta_pin.cli import main
-from delta_pin.metrics import compute_metrics
-from delta_pin.reproduce import ReproduceSettings, reproduce, settling_time
-from delta_pin.simulate import load_run
+from delta_pin.sim.run import load_run
+from delta_pin.studies.metrics import compute_metrics
+from delta_pin.studies.reproduce import ReproduceSettings, reproduce, settling_time
 
 TINY = ReproduceSettings(plant="analytic", grid=(0.0, 0.6), main_t_end=0.3, surface_t_end=0.3)
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.serial import JointSinusoid, SerialPlant, example_robot_urdf, load_example_robot
+from delta_pin.sim.serial import JointSinusoid, SerialPlant, example_robot_urdf, load_example_robot
 
 try:
     example_robot_urdf("ur5")

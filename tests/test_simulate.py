@@ -7,10 +7,11 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.control import ComputedTorque, DeltaNominalModel
-from delta_pin.plant import Friction
-from delta_pin.simulate import load_run, simulate
-from delta_pin.trajectory import PathI, SplinePath
-from delta_pin.uncertainty import PaperUncertainty
+from delta_pin.model.friction import Friction
+from delta_pin.model.trajectory import PathI, SplinePath
+from delta_pin.sim.run import load_run
+from delta_pin.sim.runner import simulate
+from delta_pin.sim.uncertainty import PaperUncertainty
 
 START = np.array([0.0, 0.0, -0.35])
 

@@ -11,10 +11,10 @@ import sys
 import pytest
 
 from delta_pin.errors import InvalidParameterError, SimulationError, XacroArgumentError
-from delta_pin.experiments import RunSpec
-from delta_pin.metrics import compute_metrics
-from delta_pin.simulate import load_run
-from delta_pin.sweep import (
+from delta_pin.sim.run import load_run
+from delta_pin.studies.experiments import RunSpec
+from delta_pin.studies.metrics import compute_metrics
+from delta_pin.studies.sweep import (
     OptionalDependencyError,
     SweepPoint,
     evaluate_spec,
@@ -178,17 +178,17 @@ def test_a_failing_point_is_recorded_cached_and_does_not_stop_the_others(tmp_pat
 
 
 def test_an_unexpected_error_is_recorded_not_cached_and_warned(tmp_path, monkeypatch):
-    import delta_pin.sweep
+    import delta_pin.studies.sweep
 
     broken = BASE.with_(t_end=0.25)
-    real = delta_pin.sweep.run_spec
+    real = delta_pin.studies.sweep.run_spec
 
     def run_spec_with_a_bug(spec, robot=None):
         if spec == broken:
             raise ZeroDivisionError("a bug in no_such_code")
         return real(spec, robot)
 
-    monkeypatch.setattr(delta_pin.sweep, "run_spec", run_spec_with_a_bug)
+    monkeypatch.setattr(delta_pin.studies.sweep, "run_spec", run_spec_with_a_bug)
     specs = [broken, BASE]
     with pytest.warns(RuntimeWarning, match="no_such_code"):
         points = run_sweep(specs, tmp_path, executor="serial")

@@ -17,9 +17,9 @@ import re
 import numpy as np
 import pytest
 
-from delta_pin import kinematics
 from delta_pin.errors import InvalidParameterError, UnreachablePoseError
-from delta_pin.trajectory import (
+from delta_pin.model import kinematics
+from delta_pin.model.trajectory import (
     AdeptCycle,
     JointReference,
     PathI,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from delta_pin.errors import InvalidParameterError, NonFiniteError
-from delta_pin.uncertainty import (
+from delta_pin.sim.uncertainty import (
     PAPER_NOMINAL_DISTURBANCE,
     PAPER_NOMINAL_NORMAL_FORCE,
     PAPER_NOMINAL_PLATFORM_MASS,

@@ -8,7 +8,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.cli import main
-from delta_pin.validation import sample_states, validate
+from delta_pin.model.validation import sample_states, validate
 
 from .conftest import OTHER_ROBOTS
 

@@ -20,8 +20,8 @@ def test_validate_command_does_not_import_the_heavy_modules():
         import sys
         from delta_pin.cli import main
         assert main(["validate", "--samples", "3"]) == 0
-        heavy = ["scipy", "numba", "matplotlib", "meshcat", "delta_pin.control", "delta_pin.simulate",
-                 "delta_pin.experiments", "delta_pin.trajectory", "delta_pin.fast_model"]
+        heavy = ["scipy", "numba", "matplotlib", "meshcat", "delta_pin.control", "delta_pin.sim.runner",
+                 "delta_pin.studies.experiments", "delta_pin.model.trajectory", "delta_pin.compiled.jit"]
         print("LOADED", [name for name in heavy if name in sys.modules])
         """
     )
@@ -40,25 +40,23 @@ def test_every_public_name_is_importable_from_the_package():
         from delta_pin import PathI, load_delta, simulate  # the from-import form
         assert callable(simulate) and PathI is dp.PathI and load_delta is dp.load_delta
         assert set(dp.__all__) <= set(dir(dp))
-        assert dp.kinematics.forward_kinematics is not None  # submodules as attributes
+        assert dp.model.kinematics.forward_kinematics is not None  # the layers as attributes
         """
     )
 
 
-def test_simulate_stays_the_function_when_its_module_is_imported_first():
+def test_no_module_shadows_a_public_name():
+    """Importing every module of the package leaves each public name bound to its object (no
+    submodule is named like a public function)."""
     _run(
         """
-        import delta_pin.simulate
+        import importlib, pkgutil
         import delta_pin as dp
-        from delta_pin.simulate import simulate
-        assert dp.simulate is simulate and callable(dp.simulate)
-        """
-    )
-    _run(
-        """
-        import delta_pin as dp
-        import delta_pin.experiments  # imports delta_pin.simulate inside
-        from delta_pin.simulate import simulate
-        assert dp.simulate is simulate
+        before = {name: getattr(dp, name) for name in dp.__all__}
+        for module in pkgutil.walk_packages(dp.__path__, "delta_pin."):
+            if module.name != "delta_pin.__main__":
+                importlib.import_module(module.name)
+        assert all(getattr(dp, name) is value for name, value in before.items())
+        assert callable(dp.simulate) and callable(dp.simulate_batch)
         """
     )

@@ -1,9 +1,9 @@
 """Controllers: one shared base (:mod:`.base`), one module per control law."""
 
-from .adaptive_robust import AdaptiveRobustController, AdaptiveRobustGains, design1, design2
-from .base import CallableController, Controller, ControlOutput, Reference, as_controller
-from .baselines import LQR, ComputedTorque, PDGravity
-from .nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
+from delta_pin.control.adaptive_robust import AdaptiveRobustController, AdaptiveRobustGains, design1, design2
+from delta_pin.control.base import CallableController, Controller, ControlOutput, Reference, as_controller
+from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
+from delta_pin.control.nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
 
 __all__ = [
     "LQR",

@@ -42,10 +42,14 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from ..errors import InvalidParameterError
-from .base import Controller, ControlOutput, Reference
-from .baselines import ComputedTorque
-from .nominal import DeltaNominalModel, NominalModel
+from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
+from delta_pin.compiled.layouts import CONTROLLER, INFO, record
+from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.control.baselines import ComputedTorque
+from delta_pin.control.nominal import DeltaNominalModel, NominalModel
+from delta_pin.errors import InvalidParameterError
+from delta_pin.model.friction import kernel_friction
+from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
 
@@ -136,13 +140,46 @@ class AdaptiveRobustController(Controller):
         self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
         # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
-        self._compiled = None
+        self.kernel_parameters = None
         if compiled and isinstance(nominal, DeltaNominalModel):
-            from ..fast_model import chain_trigonometry
-            from .fast_adaptive_robust import adaptive_robust_kernel, pack_controller
-
-            self._compiled = (adaptive_robust_kernel, pack_controller(self), *chain_trigonometry())
+            self.kernel_parameters = self._kernel_parameters(nominal)
+            self._chains = chain_trigonometry()
+            self._info = record(INFO)
         self.reset()
+
+    @property
+    def compiled(self) -> bool:
+        """Whether :meth:`evaluate` runs the compiled step (design I/II on a
+        :class:`~delta_pin.control.nominal.DeltaNominalModel`): then the compiled loops of
+        :func:`delta_pin.sim.batch.simulate_batch` can run this controller."""
+        return self.kernel_parameters is not None
+
+    def _kernel_parameters(self, nominal: DeltaNominalModel) -> np.record:
+        """This controller as the compiled step reads it (a
+        :data:`~delta_pin.compiled.layouts.CONTROLLER` record)."""
+        ctc, gains = self.computed_torque, self.gains
+        compensated = self.friction_compensation and nominal.friction_parameters.on
+        return record(
+            CONTROLLER,
+            D=ctc.D,
+            T_p=ctc.T_p,
+            T_v=ctc.T_v,
+            beta=gains.beta,
+            xi=gains.xi,
+            epsilon=gains.epsilon,
+            b1=gains.b1,
+            b2=gains.b2,
+            b3=gains.b3,
+            design_two=self.design == "II",
+            vector_rho=self.vector_rho,
+            sampling_period=self.sampling_period or 0.0,
+            sampling_margin=self.sampling_margin,
+            disturbance=nominal.disturbance(),
+            friction=nominal.friction_parameters if compensated else kernel_friction(None),
+            normal_force=nominal.normal_force if compensated else np.zeros(3),
+            m_eq=nominal.m_eq,
+            geometry=nominal.geometry,
+        )
 
     def initial_state(self) -> np.ndarray:
         return np.full(3 if self.vector_rho else 1, self.gains.rho0)
@@ -176,32 +213,24 @@ class AdaptiveRobustController(Controller):
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
         """Torque, rho_hat_dot and internals: the compiled step when available, else the reference."""
-        if self._compiled is None:
+        if self.kernel_parameters is None:
             return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        kernel, parameters, cos_phi, sin_phi = self._compiled
-        tau, rate, info = kernel(
-            parameters,
-            cos_phi,
-            sin_phi,
-            alpha,
-            alpha_dot,
-            reference.alpha,
-            reference.alpha_dot,
-            reference.alpha_ddot,
-            state,
-        )
-        if info[0] == 0.0:
+        tau, rate, info = np.empty(3), np.empty(len(state)), self._info
+        if not adaptive_robust_kernel(
+            self.kernel_parameters, *self._chains, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
+            reference.alpha_ddot, state, tau, rate, info,
+        ):  # fmt: skip
             self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
         return ControlOutput(
             tau=tau,
             state_derivative=rate,
             internals={
                 "rho_hat": state.copy(),
-                "Lambda": info[1],
-                "robust_gain": info[2],
-                "omega_norm": info[3],
-                "robust_torque": info[5:8],
-                "adaptation_active": info[4],
+                "Lambda": float(info.Lambda),
+                "robust_gain": float(info.robust_gain),
+                "omega_norm": float(info.omega_norm),
+                "robust_torque": info.robust_torque.copy(),
+                "adaptation_active": float(info.adaptation_active),
             },
         )
 

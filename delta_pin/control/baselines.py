@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from ..errors import InvalidParameterError
-from .base import Controller, ControlOutput, Reference
-from .nominal import NominalModel
+from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.control.nominal import NominalModel
+from delta_pin.errors import InvalidParameterError
 
 __all__ = ["LQR", "ComputedTorque", "ComputedTorqueTerms", "PDGravity"]
 

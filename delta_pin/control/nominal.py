@@ -15,15 +15,11 @@ from abc import ABC, abstractmethod
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InvalidParameterError
-from ..fast_model import (
-    chain_trigonometry,
-    delta_terms,
-    friction_kernel_arguments,
-    pack_geometry,
-    stribeck_kernel,
-)
-from ..plant import Friction
+from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
+from delta_pin.errors import InvalidParameterError
+from delta_pin.model.dynamics import kernel_geometry
+from delta_pin.model.friction import Friction, kernel_friction
+from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
 
@@ -62,8 +58,16 @@ class DeltaNominalModel(NominalModel):
         robot: the robot (its URDF sets every number).
         platform_mass: m̄_o [kg]; the URDF's ``m_o`` by default (0.3 kg, the paper's m̄_o).
         nominal_disturbance: F̄ (3,) [N m] (the paper: [2, 4, 6]).
-        friction: nominal friction (:class:`~delta_pin.plant.Friction`, its F̄_n = 15 N by
-            default), ``True`` for the defaults, or ``None`` for none.
+        friction: nominal friction (:class:`~delta_pin.model.friction.Friction`, its F̄_n = 15 N
+            by default), ``True`` for the defaults, or ``None`` for none.
+
+    Attributes:
+        m_eq: m̄_o + 3/2 m_b [kg], the platform-side mass of eqs. 7-8.
+        geometry: the robot's constants as a compiled kernel reads them
+            (:func:`~delta_pin.model.dynamics.kernel_geometry`).
+        friction_parameters: the nominal friction as a kernel reads it
+            (:func:`~delta_pin.model.friction.kernel_friction`; ``on`` False without friction).
+        normal_force: nominal F̄_n per joint (3,) [N] (zeros without friction).
     """
 
     dof = 3
@@ -80,21 +84,22 @@ class DeltaNominalModel(NominalModel):
         if not m_o > 0.0:
             raise InvalidParameterError(f"platform_mass={platform_mass} must be > 0")
         self.platform_mass = m_o
-        self._m_eq = m_o + 1.5 * robot.params.m_b
-        self._geometry = pack_geometry(robot.params)
+        self.m_eq = m_o + 1.5 * robot.params.m_b
+        self.geometry = kernel_geometry(robot.params)
         self._cos, self._sin = chain_trigonometry()
         self._disturbance = np.asarray(nominal_disturbance, dtype=float).reshape(3)
         if friction is True:
             friction = Friction()
         self.friction_model = friction or None
-        self._friction_arguments = None
+        self.friction_parameters = kernel_friction(None)
+        self.normal_force = np.zeros(3)
         if self.friction_model is not None:
-            stribeck = self.friction_model.stribeck or robot.params.friction
-            self._friction_arguments = friction_kernel_arguments(stribeck)
-            self._normal_force = np.full(3, float(self.friction_model.normal_force))
+            stribeck = self.friction_model.stribeck_for(robot.params.friction)
+            self.friction_parameters = kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
+            self.normal_force = np.full(3, float(self.friction_model.normal_force))
 
     def terms(self, q, q_dot):
-        ok, _, _, _, M, C, G = delta_terms(self._geometry, self._cos, self._sin, self._m_eq, q, q_dot)
+        ok, _, _, _, M, C, G = delta_terms(self.geometry, self._cos, self._sin, self.m_eq, q, q_dot)
         if not ok:
             raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
         return M, C, G
@@ -103,14 +108,9 @@ class DeltaNominalModel(NominalModel):
         return self._disturbance
 
     def friction(self, q_dot):
-        if self._friction_arguments is None:
+        if not self.friction_parameters.on:
             return np.zeros(3)
-        return stribeck_kernel(
-            *self._friction_arguments,
-            np.asarray(q_dot, dtype=float),
-            self._normal_force,
-            self.friction_model.sign_velocity_scale,
-        )
+        return friction_torque(self.friction_parameters, np.asarray(q_dot, dtype=float), self.normal_force)
 
     def metadata(self):
         return {

@@ -1,9 +1,9 @@
-"""Headless meshcat export of a :class:`~delta_pin.simulate.Run` to ONE standalone HTML file.
+"""Headless meshcat export of a :class:`~delta_pin.sim.runner.Run` to ONE standalone HTML file.
 
 The robot is drawn from the visual geometry of the URDF the run came from, read by Pinocchio's
 geometry model (``pin.buildGeomFromUrdfString(..., pin.GeometryType.VISUAL)``) and posed at every
 animation frame by the closure-consistent configuration q(alpha)
-(:meth:`~delta_pin.pinocchio_model.DeltaPinocchioModel.configuration`). The desired (``xyz_d``)
+(:meth:`~delta_pin.model.pinocchio_model.DeltaPinocchioModel.configuration`). The desired (``xyz_d``)
 and actual (``xyz``) platform paths are drawn as two lines of different colours; a translucent
 ghost of the desired pose q(alpha_d) is optional.
 
@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..atomic import write_text_atomically
-from ..errors import DeltaPinError, InvalidParameterError, NonFiniteError
-from ..simulate import Run, load_run
+from delta_pin.errors import DeltaPinError, InvalidParameterError, NonFiniteError
+from delta_pin.sim.run import Run, load_run
+from delta_pin.utils.atomic import write_text_atomically
 
 __all__ = [
     "DEFAULT_FPS",
@@ -332,7 +332,7 @@ def _as_run(run: Run | str | os.PathLike) -> Run:
 
 
 def _describe_difference(run_urdf: str, robot_urdf: str) -> str:
-    from ..description import read_description
+    from delta_pin.model.description import read_description
 
     try:
         run_params = asdict(read_description(run_urdf).params)
@@ -353,8 +353,8 @@ def _describe_difference(run_urdf: str, robot_urdf: str) -> str:
 
 
 def _resolve_robot(run: Run, robot):
-    from ..description import read_description
-    from ..robot import Delta
+    from delta_pin.model.description import read_description
+    from delta_pin.model.robot import Delta
 
     run_urdf = run.metadata.get("urdf")
     if robot is None:
@@ -645,9 +645,9 @@ def export_html(
     1.3 MB for a 15 s run at 30 frames/s (0.85 MB of it the viewer).
 
     Args:
-        run: a :class:`~delta_pin.simulate.Run`, or the path of one saved with ``Run.save``.
+        run: a :class:`~delta_pin.sim.runner.Run`, or the path of one saved with ``Run.save``.
         path: the HTML file to write (its folder is created; written atomically).
-        robot: the :class:`~delta_pin.robot.Delta` the run was simulated on; ``None`` rebuilds it
+        robot: the :class:`~delta_pin.model.robot.Delta` the run was simulated on; ``None`` rebuilds it
             from the URDF stored with the run (``run.metadata["urdf"]``).
         fps: animation frames per second [1/s]; joint angles are interpolated at k / fps.
         show_desired_ghost: also draw a translucent robot in the desired pose q(alpha_d).

@@ -2,7 +2,7 @@
 
 Every figure is built on a bare :class:`matplotlib.figure.Figure` -- no pyplot state, no GUI
 backend, no ``plt.show()`` -- so the functions are safe in scripts, tests, servers and threads.
-Each ``plot_*`` function takes data (a :class:`~delta_pin.simulate.Run`, a dict of runs, a table
+Each ``plot_*`` function takes data (a :class:`~delta_pin.sim.runner.Run`, a dict of runs, a table
 of numbers) plus an optional ``ax`` to draw into, and returns the :class:`~matplotlib.figure.Figure`
 that holds the drawing (a new one when no ``ax`` is given). :func:`save_figure` writes it to a
 PNG atomically.
@@ -37,9 +37,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from ..atomic import atomic_open
-from ..errors import InvalidParameterError
-from ..simulate import Run
+from delta_pin.errors import InvalidParameterError
+from delta_pin.sim.run import Run
+from delta_pin.utils.atomic import atomic_open
 
 __all__ = [
     "METRIC_LABELS",
@@ -56,7 +56,7 @@ __all__ = [
     "save_figure",
 ]
 
-# (name on the axis, unit) of the indices of delta_pin.metrics.RunMetrics
+# (name on the axis, unit) of the indices of delta_pin.studies.metrics.RunMetrics
 METRIC_LABELS: dict[str, tuple[str, str]] = {
     "iae": ("IAE = ∫‖r‖ dt", "rad·s"),
     "ise": ("ISE = ∫‖r‖² dt", "rad²·s"),
@@ -383,7 +383,7 @@ def plot_metric_bars(
 
     The outer keys are the groups along the x axis (e.g. controllers), the inner keys the bars of
     each group, one colour each with a legend (e.g. path I / path II). A cell is a number (the
-    value of ``metric``), or a dict / :class:`~delta_pin.metrics.RunMetrics` from which ``metric``
+    value of ``metric``), or a dict / :class:`~delta_pin.studies.metrics.RunMetrics` from which ``metric``
     is read; None or NaN leaves a gap. Each bar is labelled with its value.
 
     Args:

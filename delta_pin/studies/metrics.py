@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .simulate import Run
+from delta_pin.sim.run import Run
 
 __all__ = ["RunMetrics", "compute_metrics"]
 

@@ -1,7 +1,7 @@
 """The constrained tree dynamics as a small C++ library, for compiled simulation loops.
 
 ``pin.constraintDynamics`` costs ~7.6 us per call from Python, a third of it in the binding. The
-compiled loops of :mod:`delta_pin.fast_closed_loop` call Pinocchio's C++ directly instead, through
+compiled loops of :mod:`delta_pin.compiled.closed_loop` call Pinocchio's C++ directly instead, through
 ``tree_dynamics.cpp``: a C ABI around the same explicitly instantiated ``constraintDynamics`` of
 ``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit
 (tests/test_native.py).
@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from delta_pin.errors import NativeUnavailableError
+
 __all__ = ["JOINT_TYPES", "NativeUnavailableError", "TreeDynamics", "build", "load"]
 
 SOURCE = Path(__file__).with_name("tree_dynamics.cpp")
@@ -49,10 +51,6 @@ FLAGS = ("-O2", "-std=c++17", "-fPIC", "-shared", "-Wno-deprecated-declarations"
 JOINT_TYPES = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelPX", "JointModelPY", "JointModelPZ")
 
 _loaded: dict[str, object] = {}
-
-
-class NativeUnavailableError(RuntimeError):
-    """The native library cannot be built or loaded here (the message says why)."""
 
 
 def _prefix() -> Path:
@@ -216,7 +214,7 @@ class TreeDynamics:
         handle: the address of the C++ tree (for compiled callers); ``address_dynamics``,
             ``address_gap`` and ``address_active``: those of ``dpn_dynamics``,
             ``dpn_closure_gap`` and ``dpn_active_dynamics`` (see
-            :mod:`delta_pin.native.calls`).
+            :mod:`delta_pin.compiled.native.calls`).
     """
 
     def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import kinematics
-from .description import GRAVITY, DeltaDescription, compile_urdf, read_description
-from .dynamics import ReducedDynamics, analytic_dynamics
-from .errors import AssemblyError, DeltaPinError, ForwardKinematicsError, URDFConventionError
-from .friction import stribeck_torque
-from .pinocchio_model import DeltaPinocchioModel
+from delta_pin.errors import AssemblyError, DeltaPinError, ForwardKinematicsError, URDFConventionError
+from delta_pin.model import kinematics
+from delta_pin.model.description import GRAVITY, DeltaDescription, compile_urdf, read_description
+from delta_pin.model.dynamics import ReducedDynamics, analytic_dynamics
+from delta_pin.model.friction import stribeck_torque
+from delta_pin.model.pinocchio_model import DeltaPinocchioModel
 
 __all__ = ["Delta", "load_delta"]
 
@@ -34,7 +34,7 @@ class Delta:
 
     @property
     def params(self):
-        """The :class:`~delta_pin.description.DeltaParameters` read from the URDF."""
+        """The :class:`~delta_pin.model.description.DeltaParameters` read from the URDF."""
         return self.description.params
 
     @property

@@ -15,7 +15,7 @@ joint disturbance F(t)) kept apart from what a controller knows:
   mass changes during the run by rewriting the platform body's inertia (its rotational inertia
   scales with the mass);
 * :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G) through the fast
-  kernels of :mod:`delta_pin.fast_model`.
+  kernels of :mod:`delta_pin.compiled.delta_kernels`.
 
 A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
 
@@ -27,105 +27,36 @@ friction slope near zero is then mu_d F_n r_a / 0.01 = 6 N m s/rad on the Table 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 import pinocchio as pin
 
-from .description import StribeckParameters
-from .errors import AssemblyError, InvalidParameterError, SimulationError
-from .fast_model import (
-    chain_trigonometry,
-    delta_terms,
-    friction_kernel_arguments,
-    njit,
-    pack_geometry,
-    solve3,
-    stribeck_kernel,
-)
-from .robot import Delta
-from .uncertainty import NoUncertainty
+from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
+from delta_pin.compiled.layouts import TRUTH, records
+from delta_pin.compiled.rk4 import combine
+from delta_pin.compiled.tree_kernels import joint_torques, joint_torques_at, tree_derivative, tree_stage
+from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
+from delta_pin.model.dynamics import kernel_geometry
+from delta_pin.model.friction import Friction, kernel_friction
+from delta_pin.model.kinematics import chain_trigonometry
+from delta_pin.model.robot import Delta
+from delta_pin.sim.uncertainty import NoUncertainty
 
-__all__ = ["AnalyticPlant", "Friction", "PinocchioPlant", "Plant", "make_plant"]
+__all__ = ["PLANTS", "AnalyticPlant", "PinocchioPlant", "Plant", "make_plant", "truth_records"]
 
 PLANTS = ("pinocchio", "analytic")
 
 
-@dataclass(frozen=True)
-class Friction:
-    """Joint friction of the plant (eqs. 11-12).
-
-    Attributes:
-        stribeck: Stribeck parameters; ``None`` takes the robot's (from its URDF).
-        normal_force: nominal normal force F̄_n per joint [N] (15 N in the paper); an
-            uncertainty profile varies it in time.
-        sign_velocity_scale: smoothing of sgn by tanh(alpha_dot / scale) [rad/s].
-    """
-
-    stribeck: StribeckParameters | None = None
-    normal_force: float = 15.0
-    sign_velocity_scale: float = 0.01
-
-    def __post_init__(self) -> None:
-        if not self.normal_force >= 0.0:
-            raise InvalidParameterError(f"normal_force={self.normal_force} must be >= 0")
-        if not self.sign_velocity_scale > 0.0:
-            raise InvalidParameterError(f"sign_velocity_scale={self.sign_velocity_scale} must be > 0")
-
-
-@njit(cache=True)
-def _joint_torques(out, active, tau, v, disturbance, normal_force, friction):
-    """out[active] = tau - (F + M_f(alpha_dot, F_n)) with alpha_dot = v[active]: the torques of
-    eq. 13 on the tree's active joints (what :meth:`Plant.acceleration_terms` gives, bit for bit).
-
-    ``friction`` is ``(*friction_kernel_arguments, sign_velocity_scale)``, or empty for none.
-    """
-    if len(friction) == 0:
-        for i in range(len(active)):
-            out[active[i]] = tau[i] - disturbance[i]
-        return
-    alpha_dot = np.empty(len(active))
-    for i in range(len(active)):
-        alpha_dot[i] = v[active[i]]
-    r_a, v_s, mu_s, mu_d, mu_v = friction[0], friction[1], friction[2], friction[3], friction[4]
-    torque = stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, friction[5])
-    for i in range(len(active)):
-        out[active[i]] = tau[i] - (disturbance[i] + torque[i])
-
-
-@njit(cache=True)
-def _joint_torques_at(out, active, tau, v, disturbances, normal_forces, row, friction):
-    """:func:`_joint_torques` for row ``row`` of the truth tables."""
-    _joint_torques(out, active, tau, v, disturbances[row], normal_forces[row], friction)
-
-
-@njit(cache=True)
-def _rk4_stage(y, x, k, v, ddq, c, torques, active, tau, disturbances, normal_forces, row, friction):
-    """One RK4 stage point of :meth:`PinocchioPlant.held_rk4`: k = [v, ddq] (the stage derivative
-    of x = [q, v]), y = x + c k (the arithmetic of ``simulate._rk4``), then the joint torques at y
-    by :func:`_joint_torques` for row ``row`` of the truth tables (y's time)."""
-    nv = len(v)
-    n = len(x) - nv
-    for i in range(n):
-        k[i] = v[i]
-    for i in range(nv):
-        k[n + i] = ddq[i]
-    for i in range(len(x)):
-        y[i] = x[i] + c * k[i]
-    _joint_torques(torques, active, tau, y[n:], disturbances[row], normal_forces[row], friction)
-
-
-@njit(cache=True)
-def _rk4_combine(x, k1, k2, k3, v, ddq, c):
-    """x + c (k1 + 2 k2 + 2 k3 + k4) with k4 = [v, ddq] and c = h / 6, in the order of
-    ``simulate._rk4``."""
-    nv = len(v)
-    n = len(x) - nv
-    out = np.empty(len(x))
-    for i in range(len(x)):
-        k4 = v[i] if i < n else ddq[i - n]
-        out[i] = x[i] + c * (((k1[i] + 2.0 * k2[i]) + 2.0 * k3[i]) + k4)
-    return out
+def truth_records(mass, normal_force, disturbance) -> np.ndarray:
+    """A table of :data:`~delta_pin.compiled.layouts.TRUTH` records from the columns m_o (R,)
+    [kg], F_n (R, 3) [N] and F (R, 3) [N m] (what :meth:`Plant.evaluate_truth` gives)."""
+    mass = np.atleast_1d(np.asarray(mass, dtype=float))
+    table = records(TRUTH, len(mass))
+    table["platform_mass"] = mass
+    table["normal_force"] = np.broadcast_to(normal_force, (len(mass), 3))
+    table["disturbance"] = np.broadcast_to(disturbance, (len(mass), 3))
+    return table
 
 
 class Plant(ABC):
@@ -134,7 +65,7 @@ class Plant(ABC):
     Args:
         robot: the robot (its URDF sets every number).
         friction: joint friction, ``True`` for :class:`Friction` defaults, or ``None``.
-        uncertainty: time-varying truth (:mod:`delta_pin.uncertainty`), or ``None`` for nominal.
+        uncertainty: time-varying truth (:mod:`delta_pin.sim.uncertainty`), or ``None`` for nominal.
     """
 
     name: str = "plant"
@@ -146,20 +77,17 @@ class Plant(ABC):
             friction = Friction()
         self.friction = friction or None
         self.stribeck = None
+        self.friction_parameters = kernel_friction(None)  # the friction as the kernels read it
         if self.friction is not None:
-            self.stribeck = self.friction.stribeck or robot.params.friction
-            if self.stribeck is None:
-                raise InvalidParameterError(
-                    "friction requested but the robot's URDF carries no Stribeck data"
-                )
-            self._friction_arguments = friction_kernel_arguments(self.stribeck)
+            self.stribeck = self.friction.stribeck_for(robot.params.friction)
+            self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
         self.uncertainty = NoUncertainty() if uncertainty is None else uncertainty
 
     # ------------------------------------------------------------------ truth shared by both plants
     def _nominal_normal_force(self) -> float:
         return 0.0 if self.friction is None else self.friction.normal_force
 
-    def _evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(m_o, F_n, F) at a time or an array of times, straight from the uncertainty profile."""
         nominal_mass = self.robot.params.m_o
         return (
@@ -172,7 +100,8 @@ class Plant(ABC):
         """Tabulate m_o, F_n, F at t = k step, k < count [s] (one vectorised call): the
         integrator's stage times then read the table instead of calling the profile."""
         self._table_step = step
-        self._table = self._evaluate_truth(np.arange(count) * step)
+        self._table = self.evaluate_truth(np.arange(count) * step)
+        self._truth_records = truth_records(*self._table)
 
     def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(m_o(t) [kg], F_n(t) (3,) [N], F(t) (3,) [N m]): the plant's time-varying truth."""
@@ -196,10 +125,7 @@ class Plant(ABC):
         mass, normal, disturbance = self.truth(t)
         if self.friction is None:
             return mass, disturbance
-        friction = stribeck_kernel(
-            *self._friction_arguments, alpha_dot, normal, self.friction.sign_velocity_scale
-        )
-        return mass, disturbance + friction
+        return mass, disturbance + friction_torque(self.friction_parameters, alpha_dot, normal)
 
     # ------------------------------------------------------------------ state interface
     @abstractmethod
@@ -255,7 +181,7 @@ class AnalyticPlant(Plant):
 
     def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
         super().__init__(robot, friction, uncertainty)
-        self._geometry = pack_geometry(robot.params)
+        self._geometry = kernel_geometry(robot.params)
         self._cos, self._sin = chain_trigonometry()
         self._last_xyz = np.full(3, np.nan)
 
@@ -338,21 +264,17 @@ class PinocchioPlant(Plant):
         self.failure_tolerance = failure_tolerance
         self.projections = 0
         self._platform_joint = source.platform_joint
-        self._nominal_inertia = pin.Inertia(self.model.inertias[self._platform_joint])
-        self._nominal_rotational = self._nominal_inertia.inertia  # (3, 3) about the COM
+        nominal_inertia = pin.Inertia(self.model.inertias[self._platform_joint])
+        self.nominal_platform_mass = nominal_inertia.mass  # [kg]
+        self.nominal_platform_rotational = nominal_inertia.inertia  # (3, 3) about the COM [kg m^2]
         # the model's own platform inertia (a reference into model.inertias), rewritten in place
         self._platform_inertia = self.model.inertias[self._platform_joint]
-        self._mass = self._nominal_inertia.mass
+        self._mass = self.nominal_platform_mass
         self._tau = np.zeros(self.model.nv)
-        self._friction_vector = (
-            np.zeros(0)
-            if self.friction is None
-            else np.array([*self._friction_arguments, self.friction.sign_velocity_scale], dtype=float)
-        )
-        # k1, k2, k3, then the stage points y2, y3, y4 of held_rk4 with their q and v views
-        stages = np.empty((6, self.model.nq + self.model.nv))
-        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[3:]]
-        self._stages = (*stages[:3], *(view for point in points for view in point))
+        # k1, k2, k3, k4, then the stage points y2, y3, y4 of held_rk4 with their q and v views
+        stages = np.empty((7, self.model.nq + self.model.nv))
+        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[4:]]
+        self._stages = (*stages[:4], *(view for point in points for view in point))
         self._last_q: np.ndarray | None = None
         self._native_tree = None
         self.metadata_extra = {
@@ -361,30 +283,31 @@ class PinocchioPlant(Plant):
             "projection_tolerance": projection_tolerance,
         }
 
-    def _rotational_inertia(self, mass):
-        """The platform's rotational inertia about its COM for a platform mass [kg] (or an array
-        of masses): the nominal one scaled with the mass."""
-        return self._nominal_rotational * (mass / self._nominal_inertia.mass)
+    def rotational_inertia(self, mass):
+        """The platform's rotational inertia about its COM [kg m^2] for a platform mass [kg] (or
+        an array of masses (R, 1, 1)): the nominal one scaled with the mass."""
+        return self.nominal_platform_rotational * (mass / self.nominal_platform_mass)
 
     def _set_platform_mass(self, mass: float, rotational: np.ndarray | None = None) -> None:
         """Rewrite the platform body's inertia in the model (in place) for a platform mass [kg]:
         the same COM, the rotational inertia ``rotational`` (by default
-        :meth:`_rotational_inertia` of the mass); nothing when the mass is unchanged."""
+        :meth:`rotational_inertia` of the mass); nothing when the mass is unchanged."""
         if mass != self._mass:
             inertia = self._platform_inertia
             inertia.mass = mass
-            inertia.inertia = self._rotational_inertia(mass) if rotational is None else rotational
+            inertia.inertia = self.rotational_inertia(mass) if rotational is None else rotational
             self._mass = mass
 
     def _accelerations(self, q, v, tau, mass, normal_force, disturbance) -> np.ndarray:
         """ddq of eq. 13 on the tree at (q, v) under active-joint torques tau [N m] for the
         truth (m_o, F_n, F)."""
-        _joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self._friction_vector)
+        joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self.friction_parameters)
         return self._tree_dynamics(q, v, mass)
 
     def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
         """ddq of the constrained tree at (q, v) with platform mass m_o [kg] under the joint
-        torques already in ``self._tau`` (:func:`_joint_torques`). This, :func:`_joint_torques`
+        torques already in ``self._tau`` (:func:`~delta_pin.compiled.tree_kernels.joint_torques`).
+        This, the joint torques
         and :meth:`_set_platform_mass` are the plant's physics, which :meth:`derivative` and
         the fast sampled step :meth:`held_rk4` share."""
         if mass != self._mass:
@@ -403,7 +326,7 @@ class PinocchioPlant(Plant):
     def precompute_truth(self, step: float, count: int) -> None:
         super().precompute_truth(step, count)
         # the platform's rotational inertia at each tabulated mass, for held_rk4
-        self._rotational_table = self._rotational_inertia(np.asarray(self._table[0])[:, None, None])
+        self._rotational_table = self.rotational_inertia(np.asarray(self._table[0])[:, None, None])
 
     def _complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) on the constraint manifold for active coordinates (``coordinates="active"``)."""
@@ -475,39 +398,43 @@ class PinocchioPlant(Plant):
     def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
         """One RK4 step of length h [s] under the held torque tau from t = stage h / 2, reading the
         truth table of :meth:`precompute_truth` (step h / 2) by index: the result of
-        ``simulate._rk4`` on :meth:`derivative`, bit for bit, without its per-call overhead.
+        :func:`~delta_pin.sim.integrators.rk4_step` on :meth:`derivative`, bit for bit, without its
+        per-call overhead.
         ``None`` where this fast path does not apply (active coordinates, no table for h)."""
         table = getattr(self, "_table", None)
         if self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
             return None
-        masses, normals, disturbances = table
-        if stage + 2 >= len(masses):
+        truth, masses = self._truth_records, table[0]
+        if stage + 2 >= len(truth):
             return None
-        # the stages of simulate._rk4 at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
+        # the stages of rk4_step at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
         dynamics, rotational = self._tree_dynamics, self._rotational_table
-        torques, active, friction = self._tau, self.active, self._friction_vector
-        k1, k2, k3, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
+        torques, active, friction = self._tau, self.active, self.friction_parameters
+        k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
         q, v = x[: self.nq], x[self.nq :]
         i, half = stage, 0.5 * h
-        _joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
+        joint_torques_at(torques, active, tau, v, truth, i, friction)
         ddq = dynamics(q, v, masses[i], rotational[i])
-        _rk4_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, truth, i + 1, friction)
         ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
-        _rk4_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, truth, i + 1, friction)
         ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
-        _rk4_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
+        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, truth, i + 2, friction)
         ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
-        return _rk4_combine(x, k1, k2, k3, v4, ddq, h / 6.0)
+        tree_derivative(k4, v4, ddq)
+        x_next = np.empty(len(x))
+        combine(x, k1, k2, k3, k4, h / 6.0, x_next)
+        return x_next
 
     def native_tree(self):
         """This plant's tree and closures in the native library
-        (:class:`delta_pin.native.TreeDynamics`, built once), for compiled loops.
+        (:class:`delta_pin.compiled.native.TreeDynamics`, built once), for compiled loops.
 
         Raises:
             NativeUnavailableError: the native library cannot be built here.
         """
         if self._native_tree is None:
-            from . import native
+            from delta_pin.compiled import native  # builds the library on first use
 
             self._native_tree = native.TreeDynamics(
                 native.load(strict=True), self.model, self.constraint_models, self.baumgarte_gains,

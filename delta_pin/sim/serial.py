@@ -1,7 +1,7 @@
 """The controllers on serial robots: a robot from example-robot-data, a joint-space reference and
 a Pinocchio forward-dynamics (ABA) plant with an uncertain payload.
 
-Everything else -- :func:`~delta_pin.simulate.simulate`, the controllers, the nominal-model
+Everything else -- :func:`~delta_pin.sim.runner.simulate`, the controllers, the nominal-model
 adapter :class:`~delta_pin.control.nominal.PinocchioNominalModel` -- is shared with the Delta.
 example-robot-data ships its URDFs as data (``pip install example-robot-data``, in the ``[test]``
 and ``[serial]`` extras); the meshes are not needed.
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import DeltaPinError, InvalidParameterError
-from .plant import Plant
-from .trajectory import JointReference
+from delta_pin.errors import DeltaPinError, InvalidParameterError
+from delta_pin.model.trajectory import JointReference
+from delta_pin.sim.plants import Plant
 
 __all__ = [
     "EXAMPLE_ROBOTS",

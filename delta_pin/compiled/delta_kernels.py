@@ -1,13 +1,14 @@
 """Fast single-state kernels of the analytic model (the hot path of plants and controllers).
 
-:mod:`delta_pin.kinematics` and :mod:`delta_pin.dynamics` are the readable specification and the
+:mod:`delta_pin.model.kinematics` and :mod:`delta_pin.model.dynamics` are the readable specification and the
 test oracle; they broadcast over batches but cost ~0.4 ms per single state in numpy. The kernels
 here compute the same FK, J, J_dot, M, C, G for ONE state with explicit scalar arithmetic (3x3
 inverses by cross products). They are compiled with numba when it is installed (~1 us per call)
 and run as plain Python otherwise (same results, slower): ``FAST_BACKEND`` says which.
 
-The geometry is packed once per robot by :func:`pack_geometry`:
-``[R, r, l_a, l_b, (m_a/3 + m_b/2) l_a^2, (m_a + m_b) g l_a / 2, g]`` (SI units).
+Every kernel reads the robot's constants from a :data:`~delta_pin.compiled.layouts.GEOMETRY`
+record (built once per robot by :func:`delta_pin.model.dynamics.kernel_geometry`) and the chain
+azimuths as (cos phi_i, sin phi_i) arrays (:func:`delta_pin.model.kinematics.chain_trigonometry`).
 """
 
 from __future__ import annotations
@@ -16,51 +17,19 @@ import math
 
 import numpy as np
 
-from .description import DeltaParameters, chain_azimuths
-
-try:  # pragma: no cover - which branch runs depends on the environment
-    from numba import njit
-
-    FAST_BACKEND = "numba"
-except ImportError:  # pragma: no cover
-    FAST_BACKEND = "python"
-
-    def njit(*args, **kwargs):
-        """Identity decorator standing in for ``numba.njit``."""
-        if args and callable(args[0]):
-            return args[0]
-        return lambda function: function
-
+from delta_pin.compiled.jit import njit
 
 __all__ = [
-    "FAST_BACKEND",
     "delta_dynamics",
     "delta_dynamics_into",
     "delta_kinematics",
     "delta_kinematics_into",
     "delta_terms",
-    "pack_geometry",
+    "friction_torque",
     "solve3",
     "solve3_into",
+    "stribeck_kernel",
 ]
-
-_COS = np.cos(chain_azimuths())
-_SIN = np.sin(chain_azimuths())
-
-
-def pack_geometry(params: DeltaParameters) -> np.ndarray:
-    """The constants :func:`delta_terms` needs, as a float array (see the module docstring)."""
-    return np.array(
-        [
-            params.R,
-            params.r,
-            params.l_a,
-            params.l_b,
-            params.arm_equivalent_inertia,
-            0.5 * (params.m_a + params.m_b) * params.g * params.l_a,
-            params.g,
-        ]
-    )
 
 
 @njit(cache=True)
@@ -107,7 +76,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     """FK, J, J_dot, M, C, G of eqs. 3-10 at one state; ``ok`` is False without an FK solution.
 
     Args:
-        geometry: :func:`pack_geometry` of the robot.
+        geometry: a :data:`~delta_pin.compiled.layouts.GEOMETRY` record of the robot.
         cos_phi, sin_phi: cos and sin of the chain azimuths (3,).
         m_eq: m_o + 3/2 m_b [kg].
         alpha, alpha_dot: active angles [rad] and velocities [rad/s], (3,).
@@ -135,7 +104,7 @@ def delta_dynamics(geometry, m_eq, alpha, J, J_dot):
 @njit(cache=True)
 def delta_dynamics_into(geometry, m_eq, alpha, J, J_dot, M, C, G):
     """:func:`delta_dynamics` into preallocated M, C (3, 3) and G (3,)."""
-    arm_inertia, arm_gravity, g = geometry[4], geometry[5], geometry[6]
+    arm_inertia, arm_gravity, g = geometry.arm_inertia, geometry.arm_gravity, geometry.g
     for i in range(3):
         for j in range(3):
             M[i, j] = m_eq * (J[0, i] * J[0, j] + J[1, i] * J[1, j] + J[2, i] * J[2, j])
@@ -161,7 +130,7 @@ def delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot):
 def delta_kinematics_into(geometry, cos_phi, sin_phi, alpha, alpha_dot, xyz, J, J_dot, work):
     """:func:`delta_kinematics` into preallocated xyz (3,), J, J_dot (3, 3) with a (6, 3, 3)
     scratch array; returns ``ok``."""
-    R, r, l_a, l_b = geometry[0], geometry[1], geometry[2], geometry[3]
+    R, r, l_a, l_b = geometry.R, geometry.r, geometry.l_a, geometry.l_b
     centres, tangents, curvatures, s, inverse, W = work[0], work[1], work[2], work[3], work[4], work[5]
     for i in range(3):
         ca = math.cos(alpha[i])
@@ -233,14 +202,9 @@ def delta_kinematics_into(geometry, cos_phi, sin_phi, alpha, alpha_dot, xyz, J, 
     return True
 
 
-def chain_trigonometry() -> tuple[np.ndarray, np.ndarray]:
-    """(cos phi_i, sin phi_i) arrays to pass to :func:`delta_terms`."""
-    return _COS.copy(), _SIN.copy()
-
-
 @njit(cache=True)
 def stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, sign_velocity_scale):
-    """Eq. 12 for three joints, like :func:`delta_pin.friction.stribeck_torque` [N m].
+    """Eq. 12 for three joints, like :func:`delta_pin.model.friction.stribeck_torque` [N m].
 
     ``normal_force`` is (3,) [N]; ``sign_velocity_scale`` > 0 smooths sgn by tanh [rad/s].
     """
@@ -257,6 +221,17 @@ def stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, sign_ve
     return torque
 
 
-def friction_kernel_arguments(stribeck) -> tuple[float, float, float, float, float]:
-    """(r_a, v_s, mu_s, mu_d, mu_v) of a :class:`~delta_pin.description.StribeckParameters`."""
-    return (stribeck.r_a, stribeck.v_s, stribeck.mu_s, stribeck.mu_d, stribeck.mu_v)
+@njit(cache=True)
+def friction_torque(friction, alpha_dot, normal_force):
+    """:func:`stribeck_kernel` for a :data:`~delta_pin.compiled.layouts.FRICTION` record (which
+    must be ``on``) [N m]."""
+    return stribeck_kernel(
+        friction.r_a,
+        friction.v_s,
+        friction.mu_s,
+        friction.mu_d,
+        friction.mu_v,
+        alpha_dot,
+        normal_force,
+        friction.sign_velocity_scale,
+    )

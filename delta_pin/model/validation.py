@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import kinematics
-from .errors import DeltaPinError, InvalidParameterError
-from .robot import Delta
+from delta_pin.errors import DeltaPinError, InvalidParameterError
+from delta_pin.model import kinematics
+from delta_pin.model.robot import Delta
 
 __all__ = ["Check", "ValidationReport", "sample_states", "validate"]
 
@@ -160,7 +160,7 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
     The analytic side and the finite differences are evaluated for all samples at once; the
     Pinocchio side calls Pinocchio state by state (its kinematics and dynamics algorithms) and
     solves the closures and projects for all states together
-    (:meth:`~delta_pin.pinocchio_model.DeltaPinocchioModel.reduced_dynamics_batch`).
+    (:meth:`~delta_pin.model.pinocchio_model.DeltaPinocchioModel.reduced_dynamics_batch`).
 
     Args:
         robot: the robot to check.

@@ -5,7 +5,7 @@ rho_hat_max surfaces over (Delta_m, Delta_f), (Delta_f, Delta_fc), (Delta_m, Del
 designs; and writes into the output folder the figures equivalent to Figs. 6-29, ``metrics.csv``,
 ``metrics.md``, ``report.md`` (which of the paper's claims hold, the paper's numbers beside ours)
 and ``index.html``, plus standalone meshcat pages of the main runs. Every simulation goes through
-:func:`delta_pin.sweep.run_sweep`, so a killed reproduction resumes from its cache.
+:func:`delta_pin.studies.sweep.run_sweep`, so a killed reproduction resumes from its cache.
 
 Choices, stated in the report too:
 
@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text_atomically
-from .experiments import RunSpec
-from .metrics import compute_metrics
-from .simulate import Run, load_run
-from .sweep import grid_specs, run_sweep, spec_key
+from delta_pin.sim.run import Run, load_run
+from delta_pin.studies.experiments import RunSpec
+from delta_pin.studies.metrics import compute_metrics
+from delta_pin.studies.sweep import grid_specs, run_sweep, spec_key
+from delta_pin.utils.atomic import write_text_atomically
 
 __all__ = [
     "MAIN_CONTROLLERS",
@@ -41,6 +41,7 @@ __all__ = [
     "ReproduceSettings",
     "ReproductionResult",
     "compare",
+    "markdown_table",
     "reproduce",
     "settling_time",
     "sweep",
@@ -330,7 +331,7 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
 
 # ------------------------------------------------------------------------------------------ outputs
 def _write_figures(result: ReproductionResult, figures: Path) -> None:
-    from .viz import plots
+    from delta_pin.viz import plots
 
     runs = result.runs
     for design, numbers in (("design I", (6, 7, 8)), ("design II", (12, 13, 14))):
@@ -414,7 +415,7 @@ def _write_tables(result: ReproductionResult) -> None:
     for row in result.metrics:
         writer.writerow(row)
     write_text_atomically(result.out / "metrics.csv", buffer.getvalue())
-    write_text_atomically(result.out / "metrics.md", _markdown_table(result.metrics) + "\n")
+    write_text_atomically(result.out / "metrics.md", markdown_table(result.metrics) + "\n")
 
 
 def _format(value) -> str:
@@ -425,7 +426,7 @@ def _format(value) -> str:
     return str(value)
 
 
-def _markdown_table(metrics: list[dict]) -> str:
+def markdown_table(metrics: list[dict]) -> str:
     header = (
         "| controller | path | IAE [rad·s] | ISE [rad²·s] | S = ∫‖τ‖dt [N·m·s] | Σ‖τ_k‖ [N·m] | ρ̂ max | "
         "ρ̂ final | max task error, last 5 s [mm] | settles (1e-3 rad) [s] | wall [s] |"
@@ -441,7 +442,7 @@ def _markdown_table(metrics: list[dict]) -> str:
 
 def _write_meshcat_pages(result: ReproductionResult) -> list[str]:
     try:
-        from .viz.meshcat_export import export_html
+        from delta_pin.viz.meshcat_export import export_html
     except ImportError:  # pragma: no cover - meshcat is in the [viz] extra
         return []
     pages = []
@@ -475,7 +476,7 @@ def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: li
     lines += [
         f"| {c['claim']} | {c['paper']} | {c['ours']} | {c['holds']} | {c['why']} |" for c in result.claims
     ]
-    lines += ["", "## Metrics", "", _markdown_table(result.metrics), "", "## Figures", ""]
+    lines += ["", "## Metrics", "", markdown_table(result.metrics), "", "## Figures", ""]
     lines += [f"![{name}](figures/{name})" for name in figures]
     if pages:
         lines += ["", "## Animations (standalone meshcat pages)", ""] + [f"- [{p}]({p})" for p in pages]
@@ -529,7 +530,7 @@ def compare(
 ) -> list[dict]:
     """Run ``specs`` (controllers x paths), write their runs, ``metrics.csv``/``.md`` and figures;
     ``robot_args`` are xacro arguments of the robot (Table 1 by default)."""
-    from .viz import plots
+    from delta_pin.viz import plots
 
     out = Path(out)
     points = run_sweep(
@@ -591,7 +592,7 @@ def sweep(
 ) -> list[dict]:
     """A grid over ``axes`` around ``base``: ``results.csv`` (one row per point) and, for two axes,
     a surface of ``metric``; ``robot_args`` are xacro arguments of the robot."""
-    from .viz import plots
+    from delta_pin.viz import plots
 
     out = Path(out)
     specs = grid_specs(base, axes)

@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from . import kinematics
-from .description import DeltaParameters
-from .errors import InvalidParameterError, UnreachablePoseError
+from delta_pin.errors import InvalidParameterError, UnreachablePoseError
+from delta_pin.model import kinematics
+from delta_pin.model.description import DeltaParameters
 
 __all__ = [
     "AdeptCycle",
@@ -81,7 +81,7 @@ class JointReference:
 
 
 def _params_of(robot_or_params: Any) -> DeltaParameters:
-    """The DeltaParameters of a :class:`~delta_pin.robot.Delta` (or the parameters themselves)."""
+    """The DeltaParameters of a :class:`~delta_pin.model.robot.Delta` (or the parameters themselves)."""
     return getattr(robot_or_params, "params", robot_or_params)
 
 
@@ -139,7 +139,7 @@ class Trajectory(ABC):
         solved for the whole batch at once.
 
         Args:
-            robot_or_params: a :class:`~delta_pin.robot.Delta` or its DeltaParameters.
+            robot_or_params: a :class:`~delta_pin.model.robot.Delta` or its DeltaParameters.
             t: a float or an array (N,) of times [s].
 
         Raises:
@@ -205,7 +205,7 @@ def check_workspace(
 
     Args:
         trajectory: the task-space trajectory.
-        robot_or_params: a :class:`~delta_pin.robot.Delta` or its DeltaParameters.
+        robot_or_params: a :class:`~delta_pin.model.robot.Delta` or its DeltaParameters.
         t_end: end of the check [s]; ``None`` takes ``trajectory.duration``.
         dt: sampling step [s] (e.g. the simulation's control period).
 

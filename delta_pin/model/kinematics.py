@@ -8,7 +8,7 @@ The Jacobian follows from differentiating eq. 5: s_i^T (p_dot - B_i' alpha_dot_i
 s_i = C_i - B_i, so J = S^-1 diag(s_i^T dB_i/dalpha_i) with S = [s_1 s_2 s_3]^T. (Eq. 10 prints
 the same structure, with b_i = -dB_i/dalpha_i.)
 
-Every function takes the :class:`~delta_pin.description.DeltaParameters` first and works in SI
+Every function takes the :class:`~delta_pin.model.description.DeltaParameters` first and works in SI
 units: positions [m], angles [rad], velocities [rad/s], [m/s].
 """
 
@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .description import DeltaParameters, chain_azimuths
-from .errors import ForwardKinematicsError, NonFiniteError, UnreachablePoseError
+from delta_pin.errors import ForwardKinematicsError, NonFiniteError, UnreachablePoseError
+from delta_pin.model.description import DeltaParameters, chain_azimuths
 
 __all__ = [
+    "chain_trigonometry",
     "elbow_positions",
     "forward_kinematics",
     "forward_kinematics_masked",
@@ -35,6 +36,12 @@ _PHI = chain_azimuths()
 _COS_PHI = np.cos(_PHI)
 _SIN_PHI = np.sin(_PHI)
 _U = np.stack([_COS_PHI, _SIN_PHI, np.zeros(3)], axis=1)  # row i: radial unit u_i
+
+
+def chain_trigonometry() -> tuple[np.ndarray, np.ndarray]:
+    """(cos phi_i, sin phi_i) of the chain azimuths (3,), as the compiled kernels take them."""
+    phi = chain_azimuths()
+    return np.cos(phi), np.sin(phi)
 
 
 def radial_units() -> np.ndarray:

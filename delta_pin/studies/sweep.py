@@ -1,9 +1,9 @@
-"""Many runs at once: a grid of :class:`~delta_pin.experiments.RunSpec` through an executor, with an
+"""Many runs at once: a grid of :class:`~delta_pin.studies.experiments.RunSpec` through an executor, with an
 on-disk cache so that a killed sweep resumes where it stopped.
 
 Every finished point is written at once, atomically (a temporary file, then a rename), to
 ``cache_dir/<key>.json`` -- the spec, its metrics and the wall time -- and, with ``save_runs=True``,
-its :class:`~delta_pin.simulate.Run` to ``cache_dir/<key>.npz``. ``<key>`` is :func:`spec_key`, the
+its :class:`~delta_pin.sim.runner.Run` to ``cache_dir/<key>.npz``. ``<key>`` is :func:`spec_key`, the
 sha256 of the spec's canonical JSON. A point whose ``.json`` exists is read back, not recomputed.
 
 Executors: ``"serial"`` (a loop in this process), ``"process"`` (a
@@ -45,11 +45,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text_atomically
-from .errors import DeltaPinError, InvalidParameterError
-from .experiments import RunSpec, batch_group, run_batch, run_spec
-from .metrics import compute_metrics
-from .progress import Progress
+from delta_pin.errors import DeltaPinError, InvalidParameterError
+from delta_pin.studies.experiments import RunSpec, batch_group, run_batch, run_spec
+from delta_pin.studies.metrics import compute_metrics
+from delta_pin.utils.atomic import write_text_atomically
+from delta_pin.utils.progress import Progress
 
 __all__ = [
     "EXECUTORS",
@@ -143,7 +143,7 @@ class SweepPoint:
     Attributes:
         spec: the run.
         key: :func:`spec_key` (the cache file name without suffix).
-        metrics: :meth:`~delta_pin.metrics.RunMetrics.as_dict` of the run, ``None`` if it failed.
+        metrics: :meth:`~delta_pin.studies.metrics.RunMetrics.as_dict` of the run, ``None`` if it failed.
         wall_time: seconds the worker took (simulation and metrics) [s].
         error: the error message of a failed point, ``None`` otherwise.
         error_type: the exception's class name of a failed point.
@@ -234,7 +234,7 @@ def _freeze(value):
 @functools.lru_cache(maxsize=8)
 def _cached_robot(frozen_args: tuple):
     """The robot of ``load_delta(**robot_args)``, built once per process."""
-    from .robot import load_delta
+    from delta_pin.model.robot import load_delta
 
     return load_delta(**dict(frozen_args))
 
@@ -246,7 +246,7 @@ def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run
         spec_dict: :meth:`RunSpec.as_dict` of the run.
         robot_args: keyword arguments of :func:`~delta_pin.load_delta` (``None``: Table 1); the
             robot is built once per process and reused.
-        return_run: add the :class:`~delta_pin.simulate.Run` under ``"run"`` (to be saved by the caller).
+        return_run: add the :class:`~delta_pin.sim.runner.Run` under ``"run"`` (to be saved by the caller).
 
     Returns:
         ``{"spec", "metrics", "wall_time", "error", "error_type"}`` (JSON-serialisable, apart from
@@ -278,7 +278,8 @@ def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run
 def evaluate_batch(
     spec_dicts: list[dict], robot_args: Mapping | None = None, return_run: bool = False
 ) -> list[dict]:
-    """:func:`evaluate_spec` for several points that share a :func:`~delta_pin.experiments.batch_group`:
+    """:func:`evaluate_spec` for several points that share a
+    :func:`~delta_pin.studies.experiments.batch_group`:
     one compiled call simulates them all (each record's ``wall_time`` is its share). A batch that
     cannot be built (e.g. an unknown gain name) falls back to one point at a time, so the error
     lands on the point that caused it."""
@@ -353,7 +354,7 @@ def _store(cache_dir: Path, key: str, record: dict, robot_args: dict) -> None:
         run.save(cache_dir / f"{key}.npz")
     if record.get("unexpected"):
         return  # not cached: a resume retries it
-    from . import __version__
+    from delta_pin import __version__
 
     payload = {
         "format": RECORD_FORMAT,

@@ -13,40 +13,19 @@ which is an independent route to the paper's eqs. 7-9 (DESIGN.md section 5).
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 import pinocchio as pin
 
-from .description import DeltaDescription
-from .dynamics import ReducedDynamics
-from .errors import AssemblyError
-from .kinematics import as_vector3, forward_kinematics
+from delta_pin.errors import AssemblyError
+from delta_pin.model.description import DeltaDescription
+from delta_pin.model.dynamics import ReducedDynamics
+from delta_pin.model.kinematics import as_vector3, forward_kinematics
 
 __all__ = ["DeltaPinocchioModel"]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-
-def _largest_gap(gap, nan, parent, child):
-    """(max(gap, max |parent - child|), nan or any NaN among them): one closure's share of
-    :meth:`DeltaPinocchioModel.closure_gap`."""
-    for i in range(len(parent)):
-        d = abs(parent[i] - child[i])
-        if d > gap:
-            gap = d
-        elif d != d:
-            nan = True
-    return gap, nan
-
-
-@functools.cache
-def _largest_gap_kernel():
-    """:func:`_largest_gap` compiled on first use (numba stays unloaded for ``delta-pin validate``)."""
-    from .fast_model import njit
-
-    return njit(cache=True)(_largest_gap)
 
 
 class DeltaPinocchioModel:
@@ -143,8 +122,9 @@ class DeltaPinocchioModel:
         joint kinematics plus the six anchor frames only, on a ``data`` of its own (the shared one
         is left as it was).
         """
+        from delta_pin.compiled.tree_kernels import largest_gap  # numba stays unloaded for validate
+
         model, data, place = self.model, self._gap_data, pin.updateFramePlacement
-        largest_gap = _largest_gap_kernel()
         pin.forwardKinematics(model, data, q)
         gap, nan = 0.0, False
         for f1, f2 in self._closure_frames:

@@ -15,13 +15,17 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from .control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
-from .errors import InvalidParameterError
-from .plant import Friction
-from .robot import Delta, load_delta
-from .simulate import INTEGRATORS, MODES, Run, simulate
-from .trajectory import AdeptCycle, PathI, PathII, Trajectory
-from .uncertainty import PAPER_NOMINAL_DISTURBANCE, PaperUncertainty, RandomUncertainty
+from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
+from delta_pin.errors import InvalidParameterError
+from delta_pin.model.friction import Friction
+from delta_pin.model.robot import Delta, load_delta
+from delta_pin.model.trajectory import AdeptCycle, PathI, PathII, Trajectory
+from delta_pin.sim.arguments import MODES
+from delta_pin.sim.batch import native_available, simulate_batch
+from delta_pin.sim.integrators import INTEGRATORS
+from delta_pin.sim.run import Run
+from delta_pin.sim.runner import simulate
+from delta_pin.sim.uncertainty import PAPER_NOMINAL_DISTURBANCE, PaperUncertainty, RandomUncertainty
 
 __all__ = [
     "CONTROLLERS",
@@ -164,7 +168,7 @@ def run_spec(
     spec: RunSpec, robot: Delta | None = None, progress: bool | None = False, compiled: bool | None = None
 ) -> Run:
     """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` and
-    ``compiled`` as in :func:`~delta_pin.simulate.simulate`."""
+    ``compiled`` as in :func:`~delta_pin.sim.runner.simulate`."""
     robot = robot or load_delta()
     trajectory = build_trajectory(spec.path)
     controller = build_controller(spec, robot, trajectory)
@@ -191,30 +195,25 @@ def batch_group(spec: RunSpec) -> tuple | None:
     """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
     when ``spec`` cannot be batched: designs I/II in continuous mode with ``integrator="bdf2"`` or
     in sampled mode (RK4), on the analytic plant or, where the native library of
-    :mod:`delta_pin.native` is available, on the Pinocchio plant."""
+    :mod:`delta_pin.compiled.native` is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (spec.controller in ("design1", "design2") and (continuous or sampled)):
         return None
-    if spec.plant == "pinocchio":
-        from . import native
-
-        if native.load() is None:
-            return None
+    if spec.plant == "pinocchio" and not native_available():
+        return None
     vector_rho = bool(spec.gains.get("vector_rho"))
     return (spec.plant, spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
 
 
 def run_batch(specs: list[RunSpec], robot: Delta | None = None) -> list:
-    """Simulate specs of one :func:`batch_group` together (:func:`delta_pin.batch.simulate_batch`);
+    """Simulate specs of one :func:`batch_group` together (:func:`delta_pin.sim.batch.simulate_batch`);
     each result is the :class:`Run` that :func:`run_spec` gives for its spec, or the
     :class:`~delta_pin.errors.SimulationError` of a run that failed.
 
     Raises:
         InvalidParameterError: specs from different groups, or a spec that cannot be batched.
     """
-    from .batch import simulate_batch
-
     groups = {batch_group(spec) for spec in specs}
     if None in groups or len(groups) != 1:
         raise InvalidParameterError(

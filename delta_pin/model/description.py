@@ -19,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from .errors import (
+from delta_pin.errors import (
     InvalidParameterError,
     NonFiniteError,
     URDFConventionError,

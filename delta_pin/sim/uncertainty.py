@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InvalidParameterError, NonFiniteError
+from delta_pin.errors import InvalidParameterError, NonFiniteError
 
 __all__ = [
     "PAPER_NOMINAL_DISTURBANCE",

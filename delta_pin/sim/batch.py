@@ -1,0 +1,372 @@
+"""Designs I and II run compiled, on either plant: continuous mode (BDF2) and sampled mode
+(zero-order hold, RK4) -- the entry from ``sim`` to :mod:`delta_pin.compiled`.
+
+:func:`simulate_batch` runs many runs that share the robot, the path and the timing but differ in
+gains, uncertainty or initial state: the reference is tabulated once, then each run is one
+compiled call (:func:`~delta_pin.compiled.closed_loop.run_closed_loop`, or
+:func:`~delta_pin.compiled.tree_loop.run_tree_sampled` for sampled runs on the Pinocchio tree).
+A run's result is the same, bit for bit, as the run made alone (``simulate(...,
+integrator="bdf2")`` is a batch of one). In sampled mode the compiled loops do the arithmetic of
+:func:`~delta_pin.sim.loop.run_python_loop` (the same stages, truth and reference rows) and give
+its arrays (tests/sim/test_compiled_loops.py). On the Pinocchio plant in sampled mode the tree is
+integrated in full coordinates through Pinocchio's C++ (:mod:`delta_pin.compiled.native`); where
+the closure gap calls for a projection, the plant's own Python routine projects and the loop
+resumes, so projection has one implementation. In continuous mode on the Pinocchio plant, BDF2
+integrates the active coordinates and Pinocchio completes q(alpha) at every evaluation. The
+Pinocchio plant needs the native library.
+
+Example:
+    >>> robot = load_delta()
+    >>> nominal = DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    >>> runs = simulate_batch(robot, [design1(nominal, xi=x) for x in (1e-3, 1e-2)], PathI(),
+    ...                       t_end=3.0, friction=Friction(),
+    ...                       uncertainties=[PaperUncertainty()] * 2)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from delta_pin.compiled import closed_loop, tree_loop
+from delta_pin.compiled.layouts import (
+    INFO,
+    NATIVE_TREE,
+    PLANT,
+    SAMPLE,
+    TIMING,
+    TREE_LOOP_LIMITS,
+    WORKSPACE,
+    record,
+    records,
+    tree_loop_state,
+)
+from delta_pin.control.adaptive_robust import AdaptiveRobustController
+from delta_pin.control.base import Reference
+from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError
+from delta_pin.model.dynamics import kernel_geometry
+from delta_pin.model.kinematics import chain_trigonometry
+from delta_pin.model.robot import Delta
+from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
+from delta_pin.sim.integrators import MAX_JOINT_SPEED
+from delta_pin.sim.loop import ControlLoop
+from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant, make_plant, truth_records
+from delta_pin.sim.reference import tabulate_reference
+from delta_pin.sim.run import Run, run_metadata
+
+__all__ = ["batchable", "native_available", "simulate_batch"]
+
+_FAILURES = {
+    closed_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",
+    closed_loop.NO_CONVERGENCE: "Newton's method did not converge even on 1024 sub-steps",
+    closed_loop.DIVERGED: "the run diverged (|alpha_dot| > 1000 rad/s or a non-finite state)",
+}
+
+
+def _is_tree(plant, mode: str = "sampled") -> bool:
+    """Whether ``plant`` is the Pinocchio plant the compiled loops take in ``mode``: in full
+    coordinates in sampled mode; either representation in continuous mode (BDF2 integrates the
+    active coordinates and completes q(alpha) at every evaluation)."""
+    if plant == "pinocchio":
+        return True
+    return isinstance(plant, PinocchioPlant) and (mode == "continuous" or plant.coordinates == "full")
+
+
+def native_available() -> bool:
+    """Whether the native library (Pinocchio's C++ for the compiled loops on the Pinocchio plant)
+    is available here; it is built on the first call (~45 s, then cached)."""
+    from delta_pin.compiled import native
+
+    return native.load() is not None
+
+
+def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
+    """Whether ``controller`` on ``plant`` can take a compiled path: design I or II with its
+    compiled step (the Delta's analytic nominal model), on the analytic plant or on the Pinocchio
+    plant (in sampled mode in full coordinates) where the native library is available."""
+    if not (isinstance(controller, AdaptiveRobustController) and controller.compiled):
+        return False
+    if plant == "analytic" or isinstance(plant, AnalyticPlant):
+        return True
+    return _is_tree(plant, mode) and native_available()
+
+
+@dataclass
+class _Outcome:
+    """One compiled run: its samples, the controller's info, counters and failure (or ``None``)."""
+
+    samples: np.ndarray  # SAMPLE records (steps + 1,)
+    info: np.ndarray  # INFO records (steps + 1,)
+    counters: np.ndarray  # [evaluations, split steps]
+    failure: Exception | None
+
+
+def simulate_batch(
+    robot: Delta,
+    controllers: Sequence[AdaptiveRobustController],
+    trajectory=None,
+    *,
+    plant: str | Plant = "analytic",
+    t_end: float,
+    dt: float = 1e-3,
+    substeps: int = 1,
+    mode: str = "continuous",
+    alpha0=None,
+    alpha_dot0=None,
+    friction=None,
+    uncertainties: Sequence | None = None,
+    errors: str = "raise",
+) -> list:
+    """Simulate one run per controller (design I or II), compiled: BDF2 in continuous mode, RK4
+    under a zero-order hold in sampled mode.
+
+    Args:
+        robot: the robot; every run uses it.
+        controllers: designs I/II on the Delta's analytic nominal model, all with the same
+            ``vector_rho``; gains and options may differ.
+        trajectory: the shared path (``None``: hold ``alpha0``).
+        plant: ``"analytic"`` or ``"pinocchio"`` (needs the native library), or such a
+            :class:`~delta_pin.sim.plants.Plant` (its friction and uncertainty then serve the
+            first run).
+        t_end, dt: duration and sample period [s]; integrator steps are dt / substeps.
+        substeps: BDF2 or RK4 steps per sample (>= 1).
+        mode: ``"continuous"`` (BDF2) or ``"sampled"`` (zero-order hold, RK4).
+        alpha0, alpha_dot0: initial angles [rad] and velocities [rad/s] of every run, or one row
+            per run ((B, 3)); defaults as :func:`~delta_pin.sim.runner.simulate`.
+        friction: :class:`~delta_pin.model.friction.Friction` of every run, ``True`` or ``None``.
+        uncertainties: one profile per run (``None`` entries: no uncertainty), or ``None``.
+        errors: ``"raise"`` the first failure, or ``"return"`` it in place of its run.
+
+    Returns:
+        A list of :class:`~delta_pin.sim.run.Run` (or :class:`~delta_pin.errors.SimulationError`
+        with ``errors="return"``), in the order of ``controllers``.
+
+    Raises:
+        InvalidParameterError: a controller or plant the compiled path cannot run, bad sizes.
+        SimulationError: a run that fails (with ``errors="raise"``), naming the time.
+    """
+    controllers = _check_controllers(controllers, plant, mode)
+    if errors not in ("raise", "return"):
+        raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")
+    check_substeps(substeps)
+    steps = check_timing(dt, t_end)
+    count = len(controllers)
+    uncertainties = [None] * count if uncertainties is None else list(uncertainties)
+    if len(uncertainties) != count:
+        raise InvalidParameterError(f"uncertainties has {len(uncertainties)} entries for {count} controllers")
+    sampled, tree = mode == "sampled", _is_tree(plant, mode)
+    kind = "pinocchio" if tree else "analytic"
+    plants = [
+        plant if isinstance(plant, Plant) and i == 0 else make_plant(kind, robot, friction, u)
+        for i, u in enumerate(uncertainties)
+    ]
+    h = dt / substeps
+
+    # the reference on the integrator's grid (continuous) or at the samples (sampled), the truth on
+    # the step grid (BDF2) or the half-step grid (RK4 stages), as simulate() tabulates them
+    alpha0_rows = np.asarray(alpha0, dtype=float) if alpha0 is not None else None
+    per_run_alpha0 = alpha0_rows is not None and alpha0_rows.ndim == 2
+    per_sample = 1 if sampled else substeps
+    table, sample_xyz, start = tabulate_reference(
+        robot, trajectory, alpha0_rows[0] if per_run_alpha0 else alpha0, 3, steps, dt, per_sample
+    )
+    reference = table.records()
+    grid = np.arange(2 * steps * substeps + 1) * (h / 2.0) if sampled else np.arange(steps * substeps + 1) * h
+    timing = record(
+        TIMING, step=dt if sampled else h, substeps=substeps, samples=steps, max_speed=MAX_JOINT_SPEED,
+        sampled=sampled,
+    )  # fmt: skip
+
+    wall = time.perf_counter()
+    outcomes, initial = [], []
+    for b, (controller, run_plant) in enumerate(zip(controllers, plants)):
+        y0 = _initial_state(controller, alpha0_rows[b] if per_run_alpha0 else start, alpha_dot0, b)
+        initial.append(y0)
+        truth = truth_records(*run_plant.evaluate_truth(grid))
+        run = _run_on_tree if tree and sampled else _run_closed_loop
+        outcomes.append(run(controller, run_plant, truth, reference, y0, timing))
+    wall = (time.perf_counter() - wall) / count
+
+    results = []
+    for controller, run_plant, y0, outcome in zip(controllers, plants, initial, outcomes):
+        if outcome.failure is not None:
+            if errors == "raise":
+                raise outcome.failure
+            results.append(outcome.failure)
+            continue
+        metadata = run_metadata(
+            robot, controller, trajectory, run_plant, mode=mode, dt=dt, t_end=steps * dt,
+            substeps=substeps, integrator="rk4" if sampled else "bdf2", alpha0=y0[:3].tolist(),
+            alpha_dot0=y0[3:6].tolist(), wall_time=wall, rhs_evaluations=int(outcome.counters[0]),
+            split_steps=int(outcome.counters[1]), batch_size=count, compiled=True,
+        )  # fmt: skip
+        if getattr(run_plant, "projections", 0):
+            metadata["closure_projections"] = run_plant.projections
+        alpha_d, alpha_dot_d, _ = table.rows(per_sample)
+        results.append(
+            _run_from_samples(outcome, len(y0) - 6, dt, alpha_d, alpha_dot_d, sample_xyz, metadata)
+        )
+    return results
+
+
+def _check_controllers(controllers, plant, mode: str) -> list:
+    """The controllers as a list, each one the compiled loops can run on ``plant`` in ``mode``."""
+    controllers = list(controllers)
+    if not controllers:
+        raise InvalidParameterError("controllers must hold at least one controller")
+    check_mode(mode)
+    for index, controller in enumerate(controllers):
+        if not batchable(controller, plant, mode):
+            raise InvalidParameterError(
+                f"controllers[{index}] ({getattr(controller, 'name', controller)!r}) on plant "
+                f"{getattr(plant, 'name', plant)!r} in {mode} mode: the compiled loops run designs "
+                "I/II with their compiled step on the analytic plant, or on the Pinocchio plant "
+                "with the native library (in sampled mode in full coordinates); use "
+                "integrator='lsoda' or simulate(..., compiled=False)"
+            )
+    if len({c.vector_rho for c in controllers}) > 1:
+        raise InvalidParameterError("all controllers of a batch must have the same vector_rho")
+    return controllers
+
+
+def _initial_state(controller, alpha0, alpha_dot0, b: int) -> np.ndarray:
+    """[alpha0, alpha_dot0, rho_hat(0)] of run b (``alpha_dot0``: one row or one per run)."""
+    a0 = joint_vector(alpha0, "alpha0", 3)
+    v0 = np.zeros(3)
+    if alpha_dot0 is not None:
+        rows = np.asarray(alpha_dot0, dtype=float)
+        v0 = joint_vector(rows[b] if rows.ndim == 2 else rows, "alpha_dot0", 3)
+    controller.reset()
+    return np.concatenate([a0, v0, controller.initial_state().astype(float)])
+
+
+def _plant_record(plant: Plant, controller: AdaptiveRobustController) -> np.record:
+    """The plant as the compiled closed loop reads it (analytic; the tree is added by the caller)."""
+    geometry = kernel_geometry(plant.robot.params)
+    return record(
+        PLANT,
+        geometry=geometry,
+        forearm_mass=1.5 * plant.robot.params.m_b,
+        friction=plant.friction_parameters,
+        shared_kinematics=controller.kernel_parameters["geometry"].tolist() == geometry.tolist(),
+    )
+
+
+def _run_closed_loop(controller, plant: Plant, truth, reference, y0, timing) -> _Outcome:
+    """One run through :func:`~delta_pin.compiled.closed_loop.run_closed_loop`: the analytic plant,
+    or the Pinocchio tree in active coordinates (continuous mode)."""
+    plant_record = _plant_record(plant, controller)
+    if isinstance(plant, PinocchioPlant):
+        tree = plant.native_tree()
+        source = plant.robot.pinocchio
+        # completions of q(alpha) restart from the closed configuration at alpha0
+        tree.set_active(source.active_indices, source.platform_indices, source.configuration(y0[:3]))
+        plant_record["tree"] = True
+        plant_record["active_dynamics"] = tree.address_active
+        plant_record["tree_handle"] = tree.handle
+        plant_record["nominal_platform_mass"] = plant.nominal_platform_mass
+        plant_record["nominal_platform_rotational"] = plant.nominal_platform_rotational
+    samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
+    counters = np.zeros(2, dtype=np.int64)
+    status, when = closed_loop.run_closed_loop(
+        controller.kernel_parameters, *chain_trigonometry(), plant_record, truth, reference, y0, timing,
+        record(WORKSPACE), samples, info, counters,
+    )  # fmt: skip
+    failure = None
+    if status != closed_loop.OK:
+        method = "rk4" if timing["sampled"] else "bdf2"
+        failure = SimulationError(f"{method}: {_FAILURES[int(status)]}", float(when))
+    return _Outcome(samples, info, counters, failure)
+
+
+def _run_on_tree(controller, plant: PinocchioPlant, truth, reference, y0, timing) -> _Outcome:
+    """One sampled run on the Pinocchio tree in full coordinates
+    (:func:`~delta_pin.compiled.tree_loop.run_tree_sampled`), reading the truth on the half-step
+    grid (as :meth:`~delta_pin.sim.plants.Plant.precompute_truth` tabulates it for ``simulate``)
+    and the platform inertia at each of its masses. Where the loop stops for a projection, the
+    plant's own :meth:`~delta_pin.sim.plants.PinocchioPlant.finish_step_residual` projects the
+    state and the loop resumes; where it stops on a failure, the failing step is re-evaluated by
+    the Python loop's checks, so that the error is the one ``simulate`` raises."""
+    source = plant.robot.pinocchio
+    active = source.active_indices.astype(np.int64)
+    platform = source.platform_indices.astype(np.int64)
+    tree = plant.native_tree()
+    native_tree = record(
+        NATIVE_TREE, dynamics=tree.address_dynamics, closure_gap=tree.address_gap, handle=tree.handle
+    )
+    rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
+    limits = record(
+        TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
+        failure_tolerance=plant.failure_tolerance,
+    )  # fmt: skip
+    x0 = plant.initial_state(y0[:3], y0[3:6])
+    nr = len(y0) - 6
+    state = record(tree_loop_state(len(x0)), x=x0)
+    state["rho_hat"][:nr] = y0[6:]
+    samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
+    counters = np.zeros(2, dtype=np.int64)
+    plant_record, workspace = _plant_record(plant, controller), record(WORKSPACE)
+    while True:
+        status, when = tree_loop.run_tree_sampled(
+            controller.kernel_parameters, *chain_trigonometry(), plant_record, native_tree, active, platform,
+            truth, rotational, plant.friction_parameters, reference, timing, limits, state, workspace,
+            samples, info, counters,
+        )  # fmt: skip
+        if status == tree_loop.PROJECT:  # project with the plant's routine, then resume
+            try:
+                state["x"], state["gap"] = plant.finish_step_residual(state["x"].copy(), when)
+            except SimulationError as error:
+                return _Outcome(samples, info, counters, error)
+            continue
+        if status == tree_loop.OK:
+            return _Outcome(samples, info, counters, None)
+        row = reference[state["sample"]]
+        failure = _tree_failure(
+            status, when, ControlLoop(controller, plant), state["x"].copy(), state["rho_hat"][:nr].copy(),
+            Reference(row["alpha"], row["alpha_dot"], row["alpha_ddot"]),
+        )  # fmt: skip
+        return _Outcome(samples, info, counters, failure)
+
+
+def _tree_failure(status: int, when: float, loop: ControlLoop, x, rho, reference: Reference) -> Exception:
+    """The error the Python loop raises where the compiled tree loop stopped with ``status`` at
+    ``when`` [s] in state (x, rho): the same Python check is run on that state."""
+    try:
+        if status == tree_loop.NO_FK:
+            loop.control(when, x, reference, rho)
+        elif status == tree_loop.DIVERGED:
+            loop.check_state(when, x, rho)
+        elif status == tree_loop.EXPLODED:
+            loop.plant.finish_step_residual(x, when)
+    except DeltaPinError as error:
+        return error
+    reasons = {tree_loop.NO_FK: "the controller's kinematics failed", tree_loop.DIVERGED: "the run diverged"}
+    return SimulationError(f"rk4 on the tree: {reasons.get(status, 'Pinocchio failed')}", when)
+
+
+def _run_from_samples(outcome: _Outcome, nr: int, dt: float, alpha_d, alpha_dot_d, xyz_d, metadata) -> Run:
+    """A :class:`~delta_pin.sim.run.Run` from the SAMPLE and INFO records of a compiled run."""
+    samples, info = outcome.samples, outcome.info
+    return Run(
+        t=np.arange(len(samples)) * dt,
+        alpha=samples["alpha"].copy(),
+        alpha_dot=samples["alpha_dot"].copy(),
+        alpha_d=np.array(alpha_d),
+        alpha_dot_d=np.array(alpha_dot_d),
+        xyz=samples["xyz"].copy(),
+        xyz_d=np.array(xyz_d),
+        tau=samples["tau"].copy(),
+        closure_residual=samples["closure_gap"].copy(),
+        internals={
+            "rho_hat": samples["rho_hat"][:, :nr].copy(),
+            "Lambda": info["Lambda"].copy(),
+            "robust_gain": info["robust_gain"].copy(),
+            "omega_norm": info["omega_norm"].copy(),
+            "robust_torque": info["robust_torque"].copy(),
+            "adaptation_active": info["adaptation_active"].copy(),
+        },
+        metadata=metadata,
+    )

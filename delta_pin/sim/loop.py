@@ -1,0 +1,160 @@
+"""The Python closed loop: any controller on any plant, sampled or continuous (the reference that
+the compiled loops of :mod:`delta_pin.compiled` are tested against)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from delta_pin.compiled.rk4 import all_finite
+from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.errors import NonFiniteError, SimulationError
+from delta_pin.sim.integrators import check_state, integrate_lsoda, rk4_step
+from delta_pin.sim.plants import Plant
+from delta_pin.sim.reference import ReferenceTable
+from delta_pin.utils.progress import Progress
+
+__all__ = ["ControlLoop", "LoopRecord", "run_python_loop"]
+
+USE_HELD_RK4 = True  # sampled mode: a plant's held_rk4 fast path (False: the generic RK4 only)
+
+
+class ControlLoop:
+    """A controller on a plant: evaluates it with checks that name the time of a bad output."""
+
+    def __init__(self, controller: Controller, plant: Plant) -> None:
+        self.controller = controller
+        self.plant = plant
+
+    def control(
+        self, t: float, x: np.ndarray, reference: Reference, z: np.ndarray, joints=None
+    ) -> tuple[np.ndarray, np.ndarray, ControlOutput]:
+        """(tau, z_dot, output) at t [s]; ``joints``: x's (alpha, alpha_dot) if already known."""
+        alpha, alpha_dot = self.plant.joint_state(x) if joints is None else joints
+        out = self.controller.evaluate(t, alpha, alpha_dot, reference, z)
+        tau = np.asarray(out.tau, dtype=float)
+        if tau.shape != (self.plant.dof,):
+            raise SimulationError(
+                f"controller {self.controller.name!r} returned a torque of shape {tau.shape}, "
+                f"expected ({self.plant.dof},)",
+                t,
+            )
+        if not all_finite(tau):
+            raise SimulationError(
+                f"controller {self.controller.name!r} returned a non-finite torque {tau.tolist()}", t
+            )
+        return tau, np.asarray(out.state_derivative, dtype=float), out
+
+    def check_state(self, t: float, x: np.ndarray, z: np.ndarray) -> None:
+        """:func:`~delta_pin.sim.integrators.check_state` on the plant state x and controller state z."""
+        check_state(t, x, z, *self.plant.joint_state(x))
+
+
+@dataclass
+class LoopRecord:
+    """What the loop records at every sample (N = steps + 1 rows)."""
+
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    tau: np.ndarray
+    xyz: np.ndarray
+    closure_residual: np.ndarray
+    internals: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def run_python_loop(
+    controller: Controller,
+    plant: Plant,
+    table: ReferenceTable,
+    per_sample: int,
+    x: np.ndarray,
+    t: np.ndarray,
+    *,
+    mode: str,
+    integrator: str,
+    substeps: int,
+    rtol: float,
+    atol: float,
+    progress: bool | None,
+) -> LoopRecord:
+    """Run ``controller`` on ``plant`` from the plant state x over the sample times t [s].
+
+    Sampled mode: tau_k at t_k, held over the period while the plant takes ``substeps`` RK4 steps;
+    the controller state advances once per period, z_{k+1} = z_k + dt z_dot_k. Continuous mode:
+    the controller inside the integrator (RK4 on [x, z] with step dt / substeps, or LSODA).
+    ``table`` holds the reference on the grid dt / per_sample.
+    """
+    steps, dt = len(t) - 1, t[1] - t[0]
+    h = dt / substeps
+    dof = plant.dof
+    controller.reset()
+    loop = ControlLoop(controller, plant)
+    z = controller.initial_state().astype(float)
+    nx = len(x)
+    record = LoopRecord(
+        alpha=np.zeros((len(t), dof)),
+        alpha_dot=np.zeros((len(t), dof)),
+        tau=np.zeros((len(t), dof)),
+        xyz=np.zeros((len(t), 3)),
+        closure_residual=np.zeros(len(t)),
+    )
+    internals: dict[str, list] = {}
+    reference_rows = table.rows(per_sample)
+
+    def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
+        """Control at t_k and record the sample; ``gap``: x's closure residual if known."""
+        joints = plant.joint_state(x)
+        record.alpha[k], record.alpha_dot[k] = joints
+        reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
+        tau, z_dot, out = loop.control(t[k], x, reference, z, joints)
+        record.tau[k] = tau
+        record.xyz[k] = plant.platform_position(x)
+        record.closure_residual[k] = plant.closure_residual(x) if gap is None else gap
+        for name, value in out.internals.items():
+            internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+        return tau, z_dot
+
+    def closed_loop(t_now: float, y: np.ndarray) -> np.ndarray:
+        xs, zs = y[:nx], y[nx:]
+        tau, z_dot, _ = loop.control(t_now, xs, table(t_now), zs)
+        return np.concatenate([plant.derivative(t_now, xs, tau), z_dot])
+
+    bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
+    stride = max(steps // 100, 1)
+    gap = None  # the closure residual of x when the step computed it
+    held = mode == "sampled" and USE_HELD_RK4
+    if integrator == "lsoda":
+        x, z = integrate_lsoda(
+            closed_loop, sample, loop.check_state, plant.finish_step, x, z, t, rtol, atol, bar
+        )
+    else:
+        for k in range(steps):
+            if k % stride == 0 and k:
+                bar.update(round(stride * dt, 9))
+            tau, z_dot = sample(k, x, z, gap)
+            if mode == "sampled":
+                for j in range(substeps):
+                    # the plant's own RK4 step under the held torque if it has one (truth read by
+                    # stage index, same numbers), else the generic step on plant.derivative
+                    x_next = plant.held_rk4(x, tau, 2 * (k * substeps + j), h) if held else None
+                    if x_next is None:
+                        x = rk4_step(lambda ts, xs: plant.derivative(ts, xs, tau), t[k] + j * h, x, h)  # noqa: B023
+                        x, gap = plant.finish_step(x, t[k] + (j + 1) * h), None
+                    else:
+                        x, gap = plant.finish_step_residual(x_next, t[k] + (j + 1) * h)
+                z = z + dt * z_dot
+            else:
+                y = np.concatenate([x, z])
+                for j in range(substeps):
+                    y = rk4_step(closed_loop, t[k] + j * h, y, h)
+                    y[:nx] = plant.finish_step(y[:nx], t[k] + (j + 1) * h)
+                x, z = y[:nx], y[nx:]
+            loop.check_state(t[k + 1], x, z)
+    sample(steps, x, z, gap)
+    bar.close()
+    try:
+        record.internals = {name: np.array(values) for name, values in internals.items()}
+    except ValueError:  # pragma: no cover - inconsistent shapes from a user controller
+        raise NonFiniteError("controller internals changed shape during the run") from None
+    return record

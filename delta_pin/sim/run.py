@@ -1,0 +1,130 @@
+"""A closed-loop run as data: :class:`Run` (arrays sampled at t_k = k dt and metadata), saved
+atomically to ``.npz`` and read back by :func:`load_run`."""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from delta_pin.errors import DeltaPinError
+from delta_pin.utils.atomic import atomic_open
+
+if TYPE_CHECKING:
+    from delta_pin.control.base import Controller
+    from delta_pin.model.robot import Delta
+    from delta_pin.sim.plants import Plant
+
+__all__ = ["ARRAYS", "Run", "load_run", "run_metadata"]
+
+ARRAYS = ("t", "alpha", "alpha_dot", "alpha_d", "alpha_dot_d", "xyz", "xyz_d", "tau", "closure_residual")
+
+
+@dataclass
+class Run:
+    """One closed-loop simulation, sampled at t_k = k dt.
+
+    Attributes:
+        t: sample times (N,) [s].
+        alpha, alpha_dot: joint angles [rad] and velocities [rad/s] (N, 3).
+        alpha_d, alpha_dot_d: reference angles and velocities (N, 3).
+        xyz, xyz_d: actual and desired platform positions (N, 3) [m].
+        tau: torques (N, 3) [N m] evaluated at each sample (held over the period in sampled mode).
+        closure_residual: largest loop-closure gap (N,) [m] (zeros on the analytic plant).
+        internals: controller quantities by name (e.g. ``rho_hat``), each (N, ...).
+        metadata: every parameter of the run, seed and versions (JSON-serialisable).
+    """
+
+    t: np.ndarray
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    alpha_d: np.ndarray
+    alpha_dot_d: np.ndarray
+    xyz: np.ndarray
+    xyz_d: np.ndarray
+    tau: np.ndarray
+    closure_residual: np.ndarray
+    internals: dict[str, np.ndarray] = field(default_factory=dict)
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def error(self) -> np.ndarray:
+        """Joint tracking error r = alpha - alpha^d (eq. 14) (N, 3) [rad]."""
+        return self.alpha - self.alpha_d
+
+    @property
+    def error_rate(self) -> np.ndarray:
+        """r_dot = alpha_dot - alpha_dot^d (N, 3) [rad/s]."""
+        return self.alpha_dot - self.alpha_dot_d
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the run to ``path`` (``.npz``) atomically: a temporary file, then a rename."""
+        arrays = {name: getattr(self, name) for name in ARRAYS}
+        arrays.update({f"internal__{name}": value for name, value in self.internals.items()})
+        arrays["metadata_json"] = np.array(json.dumps(self.metadata, default=_json_default))
+        with atomic_open(path, "wb") as handle:
+            np.savez_compressed(handle, **arrays)
+        return Path(path)
+
+
+def _json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{value!r} is not JSON-serialisable")
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a :class:`Run` written by :meth:`Run.save`."""
+    path = Path(path)
+    if not path.is_file():
+        raise DeltaPinError(f"run file {str(path)!r} does not exist")
+    with np.load(path, allow_pickle=False) as data:
+        try:
+            arrays = {name: data[name] for name in ARRAYS}
+        except KeyError as exc:
+            raise DeltaPinError(f"{str(path)!r} is not a delta-pin run: missing {exc}") from None
+        internals = {
+            key.removeprefix("internal__"): data[key] for key in data.files if key.startswith("internal__")
+        }
+        metadata = json.loads(str(data["metadata_json"]))
+    return Run(**arrays, internals=internals, metadata=metadata)
+
+
+def _versions() -> dict:
+    import pinocchio
+
+    from delta_pin import __version__
+    from delta_pin.compiled.jit import FAST_BACKEND
+
+    return {
+        "delta_pin": __version__,
+        "pinocchio": pinocchio.__version__,
+        "numpy": np.__version__,
+        "python": sys.version.split()[0],
+        "machine": platform.machine(),
+        "fast_backend": FAST_BACKEND,
+    }
+
+
+def run_metadata(robot: Delta, controller: Controller, trajectory, plant: Plant, **timing) -> dict:
+    """The metadata of a :class:`Run`: robot, controller, trajectory, plant, then ``timing``
+    (mode, dt, t_end, integrator, ...), then the package versions."""
+    return {
+        "robot": robot.metadata(),
+        "urdf": robot.urdf,
+        "controller": controller.metadata(),
+        "trajectory": None if trajectory is None else trajectory.metadata(),
+        **plant.metadata(),
+        **timing,
+        "versions": _versions(),
+    }
