@@ -34,6 +34,49 @@ OK, NO_FK, DIVERGED, PROJECT, EXPLODED, PINOCCHIO_FAILED = 0, 1, 3, 4, 5, 6
 
 
 @njit(cache=True)
+def _held_step(tree, x, tau, active, truth, rotational, friction, row, h, torques, stages, ddq):
+    """One RK4 step of length h [s] of the tree x = [q, v] under the held torque tau, from row
+    ``row`` of the half-step truth grid (stages at rows row, row+1, row+1, row+2, as
+    :meth:`PinocchioPlant.held_rk4 <delta_pin.sim.plants.PinocchioPlant.held_rk4>`); returns
+    (x after the step, number of failed dynamics calls)."""
+    nq = x.shape[0] - ddq.shape[0]
+    k1, k2, k3, k4, y2, y3, y4 = stages[0], stages[1], stages[2], stages[3], stages[4], stages[5], stages[6]
+    half = 0.5 * h
+    joint_torques_at(torques, active, tau, x[nq:], truth, row, friction)
+    failed = call_tree_dynamics(
+        tree.dynamics, tree.handle, x[:nq], x[nq:], torques, truth[row].platform_mass, rotational[row], ddq
+    )
+    tree_stage(y2, x, k1, x[nq:], ddq, half, torques, active, tau, truth, row + 1, friction)
+    failed += call_tree_dynamics(
+        tree.dynamics, tree.handle, y2[:nq], y2[nq:], torques, truth[row + 1].platform_mass,
+        rotational[row + 1], ddq,
+    )  # fmt: skip
+    tree_stage(y3, x, k2, y2[nq:], ddq, half, torques, active, tau, truth, row + 1, friction)
+    failed += call_tree_dynamics(
+        tree.dynamics, tree.handle, y3[:nq], y3[nq:], torques, truth[row + 1].platform_mass,
+        rotational[row + 1], ddq,
+    )  # fmt: skip
+    tree_stage(y4, x, k3, y3[nq:], ddq, h, torques, active, tau, truth, row + 2, friction)
+    failed += call_tree_dynamics(
+        tree.dynamics, tree.handle, y4[:nq], y4[nq:], torques, truth[row + 2].platform_mass,
+        rotational[row + 2], ddq,
+    )  # fmt: skip
+    tree_derivative(k4, y4[nq:], ddq)
+    x_next = np.empty(x.shape[0])
+    combine(x, k1, k2, k3, k4, h / 6.0, x_next)
+    return x_next, failed
+
+
+@njit(cache=True)
+def _joints_of(y, x, nq, active, rho):
+    """y = [alpha, alpha_dot, rho_hat]: the controller's view of the tree state x."""
+    for i in range(3):
+        y[i] = x[active[i]]
+        y[3 + i] = x[nq + active[i]]
+    y[6:] = rho
+
+
+@njit(cache=True)
 def run_tree_sampled(
     controller, cos_phi, sin_phi, plant, tree, active, platform, truth, rotational, friction, reference,
     timing, limits, state, workspace, out, info_out, counters,
@@ -73,78 +116,56 @@ def run_tree_sampled(
     rho_dot = state.rho_dot[0:nr].copy()
     k, j0, gap = state.sample, state.substep, state.gap
     h = dt / substeps
-    half = 0.5 * h
-    ws = workspace
     y = np.empty(6 + nr)
     torques = np.zeros(nv)
     stages = np.empty((7, nx))
-    k1, k2, k3, k4, y2, y3, y4 = stages[0], stages[1], stages[2], stages[3], stages[4], stages[5], stages[6]
     ddq = np.empty(nv)
     alpha_dot = np.empty(3)
     status, when = OK, 0.0
     if k == 0 and j0 == 0:
         gap = call_closure_gap(tree.closure_gap, tree.handle, x[:nq])
     while True:
-        if j0 == 0:
-            for i in range(3):
-                y[i] = x[active[i]]
-                y[3 + i] = x[nq + active[i]]
-            y[6 : 6 + nr] = rho
-            if not control_into(controller, cos_phi, sin_phi, plant, reference[k], y, nr, ws):
+        if j0 == 0:  # a new sample: the control step, recorded with the tree's platform position
+            _joints_of(y, x, nq, active, rho)
+            if not control_into(controller, cos_phi, sin_phi, plant, reference[k], y, nr, workspace):
                 status, when = NO_FK, k * dt
                 break
-            record_sample(out[k], info_out[k], y, ws)
+            record_sample(out[k], info_out[k], y, workspace)
             for i in range(3):
                 out[k].xyz[i] = x[platform[i]]
             out[k].closure_gap = gap
             if k == steps:
                 break
-            tau[:] = ws.tau
-            rho_dot[:] = ws.rho_dot[0:nr]
-        stop = False
+            tau[:] = workspace.tau
+            rho_dot[:] = workspace.rho_dot[0:nr]
         for j in range(j0, substeps):
-            # PinocchioPlant.held_rk4: stages at rows i, i+1, i+1, i+2 of the half-step grid
-            i = 2 * (k * substeps + j)
-            q, v = x[:nq], x[nq:]
-            joint_torques_at(torques, active, tau, v, truth, i, friction)
-            failed = call_tree_dynamics(
-                tree.dynamics, tree.handle, q, v, torques, truth[i].platform_mass, rotational[i], ddq
+            x, failed = _held_step(
+                tree,
+                x,
+                tau,
+                active,
+                truth,
+                rotational,
+                friction,
+                2 * (k * substeps + j),
+                h,
+                torques,
+                stages,
+                ddq,
             )
-            tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, truth, i + 1, friction)
-            failed += call_tree_dynamics(
-                tree.dynamics, tree.handle, y2[:nq], y2[nq:], torques, truth[i + 1].platform_mass,
-                rotational[i + 1], ddq,
-            )  # fmt: skip
-            tree_stage(y3, x, k2, y2[nq:], ddq, half, torques, active, tau, truth, i + 1, friction)
-            failed += call_tree_dynamics(
-                tree.dynamics, tree.handle, y3[:nq], y3[nq:], torques, truth[i + 1].platform_mass,
-                rotational[i + 1], ddq,
-            )  # fmt: skip
-            tree_stage(y4, x, k3, y3[nq:], ddq, h, torques, active, tau, truth, i + 2, friction)
-            failed += call_tree_dynamics(
-                tree.dynamics, tree.handle, y4[:nq], y4[nq:], torques, truth[i + 2].platform_mass,
-                rotational[i + 2], ddq,
-            )  # fmt: skip
             counters[0] += 4
             when = (k * substeps + j + 1) * h
             if failed:
                 status = PINOCCHIO_FAILED
-                stop = True
                 break
-            tree_derivative(k4, y4[nq:], ddq)
-            x_next = np.empty(nx)
-            combine(x, k1, k2, k3, k4, h / 6.0, x_next)
-            x = x_next
             gap = call_closure_gap(tree.closure_gap, tree.handle, x[:nq])
             if not gap <= limits.failure_tolerance:
                 status = EXPLODED
-                stop = True
                 break
             if gap > limits.projection_tolerance:
                 status, j0 = PROJECT, j + 1
-                stop = True
                 break
-        if stop:
+        if status != OK:
             break
         j0 = 0
         rho = rho + dt * rho_dot

@@ -17,7 +17,7 @@ and the bound estimate follows the adaptive law with exponential leakage and dea
     rho_hat_dot = -beta (b2 exp(-||s||) + b3) rho_hat     otherwise (the dead-zone, eq. 25).
 
 Signs: the paper prints C3 = +phi omega Lambda; its own proof (eq. 39) needs the minus sign, and
-the printed sign destabilises (DESIGN.md erratum 2). With ``vector_rho=True`` Lambda is
+the printed sign destabilises (docs/architecture.md section 4, erratum 2). With ``vector_rho=True`` Lambda is
 rho_1 ||alpha_ddot^d - D r_dot|| + rho_2 ||alpha_dot^d - D r|| + rho_3 with a 3-vector rho_hat
 (the first line of eq. 67; erratum 7).
 

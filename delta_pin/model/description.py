@@ -4,7 +4,7 @@ One source of truth: geometry and inertia live in ``urdf/delta.urdf.xacro``. Thi
 compiles it with xacrodoc (no ROS) and reads the parameters back from the compiled URDF -- joint
 placements and link inertials through Pinocchio's own URDF parser, the ``<constraint>`` loop
 closures and the ``<delta_pin_friction>`` element with lxml (every URDF parser ignores them) --
-so that a hand-written URDF that follows the convention of DESIGN.md section 3 works too.
+so that a hand-written URDF that follows the convention of docs/architecture.md section 3 works too.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ class StribeckParameters:
     Attributes:
         r_a: friction arm of the active joints [m].
         v_s: Stribeck velocity, read as the sliding speed at the friction arm [m/s]: the
-            exponent of eq. 12 is (alpha_dot r_a / v_s)^2 (erratum 6 of DESIGN.md).
+            exponent of eq. 12 is (alpha_dot r_a / v_s)^2 (docs/architecture.md section 4, erratum 6).
         mu_s: coefficient of static friction [-] (F_s = mu_s F_n).
         mu_d: coefficient of Coulomb friction [-] (F_c = mu_d F_n).
         mu_v: coefficient of viscous friction [N s/m] (torque mu_v alpha_dot r_a).
@@ -282,7 +282,7 @@ def read_description(urdf: str, g: float = GRAVITY) -> DeltaDescription:
     masses and inertias from link inertials, l_b and r from the ``<constraint>`` origins.
 
     Args:
-        urdf: URDF text following DESIGN.md section 3.
+        urdf: URDF text following docs/architecture.md section 3.
         g: gravity acceleration [m/s^2] (the URDF does not carry it).
 
     Raises:
@@ -310,7 +310,7 @@ def read_description(urdf: str, g: float = GRAVITY) -> DeltaDescription:
 
     def joint(name: str) -> int:
         if not model.existJointName(name):
-            raise URDFConventionError(f"the URDF has no joint {name!r} (DESIGN.md section 3)")
+            raise URDFConventionError(f"the URDF has no joint {name!r} (docs/architecture.md section 3)")
         return model.getJointId(name)
 
     R_values, l_a_values, l_b_values, r_values = [], [], [], []

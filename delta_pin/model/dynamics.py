@@ -5,7 +5,7 @@
     G(alpha) = -(1/2 m_a + 1/2 m_b) g l_a cos(alpha) + J^T m_eq [0, 0, g]^T  (eq. 9, erratum 1)
 
 with m_eq = m_o + 3/2 m_b. With alpha > 0 swinging the arm down and z up, the arm term of G is
-NEGATIVE: the paper prints a + sign, which is off by up to (m_a + m_b) g l_a (DESIGN.md section 4).
+NEGATIVE: the paper prints a + sign, which is off by up to (m_a + m_b) g l_a (docs/architecture.md section 4).
 The model is exact for uniform-rod upper arms and forearms lumped as two point masses.
 M_dot - 2C = m_eq (J_dot^T J - J^T J_dot) is skew-symmetric.
 """

@@ -1,6 +1,6 @@
 """Closed-form kinematics of the Delta (eqs. 1-5 and 10 of the paper).
 
-Conventions (DESIGN.md section 3): base frame z up, chain i at azimuth phi_i with radial unit
+Conventions (docs/architecture.md section 3): base frame z up, chain i at azimuth phi_i with radial unit
 vector u_i; A_i = R u_i, elbow B_i = A_i + l_a (cos(alpha_i) u_i - sin(alpha_i) e_z) (alpha_i > 0
 swings the arm down), platform attachment C_i = p + r u_i, and |C_i - B_i| = l_b (eq. 5).
 

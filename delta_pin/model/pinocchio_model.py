@@ -8,7 +8,7 @@ the reduced dynamics obtained by projecting the tree's dynamics onto the active 
     S = dq/dalpha (constraint null space, active rows = I),
     M_red = S^T M S,   G_red = S^T g(q),   C alpha_dot_red = S^T (nle(q, v) - g(q)) + S^T M S_dot alpha_dot,
 
-which is an independent route to the paper's eqs. 7-9 (DESIGN.md section 5).
+which is an independent route to the paper's eqs. 7-9 (docs/architecture.md section 5).
 """
 
 from __future__ import annotations
@@ -161,7 +161,7 @@ class DeltaPinocchioModel:
             parent = self.data.oMi[self.model.parents[pitch]] * self.model.jointPlacements[pitch]
             target = self.data.oMf[f2].translation - parent.translation
             d = parent.rotation.T @ (target / np.linalg.norm(target))
-            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (DESIGN.md section 3)
+            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (docs/architecture.md section 3)
             q[self.model.idx_qs[roll]] = math.asin(float(np.clip(d[1], -1.0, 1.0)))
             q[self.model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
         return q
@@ -202,7 +202,7 @@ class DeltaPinocchioModel:
         target /= np.linalg.norm(target, axis=-1, keepdims=True)
         d = np.einsum("...ji,...j->...i", parent[..., :3, :3], target)  # R^T target
         for i, (pitch, roll) in enumerate(self._elbow_joints):
-            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (DESIGN.md section 3)
+            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (docs/architecture.md section 3)
             q[:, model.idx_qs[roll]] = np.arcsin(np.clip(d[:, i, 1], -1.0, 1.0))
             q[:, model.idx_qs[pitch]] = np.arctan2(-d[:, i, 0], -d[:, i, 2])
         return q

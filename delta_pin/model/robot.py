@@ -115,7 +115,7 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
     """Load a Delta robot.
 
     Args:
-        urdf: path of a URDF (or xacro) file that follows DESIGN.md section 3; ``None`` compiles
+        urdf: path of a URDF (or xacro) file that follows docs/architecture.md section 3; ``None`` compiles
             the packaged ``delta.urdf.xacro`` (the paper's Table 1 robot by default).
         g: gravity acceleration [m/s^2] (9.8, the paper's, by default).
         **xacro_args: arguments of the packaged xacro, SI units: ``R, r, l_a, l_b, m_a, m_b,

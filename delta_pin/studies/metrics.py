@@ -5,7 +5,8 @@
     S_sum = sum_k ||tau_k||                          the sample sum [N m]
 
 The paper reports S = 62262 and 62197 for a 15 s run: values of the size of a sample sum at a
-fine step, not of the integral (~100 N m s here) -- both are reported (DESIGN.md erratum 5).
+fine step, not of the integral (~100 N m s here) -- both are reported (docs/architecture.md
+section 4, erratum 5).
 Integrals use the trapezoidal rule on the run's samples.
 """
 

@@ -10,7 +10,7 @@ and ``index.html``, plus standalone meshcat pages of the main runs. Every simula
 Choices, stated in the report too:
 
 * ``--quick`` (default): main runs on the analytic plant (equal to the Pinocchio plant to ~1e-13 rad
-  on the Table 1 robot, tests/test_plant.py), 3 x 3 surface grids; ``--full``: main runs on the
+  on the Table 1 robot, tests/sim/test_plant.py), 3 x 3 surface grids; ``--full``: main runs on the
   Pinocchio plant, 11 x 11 grids.
 * Main runs use the listed gains (rho_hat_0 = 2). With rho_hat_0 = 2 the estimate only decays, so
   the surfaces use rho_hat_0 = 0.02, the value of the paper's text under which rho_hat rises as in

@@ -525,12 +525,7 @@ def run_sweep(
         DeltaPinError: ``robot_args`` that do not make a robot (checked once, before any run).
     """
     start = time.perf_counter()
-    specs = list(specs)
-    for index, spec in enumerate(specs):
-        if not isinstance(spec, RunSpec):
-            raise InvalidParameterError(
-                f"specs[{index}] must be a RunSpec, got {type(spec).__name__}: {spec!r}"
-            )
+    specs = _checked_specs(specs)
     executor = _resolve_executor(executor, workers, scheduler)
     args = _canonical_robot_args(robot_args)
     cache_dir = Path(cache_dir)
@@ -538,11 +533,7 @@ def run_sweep(
 
     keys = [spec_key(spec, args) for spec in specs]
     unique = {key: spec for key, spec in zip(keys, specs)}
-    records: dict[str, dict] = {}
-    for key in unique:
-        record = _read_cached(cache_dir, key, save_runs, retry_failed)
-        if record is not None:
-            records[key] = record
+    records = _read_cache(cache_dir, unique, save_runs, retry_failed)
     from_cache = set(records)
     todo = [key for key in unique if key not in records]
     skipped = sum(key in from_cache for key in keys)
@@ -550,25 +541,10 @@ def run_sweep(
     bar = Progress(len(todo), progress, label="sweep", unit="pt")
     if skipped:
         bar.note(f"sweep: {skipped} points from the cache, {len(todo)} to compute")
-    unexpected = []
     try:
-        if todo:
-            _cached_robot(_freeze(args))  # bad robot arguments fail here, once, not in every point
-            items = [
-                (tuple(chunk), ([_canonical_spec(unique[key]) for key in chunk], args, save_runs))
-                for chunk in _chunks(todo, unique, workers)
-            ]
-            with _backend(executor, workers, scheduler) as run_all:
-                for chunk, chunk_records in run_all(evaluate_batch, items):
-                    for key, record in zip(chunk, chunk_records):
-                        _store(cache_dir, key, record, args)
-                        records[key] = record
-                        if record.get("unexpected"):
-                            unexpected.append((unique[key], record))
-                            _log.error(
-                                "sweep point %s (%s) failed:\n%s", key, unique[key], record["traceback"]
-                            )
-                        bar.update(failed=record["error"] is not None)
+        unexpected = _compute(
+            todo, unique, records, cache_dir, args, save_runs, executor, workers, scheduler, bar
+        )
     finally:
         bar.close()
 
@@ -591,8 +567,59 @@ def run_sweep(
         wall_time=time.perf_counter() - start,
         cache_dir=cache_dir,
     )
-    _log.info("%s (cache %s)", result.summary(), cache_dir)
-    if bar.enabled:
+    _report(result, unexpected, bar.enabled)
+    return result
+
+
+def _checked_specs(specs: Iterable[RunSpec]) -> list[RunSpec]:
+    """The specs as a list, each a :class:`RunSpec` (or an error naming the first that is not)."""
+    specs = list(specs)
+    for index, spec in enumerate(specs):
+        if not isinstance(spec, RunSpec):
+            raise InvalidParameterError(
+                f"specs[{index}] must be a RunSpec, got {type(spec).__name__}: {spec!r}"
+            )
+    return specs
+
+
+def _read_cache(cache_dir: Path, unique: dict, save_runs: bool, retry_failed: bool) -> dict[str, dict]:
+    """The records of the points already in the cache, by key."""
+    records: dict[str, dict] = {}
+    for key in unique:
+        record = _read_cached(cache_dir, key, save_runs, retry_failed)
+        if record is not None:
+            records[key] = record
+    return records
+
+
+def _compute(todo, unique, records, cache_dir, args, save_runs, executor, workers, scheduler, bar) -> list:
+    """Simulate the points ``todo`` in batches on the executor, storing each record in the cache
+    (and in ``records``) as it arrives; returns the (spec, record) of unexpected failures."""
+    unexpected = []
+    if not todo:
+        return unexpected
+    _cached_robot(_freeze(args))  # bad robot arguments fail here, once, not in every point
+    items = [
+        (tuple(chunk), ([_canonical_spec(unique[key]) for key in chunk], args, save_runs))
+        for chunk in _chunks(todo, unique, workers)
+    ]
+    with _backend(executor, workers, scheduler) as run_all:
+        for chunk, chunk_records in run_all(evaluate_batch, items):
+            for key, record in zip(chunk, chunk_records):
+                _store(cache_dir, key, record, args)
+                records[key] = record
+                if record.get("unexpected"):
+                    unexpected.append((unique[key], record))
+                    _log.error("sweep point %s (%s) failed:\n%s", key, unique[key], record["traceback"])
+                bar.update(failed=record["error"] is not None)
+    return unexpected
+
+
+def _report(result: SweepResult, unexpected: list, to_stderr: bool) -> None:
+    """Log the sweep's summary (and print it where a progress display was shown); warn about
+    unexpected failures, which are not cached."""
+    _log.info("%s (cache %s)", result.summary(), result.cache_dir)
+    if to_stderr:
         print(result.summary(), file=sys.stderr, flush=True)
     if unexpected:
         spec, record = unexpected[0]
@@ -600,9 +627,8 @@ def run_sweep(
             f"{len(unexpected)} sweep point(s) failed with an unexpected error (not cached, a resume"
             f" retries them); the first, {spec.label()}: {record['error']}",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    return result
 
 
 # --------------------------------------------------------------------------------------------------

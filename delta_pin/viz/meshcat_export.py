@@ -7,7 +7,7 @@ animation frame by the closure-consistent configuration q(alpha)
 and actual (``xyz``) platform paths are drawn as two lines of different colours; a translucent
 ghost of the desired pose q(alpha_d) is optional.
 
-No meshcat server is started (DESIGN.md section 7): :class:`RecordingWindow` stands in for
+No meshcat server is started (docs/architecture.md section 7): :class:`RecordingWindow` stands in for
 meshcat's ``ViewerWindow`` and keeps the msgpack-packed commands in the scene tree that meshcat's
 zmq server would keep; :func:`scene_html` then writes the page ``Visualizer.static_html()``
 returns (meshcat's JS bundle inlined, about 0.85 MB, so the page works offline), except that the

@@ -4,7 +4,7 @@
 compiled loops of :mod:`delta_pin.compiled.closed_loop` call Pinocchio's C++ directly instead, through
 ``tree_dynamics.cpp``: a C ABI around the same explicitly instantiated ``constraintDynamics`` of
 ``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit
-(tests/test_native.py).
+(tests/sim/test_native.py).
 
 The library is built on first use (~20 s) with the system's C++ compiler (``$CXX`` or ``c++``)
 against the headers and libraries of the installed ``pin`` wheel and Eigen's headers (the

@@ -10,7 +10,7 @@ import delta_pin as dp
 from delta_pin.cli import main
 from delta_pin.model.validation import sample_states, validate
 
-from .conftest import OTHER_ROBOTS
+from ..conftest import OTHER_ROBOTS
 
 
 def test_default_robot_validates(robot):

@@ -373,3 +373,22 @@ def test_a_dask_scheduler_address_or_client_instance(grid, serial, tmp_path):
         by_client = run_sweep(grid[2:], tmp_path / "client", executor=client)
         assert client.status == "running"  # a client given by the caller is left open
     assert _metrics(by_address) + _metrics(by_client) == _metrics(serial)
+
+
+def test_sweep_batches_bdf2_points_and_matches_point_by_point(robot, tmp_path):
+    """Points of one batch group go to one task (a compiled batch); a point that cannot be batched
+    runs alone; every point's metrics are those of the point evaluated on its own."""
+    from delta_pin.studies.experiments import RunSpec
+    from delta_pin.studies.sweep import _chunks, evaluate_spec, spec_key
+
+    base = RunSpec(controller="design1", plant="analytic", integrator="bdf2", t_end=0.3)
+    specs = [base.with_(delta_m=m, delta_f=f) for m in (0.0, 0.6) for f in (0.0, 0.9)]
+    specs.append(base.with_(controller="lqr", integrator="auto"))  # not batchable: runs alone
+    unique = {spec_key(s): s for s in specs}
+    tasks = _chunks(list(unique), unique, workers=1)
+    assert sorted(len(t) for t in tasks) == [1, 2, 2]
+    result = run_sweep(specs, tmp_path, executor="serial", progress=False)
+    assert result.failed == 0
+    for point, spec in zip(result, specs):
+        alone = evaluate_spec(spec.as_dict())
+        assert point.metrics["iae"] == pytest.approx(alone["metrics"]["iae"], rel=1e-12)

@@ -150,7 +150,7 @@ PAPER = {"alpha0": np.full(3, 0.3322), "friction": dp.Friction(), "uncertainty":
 @pytest.fixture(scope="module")
 def paper_runs():
     """The paper's scenario on path I, continuous mode, 5 s, analytic plant (agrees with the
-    Pinocchio plant to ~1e-13 rad: tests/test_plant.py)."""
+    Pinocchio plant to ~1e-13 rad: tests/sim/test_plant.py)."""
     robot = dp.load_delta()
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     start = robot.inverse_kinematics([0.0, 0.0, -0.35])

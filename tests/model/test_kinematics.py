@@ -12,7 +12,7 @@ H = 1e-6  # [rad] central-difference step; truncation ~h^2 and round-off ~1e-10 
 
 def test_paper_initial_angles_erratum_4(robot):
     # Path I starts at (0, 0, -0.35): IK gives 0.2492 rad, not the paper's alpha_0 = 0.3322 rad,
-    # which is the IK of z = -0.37 (DESIGN.md erratum 4).
+    # which is the IK of z = -0.37 (docs/architecture.md section 4, erratum 4).
     assert robot.inverse_kinematics([0, 0, -0.35]) == pytest.approx(np.full(3, 0.24925), abs=5e-5)
     assert robot.inverse_kinematics([0, 0, -0.37]) == pytest.approx(np.full(3, 0.3322), abs=5e-5)
 

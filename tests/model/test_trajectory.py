@@ -1,9 +1,10 @@
 """Trajectories: the paper's formulas, analytic derivatives against finite differences, the joint
 references against finite differences of the IK, the Adept cycle's geometry, workspace errors.
 
-Finite-difference tolerance (DESIGN.md tier 1e-6): errors are compared with 1e-6 times the largest
-magnitude of the checked quantity over the samples (a pure rtol fails where a component crosses
-zero). Central differences with h = 1e-5 s have truncation error h^2/6 |x'''| and rounding error
+Finite-difference tolerance (docs/architecture.md section 9: tier 1e-6): errors are compared
+with 1e-6 times the largest magnitude of the checked quantity over the samples (a pure rtol
+fails where a component crosses zero). Central differences with h = 1e-5 s have truncation error
+h^2/6 |x'''| and rounding error
 ~eps |x| / h; both stay below 1e-7 relative here (measured: <= 2e-8 for the velocities, <= 1.3e-7
 for the Adept cycle's accelerations, whose 4th derivative reaches 1.3e5 m/s^4). The joint
 accelerations use the five-point stencil (error O(H^4)) with H = 3e-4 s (measured <= 2e-8).

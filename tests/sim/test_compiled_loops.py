@@ -1,0 +1,269 @@
+"""The compiled loops (delta_pin.compiled, entered through delta_pin.sim.batch) against their
+references.
+
+* Equivalence, one parametrised test (plant x controller x substeps): in sampled mode a compiled
+  run gives the arrays of the Python loop (``simulate(..., compiled=False)``, the reference) to
+  1e-12 relative. On the Pinocchio tree they are equal bit for bit on this machine (the same
+  kernels and the same Pinocchio function in the same order); on the analytic plant the torques
+  differ by up to ~2e-15 N m (the law's sums are associated differently when M, C, G come from
+  the shared kinematics).
+* Accuracy of BDF2 (it exists only compiled): against LSODA at rtol 1e-9, an independent adaptive
+  integrator, on both plants.
+* Batches: each run of a batch is the run made alone, bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import delta_pin as dp
+from delta_pin.compiled import native
+from delta_pin.control.base import Reference
+from delta_pin.errors import InvalidParameterError, SimulationError
+from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.studies.experiments import (
+    RunSpec,
+    batch_group,
+    build_controller,
+    build_uncertainty,
+    run_batch,
+    run_spec,
+)
+
+ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
+RUN_ARRAYS = ("alpha", "alpha_dot", "tau", "xyz", "closure_residual")
+needs_native = pytest.mark.skipif(
+    native.load() is None, reason=f"native library unavailable: {native._loaded.get('reason')}"
+)
+
+
+def _assert_same_run(fast, reference):
+    """Equal to 1e-12 relative, every array and every internal."""
+    assert fast.metadata["compiled"] and not reference.metadata.get("compiled")
+    for name in RUN_ARRAYS:
+        np.testing.assert_allclose(getattr(fast, name), getattr(reference, name), rtol=1e-12, atol=1e-14)
+    assert fast.internals.keys() == reference.internals.keys()
+    for name, values in reference.internals.items():
+        np.testing.assert_allclose(fast.internals[name], values, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+@pytest.mark.parametrize("design", ["design1", "design2"])
+@pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
+def test_compiled_sampled_run_equals_the_python_loop(robot, plant, design, substeps):
+    """Sampling-aware designs at 1 kHz along path I with the paper's friction and uncertainty. On
+    the tree, a tiny projection tolerance projects (almost) every step: the compiled loop stops,
+    the plant projects in Python, the loop resumes mid-sample; the same projections happen."""
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    make = dp.design1 if design == "design1" else dp.design2
+    runs, plants = [], []
+    for compiled in (None, False):
+        if plant == "pinocchio":
+            plants.append(
+                PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
+            )
+        else:
+            plants.append(dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty()))
+        runs.append(
+            dp.simulate(
+                robot,
+                make(nominal, sampling_period=1e-3),
+                dp.PathI(),
+                plant=plants[-1],
+                t_end=0.2,
+                substeps=substeps,
+                alpha0=ALPHA0,
+                compiled=compiled,
+            )
+        )
+    fast, reference = runs
+    _assert_same_run(fast, reference)
+    assert np.abs(fast.tau).max() > 1.0  # the loop does real work
+    if plant == "pinocchio":
+        assert fast.metadata["closure_projections"] == reference.metadata["closure_projections"] >= 5
+        assert 0.0 < fast.closure_residual.max() <= 1e-9
+        assert fast.metadata["rhs_evaluations"] == 4 * 200 * substeps  # four tree evaluations per step
+
+
+@pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
+def test_a_failing_run_fails_as_the_python_loop_does(robot, plant):
+    """The paper's gains sampled at 1 kHz destabilise the loop (docs/architecture.md section 6):
+    the compiled run stops at the sample where the Python loop stops."""
+    spec = RunSpec(controller="design1", plant=plant, mode="sampled", t_end=0.3)
+    errors = []
+    for compiled in (None, False):
+        with pytest.raises(SimulationError) as caught:
+            run_spec(spec, robot, compiled=compiled)
+        errors.append(caught.value)
+    if plant == "pinocchio":  # the closure gap explodes: the same Python check names it
+        assert str(errors[0]) == str(errors[1])
+    assert errors[0].time == pytest.approx(errors[1].time) == pytest.approx(0.11, abs=0.003)
+
+
+def _continuous(robot, plant, t_end, **options):
+    """Design I, paper gains and scenario (friction, Delta = 0.3), continuous mode."""
+    spec = RunSpec(controller="design1", t_end=t_end)
+    trajectory = dp.PathI()
+    return dp.simulate(
+        robot, build_controller(spec, robot, trajectory), trajectory, plant=plant, t_end=t_end,
+        mode="continuous", alpha0=ALPHA0, friction=dp.Friction(), uncertainty=build_uncertainty(spec),
+        **options,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def paper_runs(robot):
+    """Design I, paper scenario, 2 s, analytic plant: LSODA (rtol 1e-9) and BDF2 with 1 ms and
+    0.25 ms steps."""
+    return (
+        _continuous(robot, "analytic", 2.0, integrator="lsoda", rtol=1e-9, atol=1e-11),
+        _continuous(robot, "analytic", 2.0, integrator="bdf2"),
+        _continuous(robot, "analytic", 2.0, integrator="bdf2", substeps=4),
+    )
+
+
+def test_bdf2_converges_to_lsoda_at_second_order(paper_runs):
+    lsoda, coarse, fine = paper_runs
+    late = lsoda.t >= 1.0
+    coarse_error = np.abs(coarse.alpha - lsoda.alpha).max(axis=1)
+    fine_error = np.abs(fine.alpha - lsoda.alpha).max(axis=1)
+    # after the reaching phase both are far inside the tracking error (~1e-4 rad at 1 s)
+    assert coarse_error[late].max() < 2e-6  # measured 3e-7 rad
+    assert fine_error[late].max() < 1e-7  # measured 2e-8 rad
+    # 4x smaller steps: the worst error (in the reaching phase) drops by > 8 (order > 1.5)
+    assert fine_error.max() < coarse_error.max() / 8.0
+    # rho_hat integrates ||s||: the reaching-phase error leaves it 1e-3 off (relative) at 1 ms
+    rho = lsoda.internals["rho_hat"]
+    coarse_rho = np.abs(coarse.internals["rho_hat"] - rho).max() / rho.max()
+    fine_rho = np.abs(fine.internals["rho_hat"] - rho).max() / rho.max()
+    # measured 9.9e-4 and 1.7e-4: about first order, the reaching phase is not smooth
+    assert coarse_rho < 2e-3 and fine_rho < coarse_rho / 4.0
+    assert coarse.metadata["integrator"] == "bdf2" and coarse.metadata["rhs_evaluations"] > 0
+
+
+def test_recorded_outputs_are_the_readable_law_at_the_recorded_states(robot, paper_runs):
+    _, run, _ = paper_runs
+    controller = build_controller(RunSpec(controller="design1"), robot)
+    for k in (0, 7, 500, 1999):
+        # alpha_ddot_d is not stored in a Run: take it from the path
+        reference = Reference(
+            run.alpha_d[k], run.alpha_dot_d[k], dp.PathI().joint_reference(robot, run.t[k]).alpha_ddot[0]
+        )
+        out = controller.evaluate_reference(
+            run.t[k], run.alpha[k], run.alpha_dot[k], reference, run.internals["rho_hat"][k]
+        )
+        np.testing.assert_allclose(run.tau[k], out.tau, rtol=1e-9, atol=1e-9)
+        assert run.internals["Lambda"][k] == pytest.approx(out.internals["Lambda"], rel=1e-12)
+        np.testing.assert_allclose(run.xyz[k], robot.forward_kinematics(run.alpha[k]), atol=1e-12)
+
+
+@needs_native
+def test_continuous_pinocchio_bdf2_equals_the_analytic_bdf2_on_the_lumped_robot(robot):
+    """On the Table 1 robot the two plants agree to ~1e-13 (tests/model/test_validation.py), so
+    the same integrator gives the same run: the tree is completed and solved at every evaluation."""
+    tree = _continuous(robot, "pinocchio", 0.5, integrator="bdf2")
+    analytic = _continuous(robot, "analytic", 0.5, integrator="bdf2")
+    np.testing.assert_allclose(tree.alpha, analytic.alpha, rtol=0, atol=1e-11)  # measured 0
+    np.testing.assert_allclose(tree.internals["rho_hat"], analytic.internals["rho_hat"], rtol=1e-11)
+    np.testing.assert_allclose(tree.xyz, analytic.xyz, rtol=0, atol=1e-12)  # Pinocchio's q vs the FK
+    assert tree.closure_residual.max() <= 1e-13  # the completion's tolerance
+    assert tree.metadata["plant"] == "pinocchio" and tree.metadata["integrator"] == "bdf2"
+
+
+@needs_native
+def test_continuous_pinocchio_bdf2_follows_lsoda_on_the_same_plant():
+    """Forearms as uniform rods: a plant the analytic model does not describe. BDF2 at 1 ms
+    against LSODA (rtol 1e-9) on the Pinocchio plant: the bounds of the analytic plant's test
+    above, and 1e-5 rad away from the analytic plant's run."""
+    rod_robot = dp.load_delta(forearm_inertia="rod")
+    t_end = 1.2
+    lsoda = _continuous(rod_robot, "pinocchio", t_end, integrator="lsoda", rtol=1e-9, atol=1e-11)
+    bdf2 = _continuous(rod_robot, "pinocchio", t_end, integrator="bdf2")
+    analytic = _continuous(rod_robot, "analytic", t_end, integrator="bdf2")
+    error = np.abs(bdf2.alpha - lsoda.alpha).max(axis=1)
+    assert error[lsoda.t >= 1.0].max() < 2e-6  # after the reaching phase
+    assert error.max() < 1e-3  # the reaching phase (measured 4.2e-4 rad)
+    rho = lsoda.internals["rho_hat"]
+    assert np.abs(bdf2.internals["rho_hat"] - rho).max() < 2e-3 * rho.max()
+    assert np.abs(analytic.alpha - lsoda.alpha).max() > 5e-6  # the rods matter (measured 1.4e-5)
+    assert bdf2.closure_residual.max() <= 1e-13
+
+
+@pytest.mark.parametrize(
+    ("plant", "mode"),
+    [
+        ("analytic", "continuous"),
+        ("analytic", "sampled"),
+        pytest.param("pinocchio", "continuous", marks=needs_native),
+        pytest.param("pinocchio", "sampled", marks=needs_native),
+    ],
+)
+def test_a_batch_equals_its_runs_made_alone(robot, plant, mode):
+    """Runs of one batch group (different designs, gains, uncertainty, seeds): each is the run made
+    alone, bit for bit, and the runs really differ from each other."""
+    options = {"integrator": "bdf2"} if mode == "continuous" else {"sampling_aware": True}
+    specs = [
+        RunSpec(controller="design1", plant=plant, mode=mode, t_end=0.3, delta_m=0.0, **options),
+        RunSpec(controller="design2", plant=plant, mode=mode, t_end=0.3, gains={"xi": 0.01}, **options),
+        RunSpec(controller="design1", plant=plant, mode=mode, t_end=0.3, delta_f=0.9, seed=3, **options),
+    ]
+    assert len({batch_group(s) for s in specs}) == 1 and batch_group(specs[0]) is not None
+    together = run_batch(specs, robot)
+    for spec, run in zip(specs, together):
+        alone = run_spec(spec, robot)
+        for name in RUN_ARRAYS:
+            np.testing.assert_array_equal(getattr(run, name), getattr(alone, name))
+        np.testing.assert_array_equal(run.internals["rho_hat"], alone.internals["rho_hat"])
+        assert run.metadata["spec"] == spec.as_dict()
+    assert np.abs(together[0].alpha - together[2].alpha).max() > 1e-5
+
+
+def test_a_batch_returns_a_failing_run_in_its_place(robot):
+    specs = [
+        RunSpec(controller="design1", plant="analytic", mode="sampled", sampling_aware=True, t_end=0.3),
+        RunSpec(controller="design1", plant="analytic", mode="sampled", t_end=0.3),  # diverges at 0.112 s
+    ]
+    ok, failed = run_batch(specs, robot)
+    assert isinstance(ok, dp.Run) and isinstance(failed, dp.SimulationError)
+    assert failed.time == pytest.approx(0.112)
+
+
+def test_what_the_compiled_loops_cannot_run_is_refused(robot):
+    nominal = dp.DeltaNominalModel(robot)
+    active = PinocchioPlant(robot, coordinates="active")
+    assert not batchable(dp.ComputedTorque(nominal))
+    assert not batchable(dp.design1(nominal, compiled=False))
+    assert not batchable(dp.design1(nominal), active, mode="sampled")
+    assert not batchable(dp.ComputedTorque(nominal), "pinocchio", mode="sampled")
+    if native.load() is not None:
+        assert batchable(dp.design1(nominal), "pinocchio", mode="sampled")
+        assert batchable(dp.design1(nominal), active, mode="continuous")
+    with pytest.raises(InvalidParameterError, match="sampled mode"):
+        simulate_batch(robot, [dp.design1(nominal)], dp.PathI(), plant=active, mode="sampled", t_end=0.1)
+    with pytest.raises(InvalidParameterError, match=r"controllers\[1\].*ctc.*lsoda"):
+        simulate_batch(robot, [dp.design1(nominal), dp.ComputedTorque(nominal)], dp.PathI(), t_end=0.1)
+    with pytest.raises(InvalidParameterError, match="integrator='bdf2'"):
+        dp.simulate(robot, dp.design1(nominal), dp.PathI(), t_end=0.1, mode="sampled", integrator="bdf2")
+    with pytest.raises(InvalidParameterError, match="ctc"):
+        dp.simulate(
+            robot, dp.ComputedTorque(nominal), dp.PathI(), t_end=0.1, mode="continuous", integrator="bdf2"
+        )
+    with pytest.raises(InvalidParameterError, match="compiled=False"):
+        dp.simulate(robot, dp.ComputedTorque(nominal), dp.PathI(), t_end=0.1, compiled=True)
+    with pytest.raises(InvalidParameterError, match="integrator='euler'"):
+        RunSpec(integrator="euler")
+    with pytest.raises(InvalidParameterError, match="batch group"):
+        run_batch([RunSpec(plant="analytic", integrator="bdf2"), RunSpec(plant="analytic")], robot)
+
+
+@needs_native
+def test_without_the_native_library_simulate_falls_back_to_python(robot, monkeypatch):
+    monkeypatch.setitem(native._loaded, "library", None)
+    monkeypatch.setitem(native._loaded, "reason", "test: no compiler")
+    spec = RunSpec(controller="design1", plant="pinocchio", mode="sampled", sampling_aware=True, t_end=0.05)
+    run = run_spec(spec, robot)
+    assert not run.metadata.get("compiled")
+    with pytest.raises(InvalidParameterError, match="native library"):
+        run_spec(spec, robot, compiled=True)
