@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
-from delta_pin.compiled.jit import njit
+from delta_pin.compiled.jit import as_record, njit
 
 __all__ = ["adaptive_robust_kernel", "adaptive_robust_law_into"]
 
@@ -28,7 +28,9 @@ def adaptive_robust_kernel(
 ):
     """The step at one state into tau (3,), rho_dot (nr,) and an
     :data:`~delta_pin.compiled.layouts.INFO` record; returns ``info.ok`` (False when the nominal
-    model has no FK at ``alpha``: then nothing else is written)."""
+    model has no FK at ``alpha``: then nothing else is written). ``p`` and ``info`` may come as
+    one-record arrays (from Python)."""
+    p, info = as_record(p), as_record(info)
     ok, _, _, _, M, C, G = delta_terms(p.geometry, cos_phi, sin_phi, p.m_eq, alpha, alpha_dot)
     info.ok = ok
     if not ok:

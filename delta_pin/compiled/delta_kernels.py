@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from delta_pin.compiled.jit import njit
+from delta_pin.compiled.jit import as_record, njit
 
 __all__ = [
     "delta_dynamics",
@@ -76,7 +76,8 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     """FK, J, J_dot, M, C, G of eqs. 3-10 at one state; ``ok`` is False without an FK solution.
 
     Args:
-        geometry: a :data:`~delta_pin.compiled.layouts.GEOMETRY` record of the robot.
+        geometry: a :data:`~delta_pin.compiled.layouts.GEOMETRY` record of the robot (or a
+            one-record array, from Python).
         cos_phi, sin_phi: cos and sin of the chain azimuths (3,).
         m_eq: m_o + 3/2 m_b [kg].
         alpha, alpha_dot: active angles [rad] and velocities [rad/s], (3,).
@@ -84,6 +85,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
     Returns:
         ``(ok, xyz, J, J_dot, M, C, G)``.
     """
+    geometry = as_record(geometry)
     ok, xyz, J, J_dot = delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot)
     if not ok:
         empty = np.zeros((3, 3))
@@ -96,6 +98,7 @@ def delta_terms(geometry, cos_phi, sin_phi, m_eq, alpha, alpha_dot):
 def delta_dynamics(geometry, m_eq, alpha, J, J_dot):
     """M, C, G of eqs. 7-9 from the kinematics of :func:`delta_kinematics` (linear in m_eq [kg]:
     one kinematics serves several platform masses)."""
+    geometry = as_record(geometry)
     M, C, G = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
     delta_dynamics_into(geometry, m_eq, alpha, J, J_dot, M, C, G)
     return M, C, G
@@ -117,6 +120,7 @@ def delta_dynamics_into(geometry, m_eq, alpha, J, J_dot, M, C, G):
 def delta_kinematics(geometry, cos_phi, sin_phi, alpha, alpha_dot):
     """FK, J and J_dot of eqs. 3-6 and 10 at one state: ``(ok, xyz, J, J_dot)``; ``ok`` is False
     without an FK solution (then xyz, J, J_dot are zeros)."""
+    geometry = as_record(geometry)
     xyz, J, J_dot = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
     ok = delta_kinematics_into(
         geometry, cos_phi, sin_phi, alpha, alpha_dot, xyz, J, J_dot, np.empty((6, 3, 3))
@@ -223,8 +227,9 @@ def stribeck_kernel(r_a, v_s, mu_s, mu_d, mu_v, alpha_dot, normal_force, sign_ve
 
 @njit(cache=True)
 def friction_torque(friction, alpha_dot, normal_force):
-    """:func:`stribeck_kernel` for a :data:`~delta_pin.compiled.layouts.FRICTION` record (which
-    must be ``on``) [N m]."""
+    """:func:`stribeck_kernel` for a :data:`~delta_pin.compiled.layouts.FRICTION` record (or a
+    one-record array; it must be ``on``) [N m]."""
+    friction = as_record(friction)
     return stribeck_kernel(
         friction.r_a,
         friction.v_s,

@@ -28,6 +28,7 @@ __all__ = [
     "TREE_LOOP_LIMITS",
     "TRUTH",
     "WORKSPACE",
+    "as_table",
     "record",
     "records",
     "tree_loop_state",
@@ -210,3 +211,12 @@ def record(dtype: np.dtype, **values) -> np.record:
 def records(dtype: np.dtype, count: int) -> np.recarray:
     """``count`` zeroed records of ``dtype`` (a ``np.recarray``: fields read as attributes)."""
     return np.zeros(count, dtype).view(np.recarray)
+
+
+def as_table(rec: np.record) -> np.ndarray:
+    """``rec`` copied into a one-record plain array: what Python passes to a kernel called once per
+    state (numba types an array argument several times faster than a record; the kernel reads it
+    back with :func:`~delta_pin.compiled.jit.as_record`)."""
+    table = np.zeros(1, rec.dtype)
+    table[0] = rec
+    return table

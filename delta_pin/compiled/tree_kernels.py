@@ -4,8 +4,7 @@ eq. 13 and the RK4 stages of a step under a held torque.
 :class:`~delta_pin.sim.plants.PinocchioPlant` (its ``derivative`` and its fast sampled step) and
 the compiled loop of :mod:`delta_pin.compiled.tree_loop` both build their torques and stages
 here, so the two agree bit for bit. ``friction`` is a
-:data:`~delta_pin.compiled.layouts.FRICTION` record; ``truth`` a table of
-:data:`~delta_pin.compiled.layouts.TRUTH` records.
+:data:`~delta_pin.compiled.layouts.FRICTION` record.
 """
 
 from __future__ import annotations
@@ -13,17 +12,19 @@ from __future__ import annotations
 import numpy as np
 
 from delta_pin.compiled.delta_kernels import friction_torque
-from delta_pin.compiled.jit import njit
+from delta_pin.compiled.jit import as_record, njit
 from delta_pin.compiled.rk4 import stage_point
 
-__all__ = ["joint_torques", "joint_torques_at", "largest_gap", "tree_derivative", "tree_stage"]
+__all__ = ["joint_torques", "largest_gap", "tree_derivative", "tree_stage"]
 
 
 @njit(cache=True)
 def joint_torques(out, active, tau, v, disturbance, normal_force, friction):
     """out[active] = tau - (F + M_f(alpha_dot, F_n)) with alpha_dot = v[active]: the torques of
     eq. 13 on the tree's active joints [N m] (what :meth:`Plant.acceleration_terms
-    <delta_pin.sim.plants.Plant.acceleration_terms>` gives, bit for bit)."""
+    <delta_pin.sim.plants.Plant.acceleration_terms>` gives, bit for bit). ``friction``: a FRICTION
+    record or a one-record array."""
+    friction = as_record(friction)
     if not friction.on:
         for i in range(len(active)):
             out[active[i]] = tau[i] - disturbance[i]
@@ -37,12 +38,6 @@ def joint_torques(out, active, tau, v, disturbance, normal_force, friction):
 
 
 @njit(cache=True)
-def joint_torques_at(out, active, tau, v, truth, row, friction):
-    """:func:`joint_torques` for row ``row`` of the truth table."""
-    joint_torques(out, active, tau, v, truth[row].disturbance, truth[row].normal_force, friction)
-
-
-@njit(cache=True)
 def tree_derivative(k, v, ddq):
     """k = [v, ddq]: the derivative of x = [q, v] (1-DOF joints: nq == nv)."""
     n = v.shape[0]
@@ -52,14 +47,14 @@ def tree_derivative(k, v, ddq):
 
 
 @njit(cache=True)
-def tree_stage(y, x, k, v, ddq, c, torques, active, tau, truth, row, friction):
+def tree_stage(y, x, k, v, ddq, c, torques, active, tau, disturbance, normal_force, friction):
     """One RK4 stage point of a held-torque step: k = [v, ddq] (the stage derivative of x), y = x
-    + c k (:func:`~delta_pin.compiled.rk4.stage_point`), then the joint torques at y for row
-    ``row`` of the truth table (y's time)."""
+    + c k (:func:`~delta_pin.compiled.rk4.stage_point`), then the joint torques at y for the truth
+    at y's time (F [N m] and F_n [N], (3,) each)."""
     tree_derivative(k, v, ddq)
     stage_point(y, x, k, c)
     n = x.shape[0] - v.shape[0]
-    joint_torques_at(torques, active, tau, y[n:], truth, row, friction)
+    joint_torques(torques, active, tau, y[n:], disturbance, normal_force, friction)
 
 
 @njit(cache=True)

@@ -26,7 +26,7 @@ from delta_pin.compiled.closed_loop import control_into, record_sample
 from delta_pin.compiled.jit import njit
 from delta_pin.compiled.native.calls import call_closure_gap, call_tree_dynamics
 from delta_pin.compiled.rk4 import combine, within_limits
-from delta_pin.compiled.tree_kernels import joint_torques_at, tree_derivative, tree_stage
+from delta_pin.compiled.tree_kernels import joint_torques, tree_derivative, tree_stage
 
 __all__ = ["DIVERGED", "EXPLODED", "NO_FK", "OK", "PINOCCHIO_FAILED", "PROJECT", "run_tree_sampled"]
 
@@ -42,21 +42,60 @@ def _held_step(tree, x, tau, active, truth, rotational, friction, row, h, torque
     nq = x.shape[0] - ddq.shape[0]
     k1, k2, k3, k4, y2, y3, y4 = stages[0], stages[1], stages[2], stages[3], stages[4], stages[5], stages[6]
     half = 0.5 * h
-    joint_torques_at(torques, active, tau, x[nq:], truth, row, friction)
+    joint_torques(torques, active, tau, x[nq:], truth[row].disturbance, truth[row].normal_force, friction)
     failed = call_tree_dynamics(
         tree.dynamics, tree.handle, x[:nq], x[nq:], torques, truth[row].platform_mass, rotational[row], ddq
     )
-    tree_stage(y2, x, k1, x[nq:], ddq, half, torques, active, tau, truth, row + 1, friction)
+    tree_stage(
+        y2,
+        x,
+        k1,
+        x[nq:],
+        ddq,
+        half,
+        torques,
+        active,
+        tau,
+        truth[row + 1].disturbance,
+        truth[row + 1].normal_force,
+        friction,
+    )
     failed += call_tree_dynamics(
         tree.dynamics, tree.handle, y2[:nq], y2[nq:], torques, truth[row + 1].platform_mass,
         rotational[row + 1], ddq,
     )  # fmt: skip
-    tree_stage(y3, x, k2, y2[nq:], ddq, half, torques, active, tau, truth, row + 1, friction)
+    tree_stage(
+        y3,
+        x,
+        k2,
+        y2[nq:],
+        ddq,
+        half,
+        torques,
+        active,
+        tau,
+        truth[row + 1].disturbance,
+        truth[row + 1].normal_force,
+        friction,
+    )
     failed += call_tree_dynamics(
         tree.dynamics, tree.handle, y3[:nq], y3[nq:], torques, truth[row + 1].platform_mass,
         rotational[row + 1], ddq,
     )  # fmt: skip
-    tree_stage(y4, x, k3, y3[nq:], ddq, h, torques, active, tau, truth, row + 2, friction)
+    tree_stage(
+        y4,
+        x,
+        k3,
+        y3[nq:],
+        ddq,
+        h,
+        torques,
+        active,
+        tau,
+        truth[row + 2].disturbance,
+        truth[row + 2].normal_force,
+        friction,
+    )
     failed += call_tree_dynamics(
         tree.dynamics, tree.handle, y4[:nq], y4[nq:], torques, truth[row + 2].platform_mass,
         rotational[row + 2], ddq,

@@ -43,7 +43,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
-from delta_pin.compiled.layouts import CONTROLLER, INFO, record
+from delta_pin.compiled.layouts import CONTROLLER, INFO, as_table, record
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
 from delta_pin.control.nominal import DeltaNominalModel, NominalModel
@@ -143,8 +143,9 @@ class AdaptiveRobustController(Controller):
         self.kernel_parameters = None
         if compiled and isinstance(nominal, DeltaNominalModel):
             self.kernel_parameters = self._kernel_parameters(nominal)
+            self._kernel_table = as_table(self.kernel_parameters)  # what evaluate passes
             self._chains = chain_trigonometry()
-            self._info = record(INFO)
+            self._info_table = as_table(record(INFO))  # the step's INFO, read back in one .item()
         self.reset()
 
     @property
@@ -215,22 +216,23 @@ class AdaptiveRobustController(Controller):
         """Torque, rho_hat_dot and internals: the compiled step when available, else the reference."""
         if self.kernel_parameters is None:
             return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        tau, rate, info = np.empty(3), np.empty(len(state)), self._info
+        tau, rate = np.empty(3), np.empty(len(state))
         if not adaptive_robust_kernel(
-            self.kernel_parameters, *self._chains, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
-            reference.alpha_ddot, state, tau, rate, info,
+            self._kernel_table, *self._chains, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
+            reference.alpha_ddot, state, tau, rate, self._info_table,
         ):  # fmt: skip
             self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
+        _, Lambda, gain, omega_norm, active, robust_torque = self._info_table.item()  # INFO's fields
         return ControlOutput(
             tau=tau,
             state_derivative=rate,
             internals={
                 "rho_hat": state.copy(),
-                "Lambda": float(info.Lambda),
-                "robust_gain": float(info.robust_gain),
-                "omega_norm": float(info.omega_norm),
-                "robust_torque": info.robust_torque.copy(),
-                "adaptation_active": float(info.adaptation_active),
+                "Lambda": Lambda,
+                "robust_gain": gain,
+                "omega_norm": omega_norm,
+                "robust_torque": robust_torque.copy(),  # item() gives a view of the table
+                "adaptation_active": active,
             },
         )
 

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
+from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
@@ -86,6 +87,7 @@ class DeltaNominalModel(NominalModel):
         self.platform_mass = m_o
         self.m_eq = m_o + 1.5 * robot.params.m_b
         self.geometry = kernel_geometry(robot.params)
+        self._geometry_table = as_table(self.geometry)  # what Python passes to the kernels
         self._cos, self._sin = chain_trigonometry()
         self._disturbance = np.asarray(nominal_disturbance, dtype=float).reshape(3)
         if friction is True:
@@ -97,9 +99,10 @@ class DeltaNominalModel(NominalModel):
             stribeck = self.friction_model.stribeck_for(robot.params.friction)
             self.friction_parameters = kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
             self.normal_force = np.full(3, float(self.friction_model.normal_force))
+        self._friction_table = as_table(self.friction_parameters)
 
     def terms(self, q, q_dot):
-        ok, _, _, _, M, C, G = delta_terms(self.geometry, self._cos, self._sin, self.m_eq, q, q_dot)
+        ok, _, _, _, M, C, G = delta_terms(self._geometry_table, self._cos, self._sin, self.m_eq, q, q_dot)
         if not ok:
             raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
         return M, C, G
@@ -108,9 +111,9 @@ class DeltaNominalModel(NominalModel):
         return self._disturbance
 
     def friction(self, q_dot):
-        if not self.friction_parameters.on:
+        if self.friction_model is None:
             return np.zeros(3)
-        return friction_torque(self.friction_parameters, np.asarray(q_dot, dtype=float), self.normal_force)
+        return friction_torque(self._friction_table, np.asarray(q_dot, dtype=float), self.normal_force)
 
     def metadata(self):
         return {

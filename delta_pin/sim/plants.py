@@ -33,9 +33,9 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
-from delta_pin.compiled.layouts import TRUTH, records
+from delta_pin.compiled.layouts import TRUTH, as_table, records
 from delta_pin.compiled.rk4 import combine
-from delta_pin.compiled.tree_kernels import joint_torques, joint_torques_at, tree_derivative, tree_stage
+from delta_pin.compiled.tree_kernels import joint_torques, tree_derivative, tree_stage
 from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
@@ -81,6 +81,7 @@ class Plant(ABC):
         if self.friction is not None:
             self.stribeck = self.friction.stribeck_for(robot.params.friction)
             self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
+        self._friction_table = as_table(self.friction_parameters)  # what Python passes to kernels
         self.uncertainty = NoUncertainty() if uncertainty is None else uncertainty
 
     # ------------------------------------------------------------------ truth shared by both plants
@@ -101,7 +102,6 @@ class Plant(ABC):
         integrator's stage times then read the table instead of calling the profile."""
         self._table_step = step
         self._table = self.evaluate_truth(np.arange(count) * step)
-        self._truth_records = truth_records(*self._table)
 
     def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(m_o(t) [kg], F_n(t) (3,) [N], F(t) (3,) [N m]): the plant's time-varying truth."""
@@ -125,7 +125,7 @@ class Plant(ABC):
         mass, normal, disturbance = self.truth(t)
         if self.friction is None:
             return mass, disturbance
-        return mass, disturbance + friction_torque(self.friction_parameters, alpha_dot, normal)
+        return mass, disturbance + friction_torque(self._friction_table, alpha_dot, normal)
 
     # ------------------------------------------------------------------ state interface
     @abstractmethod
@@ -181,7 +181,7 @@ class AnalyticPlant(Plant):
 
     def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
         super().__init__(robot, friction, uncertainty)
-        self._geometry = kernel_geometry(robot.params)
+        self._geometry = as_table(kernel_geometry(robot.params))
         self._cos, self._sin = chain_trigonometry()
         self._last_xyz = np.full(3, np.nan)
 
@@ -301,7 +301,7 @@ class PinocchioPlant(Plant):
     def _accelerations(self, q, v, tau, mass, normal_force, disturbance) -> np.ndarray:
         """ddq of eq. 13 on the tree at (q, v) under active-joint torques tau [N m] for the
         truth (m_o, F_n, F)."""
-        joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self.friction_parameters)
+        joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self._friction_table)
         return self._tree_dynamics(q, v, mass)
 
     def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
@@ -404,22 +404,26 @@ class PinocchioPlant(Plant):
         table = getattr(self, "_table", None)
         if self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
             return None
-        truth, masses = self._truth_records, table[0]
-        if stage + 2 >= len(truth):
+        masses, normals, disturbances = table
+        if stage + 2 >= len(masses):
             return None
         # the stages of rk4_step at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
         dynamics, rotational = self._tree_dynamics, self._rotational_table
-        torques, active, friction = self._tau, self.active, self.friction_parameters
+        torques, active, friction = self._tau, self.active, self._friction_table
         k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
         q, v = x[: self.nq], x[self.nq :]
         i, half = stage, 0.5 * h
-        joint_torques_at(torques, active, tau, v, truth, i, friction)
+        joint_torques(torques, active, tau, v, disturbances[i], normals[i], friction)
         ddq = dynamics(q, v, masses[i], rotational[i])
-        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, truth, i + 1, friction)
+        tree_stage(
+            y2, x, k1, v, ddq, half, torques, active, tau, disturbances[i + 1], normals[i + 1], friction
+        )
         ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
-        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, truth, i + 1, friction)
+        tree_stage(
+            y3, x, k2, v2, ddq, half, torques, active, tau, disturbances[i + 1], normals[i + 1], friction
+        )
         ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
-        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, truth, i + 2, friction)
+        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances[i + 2], normals[i + 2], friction)
         ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
         tree_derivative(k4, v4, ddq)
         x_next = np.empty(len(x))
