@@ -22,6 +22,7 @@ from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.compiled.delta_kernels import delta_terms
+from delta_pin.compiled.layouts import as_table
 from delta_pin.model.dynamics import analytic_dynamics, kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 
@@ -46,7 +47,8 @@ def main() -> None:
     robot = dp.load_delta()
     params = robot.params
     alpha, alpha_dot = np.array([0.3, 0.2, 0.4]), np.array([0.1, 0.2, -0.3])
-    geometry, (cos_phi, sin_phi) = kernel_geometry(params), chain_trigonometry()
+    # a one-record array, as the nominal model and the analytic plant pass it (compiled.jit.as_record)
+    geometry, (cos_phi, sin_phi) = as_table(kernel_geometry(params)), chain_trigonometry()
     m_eq = params.platform_equivalent_mass
     batch = 10_000
     alphas, alpha_dots = np.tile(alpha, (batch, 1)), np.tile(alpha_dot, (batch, 1))

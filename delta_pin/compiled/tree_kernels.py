@@ -13,9 +13,16 @@ import numpy as np
 
 from delta_pin.compiled.delta_kernels import friction_torque
 from delta_pin.compiled.jit import as_record, njit
-from delta_pin.compiled.rk4 import stage_point
+from delta_pin.compiled.rk4 import combine, stage_point
 
-__all__ = ["joint_torques", "largest_gap", "tree_derivative", "tree_stage"]
+__all__ = [
+    "joint_torques",
+    "joint_torques_at",
+    "largest_gap",
+    "tree_combine",
+    "tree_derivative",
+    "tree_stage",
+]
 
 
 @njit(cache=True)
@@ -38,6 +45,12 @@ def joint_torques(out, active, tau, v, disturbance, normal_force, friction):
 
 
 @njit(cache=True)
+def joint_torques_at(out, active, tau, v, disturbances, normal_forces, row, friction):
+    """:func:`joint_torques` for row ``row`` of the truth's columns F (R, 3) and F_n (R, 3)."""
+    joint_torques(out, active, tau, v, disturbances[row], normal_forces[row], friction)
+
+
+@njit(cache=True)
 def tree_derivative(k, v, ddq):
     """k = [v, ddq]: the derivative of x = [q, v] (1-DOF joints: nq == nv)."""
     n = v.shape[0]
@@ -47,14 +60,24 @@ def tree_derivative(k, v, ddq):
 
 
 @njit(cache=True)
-def tree_stage(y, x, k, v, ddq, c, torques, active, tau, disturbance, normal_force, friction):
+def tree_combine(x, k1, k2, k3, k4, v, ddq, c):
+    """x after the step: k4 = [v, ddq] (the last stage), then
+    :func:`~delta_pin.compiled.rk4.combine` with c = h / 6 into a new array."""
+    tree_derivative(k4, v, ddq)
+    out = np.empty(x.shape[0])
+    combine(x, k1, k2, k3, k4, c, out)
+    return out
+
+
+@njit(cache=True)
+def tree_stage(y, x, k, v, ddq, c, torques, active, tau, disturbances, normal_forces, row, friction):
     """One RK4 stage point of a held-torque step: k = [v, ddq] (the stage derivative of x), y = x
-    + c k (:func:`~delta_pin.compiled.rk4.stage_point`), then the joint torques at y for the truth
-    at y's time (F [N m] and F_n [N], (3,) each)."""
+    + c k (:func:`~delta_pin.compiled.rk4.stage_point`), then the joint torques at y for row
+    ``row`` of the truth's columns F and F_n (y's time)."""
     tree_derivative(k, v, ddq)
     stage_point(y, x, k, c)
     n = x.shape[0] - v.shape[0]
-    joint_torques(torques, active, tau, y[n:], disturbance, normal_force, friction)
+    joint_torques_at(torques, active, tau, y[n:], disturbances, normal_forces, row, friction)
 
 
 @njit(cache=True)

@@ -25,8 +25,8 @@ import numpy as np
 from delta_pin.compiled.closed_loop import control_into, record_sample
 from delta_pin.compiled.jit import njit
 from delta_pin.compiled.native.calls import call_closure_gap, call_tree_dynamics
-from delta_pin.compiled.rk4 import combine, within_limits
-from delta_pin.compiled.tree_kernels import joint_torques, tree_derivative, tree_stage
+from delta_pin.compiled.rk4 import within_limits
+from delta_pin.compiled.tree_kernels import joint_torques_at, tree_combine, tree_stage
 
 __all__ = ["DIVERGED", "EXPLODED", "NO_FK", "OK", "PINOCCHIO_FAILED", "PROJECT", "run_tree_sampled"]
 
@@ -40,70 +40,23 @@ def _held_step(tree, x, tau, active, truth, rotational, friction, row, h, torque
     :meth:`PinocchioPlant.held_rk4 <delta_pin.sim.plants.PinocchioPlant.held_rk4>`); returns
     (x after the step, number of failed dynamics calls)."""
     nq = x.shape[0] - ddq.shape[0]
-    k1, k2, k3, k4, y2, y3, y4 = stages[0], stages[1], stages[2], stages[3], stages[4], stages[5], stages[6]
-    half = 0.5 * h
-    joint_torques(torques, active, tau, x[nq:], truth[row].disturbance, truth[row].normal_force, friction)
+    disturbances, normals, masses = truth.disturbance, truth.normal_force, truth.platform_mass
+    k, points = stages[0:4], stages[4:7]  # k1..k4; the stage points y2, y3, y4
+    joint_torques_at(torques, active, tau, x[nq:], disturbances, normals, row, friction)
     failed = call_tree_dynamics(
-        tree.dynamics, tree.handle, x[:nq], x[nq:], torques, truth[row].platform_mass, rotational[row], ddq
+        tree.dynamics, tree.handle, x[:nq], x[nq:], torques, masses[row], rotational[row], ddq
     )
-    tree_stage(
-        y2,
-        x,
-        k1,
-        x[nq:],
-        ddq,
-        half,
-        torques,
-        active,
-        tau,
-        truth[row + 1].disturbance,
-        truth[row + 1].normal_force,
-        friction,
-    )
-    failed += call_tree_dynamics(
-        tree.dynamics, tree.handle, y2[:nq], y2[nq:], torques, truth[row + 1].platform_mass,
-        rotational[row + 1], ddq,
-    )  # fmt: skip
-    tree_stage(
-        y3,
-        x,
-        k2,
-        y2[nq:],
-        ddq,
-        half,
-        torques,
-        active,
-        tau,
-        truth[row + 1].disturbance,
-        truth[row + 1].normal_force,
-        friction,
-    )
-    failed += call_tree_dynamics(
-        tree.dynamics, tree.handle, y3[:nq], y3[nq:], torques, truth[row + 1].platform_mass,
-        rotational[row + 1], ddq,
-    )  # fmt: skip
-    tree_stage(
-        y4,
-        x,
-        k3,
-        y3[nq:],
-        ddq,
-        h,
-        torques,
-        active,
-        tau,
-        truth[row + 2].disturbance,
-        truth[row + 2].normal_force,
-        friction,
-    )
-    failed += call_tree_dynamics(
-        tree.dynamics, tree.handle, y4[:nq], y4[nq:], torques, truth[row + 2].platform_mass,
-        rotational[row + 2], ddq,
-    )  # fmt: skip
-    tree_derivative(k4, y4[nq:], ddq)
-    x_next = np.empty(x.shape[0])
-    combine(x, k1, k2, k3, k4, h / 6.0, x_next)
-    return x_next, failed
+    q, v = x[:nq], x[nq:]
+    for stage in range(3):
+        c = h if stage == 2 else 0.5 * h
+        at = row + (2 if stage == 2 else 1)  # the stage point's time: t + h/2, t + h/2, t + h
+        y = points[stage]
+        tree_stage(y, x, k[stage], v, ddq, c, torques, active, tau, disturbances, normals, at, friction)
+        q, v = y[:nq], y[nq:]
+        failed += call_tree_dynamics(
+            tree.dynamics, tree.handle, q, v, torques, masses[at], rotational[at], ddq
+        )
+    return tree_combine(x, k[0], k[1], k[2], k[3], v, ddq, h / 6.0), failed
 
 
 @njit(cache=True)

@@ -13,6 +13,7 @@ which is an independent route to the paper's eqs. 7-9 (docs/architecture.md sect
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -26,6 +27,15 @@ from delta_pin.model.kinematics import as_vector3, forward_kinematics
 __all__ = ["DeltaPinocchioModel"]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@functools.cache
+def _largest_gap_kernel():
+    """The compiled closure-gap reduction, imported on first use (numba stays unloaded for
+    ``delta-pin validate``)."""
+    from delta_pin.compiled.tree_kernels import largest_gap
+
+    return largest_gap
 
 
 class DeltaPinocchioModel:
@@ -122,8 +132,7 @@ class DeltaPinocchioModel:
         joint kinematics plus the six anchor frames only, on a ``data`` of its own (the shared one
         is left as it was).
         """
-        from delta_pin.compiled.tree_kernels import largest_gap  # numba stays unloaded for validate
-
+        largest_gap = _largest_gap_kernel()
         model, data, place = self.model, self._gap_data, pin.updateFramePlacement
         pin.forwardKinematics(model, data, q)
         gap, nan = 0.0, False

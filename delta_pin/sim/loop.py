@@ -102,17 +102,28 @@ def run_python_loop(
     internals: dict[str, list] = {}
     reference_rows = table.rows(per_sample)
 
+    alphas, alpha_dots, taus, xyzs, gaps = (
+        record.alpha,
+        record.alpha_dot,
+        record.tau,
+        record.xyz,
+        record.closure_residual,
+    )
+
     def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
         """Control at t_k and record the sample; ``gap``: x's closure residual if known."""
         joints = plant.joint_state(x)
-        record.alpha[k], record.alpha_dot[k] = joints
+        alphas[k], alpha_dots[k] = joints
         reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
         tau, z_dot, out = loop.control(t[k], x, reference, z, joints)
-        record.tau[k] = tau
-        record.xyz[k] = plant.platform_position(x)
-        record.closure_residual[k] = plant.closure_residual(x) if gap is None else gap
+        taus[k] = tau
+        xyzs[k] = plant.platform_position(x)
+        gaps[k] = plant.closure_residual(x) if gap is None else gap
         for name, value in out.internals.items():
-            internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+            values = internals.get(name)
+            if values is None:
+                values = internals[name] = []
+            values.append(np.asarray(value, dtype=float))
         return tau, z_dot
 
     def closed_loop(t_now: float, y: np.ndarray) -> np.ndarray:
@@ -150,7 +161,7 @@ def run_python_loop(
                     y = rk4_step(closed_loop, t[k] + j * h, y, h)
                     y[:nx] = plant.finish_step(y[:nx], t[k] + (j + 1) * h)
                 x, z = y[:nx], y[nx:]
-            loop.check_state(t[k + 1], x, z)
+            check_state(t[k + 1], x, z, *plant.joint_state(x))  # = loop.check_state, one frame less
     sample(steps, x, z, gap)
     bar.close()
     try:

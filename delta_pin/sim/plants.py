@@ -34,8 +34,7 @@ import pinocchio as pin
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
 from delta_pin.compiled.layouts import TRUTH, as_table, records
-from delta_pin.compiled.rk4 import combine
-from delta_pin.compiled.tree_kernels import joint_torques, tree_derivative, tree_stage
+from delta_pin.compiled.tree_kernels import joint_torques, joint_torques_at, tree_combine, tree_stage
 from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
@@ -413,22 +412,15 @@ class PinocchioPlant(Plant):
         k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
         q, v = x[: self.nq], x[self.nq :]
         i, half = stage, 0.5 * h
-        joint_torques(torques, active, tau, v, disturbances[i], normals[i], friction)
+        joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
         ddq = dynamics(q, v, masses[i], rotational[i])
-        tree_stage(
-            y2, x, k1, v, ddq, half, torques, active, tau, disturbances[i + 1], normals[i + 1], friction
-        )
+        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
         ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
-        tree_stage(
-            y3, x, k2, v2, ddq, half, torques, active, tau, disturbances[i + 1], normals[i + 1], friction
-        )
+        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
         ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
-        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances[i + 2], normals[i + 2], friction)
+        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
         ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
-        tree_derivative(k4, v4, ddq)
-        x_next = np.empty(len(x))
-        combine(x, k1, k2, k3, k4, h / 6.0, x_next)
-        return x_next
+        return tree_combine(x, k1, k2, k3, k4, v4, ddq, h / 6.0)
 
     def native_tree(self):
         """This plant's tree and closures in the native library
