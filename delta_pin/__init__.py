@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from delta_pin import errors
 from delta_pin.errors import (
     AssemblyError,
     DeltaPinError,
@@ -106,21 +107,9 @@ _PUBLIC = {
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),
 }
-_ERRORS = (
-    "AssemblyError",
-    "DeltaPinError",
-    "ForwardKinematicsError",
-    "InvalidParameterError",
-    "NativeUnavailableError",
-    "NonFiniteError",
-    "SimulationError",
-    "URDFConventionError",
-    "UnreachablePoseError",
-    "XacroArgumentError",
-)
 _LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
 _LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use
-__all__ = sorted([*_LAZY, *_ERRORS])
+__all__ = sorted([*_LAZY, *errors.__all__])
 
 
 def __getattr__(name: str):
