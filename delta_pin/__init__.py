@@ -54,6 +54,7 @@ if TYPE_CHECKING:
         check_workspace,
     )
     from delta_pin.sim.batch import simulate_batch
+    from delta_pin.sim.drive import Encoder
     from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant
     from delta_pin.sim.run import Run, load_run
     from delta_pin.sim.runner import simulate
@@ -103,6 +104,7 @@ _PUBLIC = {
         "RandomUncertainty",
         "Uncertainty",
     ),
+    "delta_pin.sim.drive": ("Encoder",),
     "delta_pin.sim.run": ("Run", "load_run"),
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),

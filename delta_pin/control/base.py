@@ -1,9 +1,17 @@
 """The controller interface every control law implements.
 
 A controller maps (t [s], alpha [rad], alpha_dot [rad/s], reference, internal state) to joint
-torques tau [N m] and to the time derivative of its internal state (e.g. the bound estimate
-rho_hat of the adaptive law, eqs. 24-25). Keeping the state explicit lets the simulator integrate
-it with the plant in ``continuous`` mode and advance it once per period in ``sampled`` mode.
+torques tau [N m] and to the evolution of its internal state. Two kinds of state:
+
+* continuous-time (e.g. the bound estimate rho_hat of the adaptive law, eqs. 24-25): the
+  controller returns its time derivative; the simulator integrates it with the plant in
+  ``continuous`` mode and advances it once per period, z_{k+1} = z_k + T z_dot_k, in ``sampled``
+  mode;
+* discrete-time (a digital law with period :attr:`Controller.dt`): the controller returns the
+  next state itself (:attr:`ControlOutput.next_state`), used once per sample.
+
+Keeping the state explicit lets the same law run inside :func:`~delta_pin.sim.runner.simulate`
+and sample by sample outside it (:meth:`Controller.step`), the way a drive calls a controller.
 """
 
 from __future__ import annotations
@@ -38,20 +46,33 @@ class ControlOutput:
 
     Attributes:
         tau: joint torques (n,) [N m].
-        state_derivative: time derivative of the internal state (empty for stateless laws).
+        state_derivative: time derivative of a continuous-time internal state (empty for
+            stateless laws).
         internals: named quantities to record (e.g. ``rho_hat``, ``Lambda``, ``phi``).
+        next_state: the internal state at the next sample, for a discrete-time controller
+            (``None`` for a continuous-time one).
     """
 
     tau: np.ndarray
     state_derivative: np.ndarray = field(default_factory=lambda: np.zeros(0))
     internals: dict[str, float | np.ndarray] = field(default_factory=dict)
+    next_state: np.ndarray | None = None
 
 
 class Controller(ABC):
     """Base of every control law. Subclasses implement :meth:`evaluate` (and, if they carry an
-    internal state, :meth:`initial_state`)."""
+    internal state, :meth:`initial_state`).
+
+    Attributes:
+        dt: the sample period [s] of a discrete-time controller (``None``: a continuous-time law,
+            which runs at any period).
+        delay: samples of computation delay the law accounts for (its torque computed at sample k
+            acts from sample k + delay); ``simulate`` checks that its own delay matches.
+    """
 
     name: str = "controller"
+    dt: float | None = None
+    delay: int = 0
 
     def initial_state(self) -> np.ndarray:
         """Internal state at t = 0 (empty for stateless controllers)."""
@@ -69,8 +90,73 @@ class Controller(ABC):
         """Torque and state derivative at time ``t`` [s] for the given internal ``state``."""
 
     def reset(self) -> None:
-        """Restore the internal state to :meth:`initial_state`."""
+        """Restore the internal state to :meth:`initial_state` (and forget the previous sample of
+        :meth:`step`)."""
         self.state = self.initial_state()
+        self._previous_sample: tuple[float, np.ndarray, ControlOutput] | None = None
+
+    def advance(self, state: np.ndarray, output: ControlOutput, period: float) -> np.ndarray:
+        """The internal state one sample of ``period`` [s] later: the discrete-time law's
+        ``next_state``, or z + period z_dot for a continuous-time one (explicit Euler, as a drive
+        that integrates once per sample)."""
+        if output.next_state is not None:
+            return np.asarray(output.next_state, dtype=float)
+        if len(state) == 0:
+            return state
+        return state + period * np.asarray(output.state_derivative, dtype=float)
+
+    def estimate_velocity(
+        self, alpha_measured: np.ndarray, previous_measured: np.ndarray | None, period: float
+    ) -> np.ndarray:
+        """The joint velocity [rad/s] this controller uses when none is measured: the backward
+        difference of the measured angles over ``period`` [s] (zero at the first sample).
+        A controller with an observer overrides this."""
+        if previous_measured is None or not period > 0.0:
+            return np.zeros_like(alpha_measured)
+        return (alpha_measured - previous_measured) / period
+
+    def step(
+        self,
+        t: float,
+        alpha_measured: np.ndarray,
+        reference: Reference,
+        alpha_dot_measured: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One sample of the controller, called the way a drive or another simulator calls it:
+        :meth:`reset` once, then ``tau = ctrl.step(t, alpha_measured, reference)`` at every
+        sample.
+
+        Args:
+            t: the sample's time [s].
+            alpha_measured: the measured joint angles [rad] (e.g. encoder readings).
+            reference: the desired motion at ``t`` (:class:`Reference`).
+            alpha_dot_measured: measured joint velocities [rad/s], or ``None``: then the backward
+                difference of the measured angles over the period (zero at the first sample).
+
+        Returns:
+            The torque [N m] to apply (from sample k + :attr:`delay` on a delayed drive).
+
+        The internal state advances once per sample by :meth:`advance`, at the start of the next
+        call: over :attr:`dt` or, for a continuous-time law, over the time since the previous call
+        (z_k = z_{k-1} + T z_dot_{k-1}, as ``simulate``'s sampled loop).
+        """
+        if not hasattr(self, "state"):
+            self.reset()
+        alpha = np.array(alpha_measured, dtype=float)
+        previous = self._previous_sample
+        period = 0.0
+        if previous is not None:
+            previous_t, previous_alpha, previous_output = previous
+            period = self.dt if self.dt is not None else t - previous_t
+            # the state reaches this sample: z_k = z_{k-1} + T z_dot_{k-1}, or the law's next state
+            self.state = self.advance(self.state, previous_output, period)
+        if alpha_dot_measured is not None:
+            alpha_dot = np.asarray(alpha_dot_measured, dtype=float)
+        else:
+            alpha_dot = self.estimate_velocity(alpha, None if previous is None else previous_alpha, period)
+        output = self.evaluate(t, alpha, alpha_dot, reference, self.state)
+        self._previous_sample = (t, alpha, output)
+        return np.asarray(output.tau, dtype=float)
 
     def torque(self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference) -> np.ndarray:
         """Torque [N m] with the controller's current internal state (call :meth:`reset` first)."""

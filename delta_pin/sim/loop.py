@@ -10,6 +10,7 @@ import numpy as np
 from delta_pin.compiled.rk4 import all_finite
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import NonFiniteError, SimulationError
+from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import check_state, integrate_lsoda, rk4_step
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import ReferenceTable
@@ -77,12 +78,18 @@ def run_python_loop(
     rtol: float,
     atol: float,
     progress: bool | None,
+    sensor: Encoder | None = None,
+    drive: Drive | None = None,
 ) -> LoopRecord:
     """Run ``controller`` on ``plant`` from the plant state x over the sample times t [s].
 
     Sampled mode: tau_k at t_k, held over the period while the plant takes ``substeps`` RK4 steps;
-    the controller state advances once per period, z_{k+1} = z_k + dt z_dot_k. Continuous mode:
-    the controller inside the integrator (RK4 on [x, z] with step dt / substeps, or LSODA).
+    the controller state advances once per period (:meth:`Controller.advance
+    <delta_pin.control.base.Controller.advance>`: z_{k+1} = z_k + dt z_dot_k, or a discrete-time
+    law's next state). With a ``sensor`` the controller sees its readings instead of the true
+    joint state; with a ``drive`` its torque acts after the drive's delay and saturation (what is
+    recorded as ``tau``; the controller's own output is the internal ``tau_command``). Continuous
+    mode: the controller inside the integrator (RK4 on [x, z] with step dt / substeps, or LSODA).
     ``table`` holds the reference on the grid dt / per_sample.
     """
     steps, dt = len(t) - 1, t[1] - t[0]
@@ -110,12 +117,27 @@ def run_python_loop(
         record.closure_residual,
     )
 
+    previous_reading = [None]  # the sensor's last angles, for a controller's own velocity estimate
+
+    def read(alpha: np.ndarray, alpha_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the controller sees of the joints: the sensor's reading (and its velocity, or the
+        controller's estimate where the sensor gives none)."""
+        measured, velocity = sensor.read(alpha, alpha_dot, dt)
+        if velocity is None:
+            velocity = controller.estimate_velocity(measured, previous_reading[0], dt)
+        previous_reading[0] = measured
+        return measured, velocity
+
     def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
-        """Control at t_k and record the sample; ``gap``: x's closure residual if known."""
+        """Control at t_k and record the sample; ``gap``: x's closure residual if known. Returns
+        the torque acting on the plant from t_k and the controller's output."""
         joints = plant.joint_state(x)
         alphas[k], alpha_dots[k] = joints
         reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
-        tau, z_dot, out = loop.control(t[k], x, reference, z, joints)
+        tau, _, out = loop.control(t[k], x, reference, z, joints if sensor is None else read(*joints))
+        if drive is not None:
+            out.internals["tau_command"] = tau
+            tau = drive.apply(tau)
         taus[k] = tau
         xyzs[k] = plant.platform_position(x)
         gaps[k] = plant.closure_residual(x) if gap is None else gap
@@ -124,7 +146,7 @@ def run_python_loop(
             if values is None:
                 values = internals[name] = []
             values.append(np.asarray(value, dtype=float))
-        return tau, z_dot
+        return tau, out
 
     def closed_loop(t_now: float, y: np.ndarray) -> np.ndarray:
         xs, zs = y[:nx], y[nx:]
@@ -143,7 +165,7 @@ def run_python_loop(
         for k in range(steps):
             if k % stride == 0 and k:
                 bar.update(round(stride * dt, 9))
-            tau, z_dot = sample(k, x, z, gap)
+            tau, out = sample(k, x, z, gap)
             if mode == "sampled":
                 for j in range(substeps):
                     # the plant's own RK4 step under the held torque if it has one (truth read by
@@ -154,7 +176,7 @@ def run_python_loop(
                         x, gap = plant.finish_step(x, t[k] + (j + 1) * h), None
                     else:
                         x, gap = plant.finish_step_residual(x_next, t[k] + (j + 1) * h)
-                z = z + dt * z_dot
+                z = controller.advance(z, out, dt)
             else:
                 y = np.concatenate([x, z])
                 for j in range(substeps):

@@ -15,6 +15,7 @@ Two timings (docs/architecture.md section 6):
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -24,6 +25,7 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.loop import run_python_loop
 from delta_pin.sim.plants import Plant, make_plant
@@ -46,15 +48,43 @@ def _choose_integrator(integrator: str, mode: str) -> str:
     return integrator
 
 
-def _runs_compiled(controller, plant, mode: str, integrator: str, compiled: bool | None) -> bool:
+def _runs_compiled(
+    controller, plant, mode: str, integrator: str, compiled: bool | None, drive_effects: bool
+) -> bool:
     """Whether the run goes to the compiled loops: BDF2 always (it exists only there); sampled
     runs where they apply, unless ``compiled=False`` (``compiled=True``: required, so that
-    :func:`simulate_batch` names what it cannot run)."""
+    :func:`simulate_batch` names what it cannot run). The compiled loops do not model an
+    encoder, a delay or a torque limit yet: such runs take the Python loop."""
     if integrator == "bdf2":
         return True
+    if drive_effects:
+        if compiled:
+            raise InvalidParameterError(
+                "compiled=True: the compiled loops do not model a sensor, a delay or a torque limit yet; "
+                "use compiled=None or False"
+            )
+        return False
     if mode != "sampled" or compiled is False:
         return False
     return bool(compiled) or batchable(controller, plant, mode)
+
+
+def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> None:
+    """A discrete-time controller runs only in sampled mode at its own period; an encoder, a
+    delay or a torque limit exist only in sampled mode."""
+    period = getattr(controller, "dt", None)
+    if mode != "sampled" and (drive_effects or period is not None):
+        what = (
+            f"controller {controller.name!r} is discrete-time (dt={period})"
+            if period
+            else "sensor, delay and torque_limit"
+        )
+        raise InvalidParameterError(f"{what}: only in mode='sampled'")
+    if period is not None and not math.isclose(period, dt, rel_tol=1e-12):
+        raise InvalidParameterError(
+            f"controller {controller.name!r} has dt={period} s but the loop samples at dt={dt} s: "
+            "give both the same period"
+        )
 
 
 def simulate(
@@ -76,6 +106,9 @@ def simulate(
     atol: float = 1e-8,
     progress: bool | None = False,
     compiled: bool | None = None,
+    sensor: Encoder | None = None,
+    delay: int = 0,
+    torque_limit=None,
 ) -> Run:
     """Simulate ``controller`` driving ``robot`` along ``trajectory``.
 
@@ -112,6 +145,15 @@ def simulate(
             Pinocchio plant in full coordinates with the native library. ``None`` (the default):
             where it applies; ``False``: never (the Python loop, the reference the compiled loops
             are tested against); ``True``: required (an error where it does not apply).
+        sensor: sampled mode: an :class:`~delta_pin.sim.drive.Encoder` whose readings the
+            controller gets (quantised angles; velocity by difference, by the controller's own
+            estimate, or exact); ``None``: the true joint state.
+        delay: sampled mode: samples of computation delay: the torque computed at sample k acts
+            from sample k + delay (zero before) (>= 0).
+        torque_limit: sampled mode: the drive's saturation [N m], one value or one per joint;
+            ``None``: none. The run records ``tau`` as the torque that acted and the controller's
+            output as the internal ``tau_command``; ``metadata["torque_limit_hits"]`` counts the
+            samples at which the limit bound.
 
     Raises:
         InvalidParameterError: non-positive dt, t_end or substeps, unknown mode or plant.
@@ -123,7 +165,11 @@ def simulate(
     check_mode(mode)
     check_substeps(substeps)
     integrator = _choose_integrator(integrator, mode)
-    if _runs_compiled(controller, plant, mode, integrator, compiled):
+    drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
+    if sensor is not None and not isinstance(sensor, Encoder):
+        raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
+    _check_digital(as_controller(controller), mode, dt, drive_effects)
+    if _runs_compiled(controller, plant, mode, integrator, compiled, drive_effects):
         return simulate_batch(
             robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,
             mode=mode, alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction,
@@ -144,11 +190,15 @@ def simulate(
     if integrator == "rk4":
         plant.precompute_truth(h / 2.0, 2 * steps * substeps + 1)
     t = np.arange(steps + 1) * dt
+    drive = Drive(dof, delay, torque_limit) if drive_effects else None
+    if sensor is not None:
+        sensor.reset()
 
     wall = time.perf_counter()
     record = run_python_loop(
         controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
         integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
+        sensor=sensor, drive=drive,
     )  # fmt: skip
     wall = time.perf_counter() - wall
 
@@ -159,6 +209,8 @@ def simulate(
     )  # fmt: skip
     if getattr(plant, "projections", 0):
         metadata["closure_projections"] = plant.projections
+    if drive is not None:
+        metadata.update(sensor=None if sensor is None else sensor.metadata(), **drive.metadata())
     alpha_d, alpha_dot_d, _ = table.rows(per_sample)
     return Run(
         t=t,
