@@ -37,8 +37,10 @@ if TYPE_CHECKING:
         PDGravity,
         PinocchioNominalModel,
         Reference,
+        TimeDelayControl,
         design1,
         design2,
+        tdc,
     )
     from delta_pin.model.description import DeltaParameters, StribeckParameters, compile_urdf
     from delta_pin.model.dynamics import ReducedDynamics
@@ -93,8 +95,10 @@ _PUBLIC = {
         "PDGravity",
         "PinocchioNominalModel",
         "Reference",
+        "TimeDelayControl",
         "design1",
         "design2",
+        "tdc",
     ),
     "delta_pin.sim.plants": ("AnalyticPlant", "PinocchioPlant", "Plant"),
     "delta_pin.sim.uncertainty": (

@@ -38,6 +38,7 @@ CONTROLLERS = _Choices("delta_pin.studies.experiments", "CONTROLLERS")
 PATHS = _Choices("delta_pin.studies.experiments", "PATHS")
 MODES = _Choices("delta_pin.sim.arguments", "MODES")
 INTEGRATOR_CHOICES = _Choices("delta_pin.sim.runner", "INTEGRATOR_CHOICES")
+VELOCITIES = _Choices("delta_pin.sim.drive", "VELOCITIES")
 
 
 def _add_choice_argument(parser: argparse.ArgumentParser, flag: str, choices: _Choices, **options) -> None:
@@ -110,6 +111,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         delta_fc=args.uncertainty,
         delta_f=args.uncertainty,
         seed=args.seed,
+        encoder_bits=args.encoder_bits,
+        velocity=args.velocity,
+        delay=args.delay,
+        torque_limit=args.torque_limit,
     )
     robot = _load_robot(args)
     print(
@@ -126,6 +131,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
     }
+    if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
+        print(f"  the torque limit bound at {metrics.torque_limit_hits} of {len(run.t)} samples", flush=True)
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
@@ -303,6 +310,24 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         help="seeded band-limited random uncertainty instead of the paper's sinusoids",
+    )
+    drive = run.add_argument_group("digital drive (sampled mode)")
+    drive.add_argument(
+        "--encoder-bits",
+        type=int,
+        default=None,
+        help="encoders of 2^bits counts per turn, 8-32 (default: exact state)",
+    )
+    _add_choice_argument(
+        drive,
+        "--velocity",
+        VELOCITIES,
+        default="difference",
+        help="with an encoder, the velocity the controller gets (default: difference of readings)",
+    )
+    drive.add_argument("--delay", type=int, default=0, help="samples of computation delay (default 0)")
+    drive.add_argument(
+        "--torque-limit", type=float, default=None, help="the drive's saturation [N m] (default none)"
     )
     run.add_argument("--out", type=Path, required=True, help="output directory (run.npz, summary.json)")
     run.add_argument("--html", type=Path, default=None, help="also export a standalone meshcat page")

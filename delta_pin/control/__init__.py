@@ -3,6 +3,7 @@
 from delta_pin.control.adaptive_robust import AdaptiveRobustController, AdaptiveRobustGains, design1, design2
 from delta_pin.control.base import CallableController, Controller, ControlOutput, Reference, as_controller
 from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
+from delta_pin.control.digital import TimeDelayControl, tdc
 from delta_pin.control.nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
 
 __all__ = [
@@ -18,7 +19,9 @@ __all__ = [
     "PDGravity",
     "PinocchioNominalModel",
     "Reference",
+    "TimeDelayControl",
     "as_controller",
     "design1",
     "design2",
+    "tdc",
 ]

@@ -16,12 +16,14 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
+from delta_pin.control.digital import tdc
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.friction import Friction
 from delta_pin.model.robot import Delta, load_delta
 from delta_pin.model.trajectory import AdeptCycle, PathI, PathII, Trajectory
 from delta_pin.sim.arguments import MODES
 from delta_pin.sim.batch import native_available, simulate_batch
+from delta_pin.sim.drive import Encoder, check_delay, check_torque_limit
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.run import Run
 from delta_pin.sim.runner import simulate
@@ -38,7 +40,7 @@ __all__ = [
     "run_spec",
 ]
 
-CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd")
+CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc")
 PATHS = ("I", "II", "adept")
 DEFAULT_T_END = {"I": 15.0, "II": 10.0, "adept": 3.0}  # [s]
 PAPER_ALPHA0 = 0.3322  # [rad] on every joint (Section V)
@@ -64,6 +66,13 @@ class RunSpec:
         friction: Stribeck friction in the plant.
         alpha0: initial angle of every joint [rad]; ``None`` starts on the path.
         gains: gain overrides by name (e.g. ``{"xi": 0.01}``).
+        encoder_bits: sampled mode: an encoder of 2^bits counts per turn on each joint
+            (:class:`~delta_pin.sim.drive.Encoder`); ``None``: the controller sees the true state.
+        velocity: with an encoder, the velocity the controller gets: ``"difference"``, ``"none"``
+            (its own estimate) or ``"exact"``.
+        delay: sampled mode: samples of computation delay (a digital law such as ``tdc`` is told
+            the same delay).
+        torque_limit: sampled mode: the drive's saturation [N m]; ``None``: none.
     """
 
     controller: str = "design1"
@@ -82,6 +91,10 @@ class RunSpec:
     friction: bool = True
     alpha0: float | None = PAPER_ALPHA0
     gains: dict = field(default_factory=dict)
+    encoder_bits: int | None = None
+    velocity: str = "difference"
+    delay: int = 0
+    torque_limit: float | None = None
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -96,6 +109,20 @@ class RunSpec:
             raise InvalidParameterError(
                 f"integrator={self.integrator!r} must be one of auto, {', '.join(INTEGRATORS)}"
             )
+        self.sensor()  # the encoder, delay and torque limit are checked here, before any run
+        check_delay(self.delay)
+        check_torque_limit(self.torque_limit, 3)
+
+    @property
+    def drive_effects(self) -> bool:
+        """Whether the run has an encoder, a delay or a torque limit (sampled mode only)."""
+        return self.encoder_bits is not None or self.delay > 0 or self.torque_limit is not None
+
+    def sensor(self) -> Encoder | None:
+        """The spec's encoder (``None`` without ``encoder_bits``)."""
+        if self.encoder_bits is None:
+            return None
+        return Encoder(bits=self.encoder_bits, velocity=self.velocity)
 
     @property
     def duration(self) -> float:
@@ -159,6 +186,8 @@ def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None
         return ComputedTorque(nominal, **fc, **gains)
     if spec.controller == "pd":
         return PDGravity(nominal, **fc, **gains)
+    if spec.controller == "tdc":
+        return tdc(nominal, spec.dt, delay=spec.delay, **gains)
     trajectory = trajectory or build_trajectory(spec.path)
     start = robot.inverse_kinematics(trajectory.position(0.0))
     return LQR(nominal, start, **fc, **gains)
@@ -186,6 +215,9 @@ def run_spec(
         uncertainty=build_uncertainty(spec),
         progress=progress,
         compiled=compiled,
+        sensor=spec.sensor(),
+        delay=spec.delay,
+        torque_limit=spec.torque_limit,
     )
     run.metadata["spec"] = spec.as_dict()
     return run
@@ -198,8 +230,8 @@ def batch_group(spec: RunSpec) -> tuple | None:
     :mod:`delta_pin.compiled.native` is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
-    if not (spec.controller in ("design1", "design2") and (continuous or sampled)):
-        return None
+    if not (spec.controller in ("design1", "design2") and (continuous or sampled)) or spec.drive_effects:
+        return None  # the compiled loops do not model an encoder, a delay or a torque limit yet
     if spec.plant == "pinocchio" and not native_available():
         return None
     vector_rho = bool(spec.gains.get("vector_rho"))

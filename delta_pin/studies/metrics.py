@@ -33,6 +33,8 @@ class RunMetrics:
     rho_hat_final: float | None
     max_task_error_mm_last_5s: float
     max_joint_error_last_5s: float
+    torque_increment_rms_last_5s: float
+    torque_limit_hits: int | None
     wall_time: float | None
 
     def as_dict(self) -> dict:
@@ -43,9 +45,17 @@ def _trapezoid(values: np.ndarray, t: np.ndarray) -> float:
     return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(t)))
 
 
+def _increment_rms(tau: np.ndarray, window: np.ndarray) -> float:
+    """RMS of ||tau_k - tau_{k-1}|| over the samples k in ``window`` (k >= 1) [N m]."""
+    increments = np.linalg.norm(np.diff(tau, axis=0), axis=1)[window[1:]]
+    return float(np.sqrt(np.mean(increments**2))) if len(increments) else 0.0
+
+
 def compute_metrics(run: Run, window: float = 5.0) -> RunMetrics:
-    """IAE, ISE, S (integral and sample sum), rho_hat max and final, and the largest task-space
-    error [mm] and joint error [rad] over the last ``window`` seconds of ``run``."""
+    """IAE, ISE, S (integral and sample sum), rho_hat max and final, the largest task-space error
+    [mm] and joint error [rad] over the last ``window`` seconds of ``run``, the torque's roughness
+    there (RMS over those samples of ||tau_k - tau_{k-1}|| [N m]) and how many samples the drive's
+    torque limit bound at (``None`` without a limit)."""
     error = np.linalg.norm(run.error, axis=1)
     torque = np.linalg.norm(run.tau, axis=1)
     last = run.t >= run.t[-1] - window - 1e-12
@@ -61,5 +71,7 @@ def compute_metrics(run: Run, window: float = 5.0) -> RunMetrics:
         rho_hat_final=None if rho_norm is None else float(rho_norm[-1]),
         max_task_error_mm_last_5s=float(task_error[last].max() * 1e3),
         max_joint_error_last_5s=float(error[last].max()),
+        torque_increment_rms_last_5s=_increment_rms(run.tau, last),
+        torque_limit_hits=run.metadata.get("torque_limit_hits"),
         wall_time=run.metadata.get("wall_time"),
     )

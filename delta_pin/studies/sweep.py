@@ -102,11 +102,22 @@ def _canonical(value, *, as_float: bool = False, where: str = "value"):
     raise InvalidParameterError(f"{where}={value!r} ({type(value).__name__}) is not JSON-serialisable")
 
 
+_MISSING = object()
+# fields added to RunSpec after caches were written, with the default that keeps their keys
+_DEFAULTS_BEFORE_THE_FIELD = {
+    "integrator": "auto",
+    "encoder_bits": None,
+    "velocity": "difference",
+    "delay": 0,
+    "torque_limit": None,
+}
+
+
 def _canonical_spec(spec: RunSpec) -> dict:
     out = {}
     for name, value in spec.as_dict().items():
-        if name == "integrator" and value == "auto":
-            continue  # the default: keys of caches written before the field existed stay valid
+        if _DEFAULTS_BEFORE_THE_FIELD.get(name, _MISSING) == value:
+            continue  # at its default: keys of caches written before the field existed stay valid
         floaty = name == "gains" or "float" in _FIELD_TYPES.get(name, "")
         out[name] = _canonical(value, as_float=floaty, where=f"spec.{name}")
     return out
