@@ -111,6 +111,8 @@ def sample_states(robot: Delta, samples: int, seed: int = 0) -> tuple[np.ndarray
     """
     if samples <= 0:
         raise InvalidParameterError(f"samples={samples} must be > 0")
+    if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
+        raise InvalidParameterError(f"seed={seed!r} must be an integer >= 0")
     rng = np.random.default_rng(seed)
     params = robot.params
     kept, draws = [], 0

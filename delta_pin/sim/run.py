@@ -65,6 +65,16 @@ class Run:
     def __len__(self) -> int:
         return len(self.t)
 
+    def __repr__(self) -> str:
+        """A one-line summary (the arrays and the metadata, URDF included, are too long to print)."""
+        controller = (self.metadata.get("controller") or {}).get("name", "?")
+        plant, mode = self.metadata.get("plant", "?"), self.metadata.get("mode", "?")
+        error = float(np.abs(self.error).max()) if len(self.t) else float("nan")
+        return (
+            f"Run({len(self.t)} samples, t = {self.t[0]:g}..{self.t[-1]:g} s, controller={controller!r}, "
+            f"plant={plant!r}, mode={mode!r}, max |alpha - alpha_d| = {error:.3g} rad)"
+        )
+
     def save(self, path: str | Path) -> Path:
         """Write the run to ``path`` (``.npz``) atomically: a temporary file, then a rename."""
         arrays = {name: getattr(self, name) for name in ARRAYS}

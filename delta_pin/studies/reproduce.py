@@ -433,11 +433,17 @@ def markdown_table(metrics: list[dict]) -> str:
     )
     lines = [header, "|" + "---|" * 11]
     for row in metrics:
-        if "error" in row:
-            lines.append(f"| {row['controller']} | {row['path']} | failed: {row['error']} |" + " |" * 9)
+        if "error" in row:  # 3 cells and 8 empty ones under the 11 headers
+            cells = [row["controller"], row["path"], f"failed: {row['error']}"]
+            lines.append("| " + " | ".join(_cell(c) for c in cells) + " |" + " |" * 8)
             continue
-        lines.append("| " + " | ".join(_format(row.get(c)) for c in COLUMNS if c != "plant") + " |")
+        lines.append("| " + " | ".join(_cell(_format(row.get(c))) for c in COLUMNS if c != "plant") + " |")
     return "\n".join(lines)
+
+
+def _cell(value) -> str:
+    """``value`` as one Markdown table cell: a ``|`` in the text (e.g. ||r||) would split the row."""
+    return str(value).replace("|", "\\|").replace("\n", " ")
 
 
 def _write_meshcat_pages(result: ReproductionResult) -> list[str]:
@@ -474,7 +480,8 @@ def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: li
         "|---|---|---|---|---|",
     ]
     lines += [
-        f"| {c['claim']} | {c['paper']} | {c['ours']} | {c['holds']} | {c['why']} |" for c in result.claims
+        "| " + " | ".join(_cell(c[key]) for key in ("claim", "paper", "ours", "holds", "why")) + " |"
+        for c in result.claims
     ]
     lines += ["", "## Metrics", "", markdown_table(result.metrics), "", "## Figures", ""]
     lines += [f"![{name}](figures/{name})" for name in figures]

@@ -8,6 +8,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.cli import main
+from delta_pin.errors import InvalidParameterError
 from delta_pin.model.validation import sample_states, validate
 
 from ..conftest import OTHER_ROBOTS
@@ -92,3 +93,12 @@ def test_console_script_is_installed():
         check=False,
     )
     assert result.returncode == 0, result.stderr
+
+
+def test_a_bad_seed_is_one_clear_line(robot, capsys):
+    """A negative seed used to end in numpy's traceback (issue 15)."""
+    assert main(["validate", "--samples", "3", "--seed", "-1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "seed=-1" in err[0] and ">= 0" in err[0]
+    with pytest.raises(InvalidParameterError, match=r"seed=1\.5"):
+        validate(robot, samples=3, seed=1.5)

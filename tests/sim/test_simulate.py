@@ -189,3 +189,11 @@ def test_progress_is_shown_only_when_asked(robot, capsys):
     simulate(robot, hold, alpha0=alpha0, plant="analytic", t_end=0.2, progress=True)
     err = capsys.readouterr().err
     assert "simulate: " in err and "(100%)" not in err.splitlines()[0]
+
+
+def test_a_run_prints_as_one_line(robot):
+    """repr(run) used to print every array and the whole URDF (~17 kB for 10 samples; issue 15)."""
+    run = simulate(robot, lambda t, a, ad: np.zeros(3), alpha0=np.full(3, 0.3), plant="analytic", t_end=0.01)
+    text = repr(run)
+    assert "\n" not in text and len(text) < 200
+    assert "11 samples" in text and "plant='analytic'" in text and "mode='sampled'" in text

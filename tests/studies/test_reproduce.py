@@ -3,6 +3,7 @@ from the saved runs, a second call resumes from the cache; ``compare`` and ``swe
 
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ import pytest
 from delta_pin.cli import main
 from delta_pin.sim.run import load_run
 from delta_pin.studies.metrics import compute_metrics
-from delta_pin.studies.reproduce import ReproduceSettings, reproduce, settling_time
+from delta_pin.studies.reproduce import ReproduceSettings, markdown_table, reproduce, settling_time
 
 TINY = ReproduceSettings(plant="analytic", grid=(0.0, 0.6), main_t_end=0.3, surface_t_end=0.3)
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -42,6 +43,37 @@ def test_every_output_is_written(tiny):
     html = (out / "index.html").read_text()
     assert all(f"figures/{p.name}" in html for p in figures)
     assert len(result.claims) == len(json.loads((out / "claims.json").read_text())) >= 10
+
+
+def _cells(row: str) -> int:
+    """The cells of a Markdown table row: its unescaped pipes, less one."""
+    return len(re.findall(r"(?<!\\)\|", row)) - 1
+
+
+def _table_is_whole(text: str) -> None:
+    """Every row of the (one) table in ``text`` has as many cells as its header."""
+    rows = [line for line in text.splitlines() if line.startswith("|") and not line.startswith("|---")]
+    assert len(rows) > 1
+    for row in rows:
+        assert _cells(row) == _cells(rows[0]), row
+
+
+def test_report_tables_are_whole(tiny):
+    """The claims mention ||r||: escaped, they no longer split their rows (issue 15)."""
+    out, _ = tiny
+    report = (out / "report.md").read_text()
+    assert "\\|\\|r\\|\\|" in report
+    claims = report.split("## The paper's claims")[1].split("## Metrics")[0]
+    _table_is_whole(claims)
+    _table_is_whole((out / "metrics.md").read_text())
+
+
+def test_a_failed_row_has_the_header_s_cells():
+    table = markdown_table(
+        [{"controller": "design I", "path": "I", "error": "the run diverged: |alpha_dot| = 2e3 rad/s"}]
+    )
+    header, _, failed = table.splitlines()
+    assert _cells(failed) == _cells(header) == 11
 
 
 def test_metrics_table_equals_a_recomputation_from_the_saved_runs(tiny):
