@@ -187,7 +187,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     metrics = compare(specs, args.out, **_executor_options(args))
     print(markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
-    return 0
+    return _failures([row.get("error") for row in metrics], args)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -203,7 +203,16 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         **_executor_options(args),
     )
     print(f"{len(rows)} points: wrote {args.out}/results.csv")
-    return 0
+    return _failures([row.get("error") for row in rows], args)
+
+
+def _failures(errors: list, args: argparse.Namespace) -> int:
+    """Say how many runs of a study failed and why; exit 1 then, unless --allow-failures."""
+    failed = [error for error in errors if error]
+    if not failed:
+        return 0
+    print(f"{len(failed)} of {len(errors)} runs failed; the first: {failed[0]}", file=sys.stderr)
+    return 0 if args.allow_failures else 1
 
 
 _INTEGRATOR_HELP = (
@@ -220,6 +229,11 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
     parser.add_argument("--sampling-aware", action="store_true")
     parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument(
+        "--allow-failures",
+        action="store_true",
+        help="exit 0 even when some runs fail (they are still listed)",
+    )
     _add_executor_arguments(parser)
 
 

@@ -36,6 +36,7 @@ __all__ = [
     "batch_group",
     "build_controller",
     "build_trajectory",
+    "check_specs",
     "run_batch",
     "run_spec",
 ]
@@ -191,6 +192,30 @@ def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None
     trajectory = trajectory or build_trajectory(spec.path)
     start = robot.inverse_kinematics(trajectory.position(0.0))
     return LQR(nominal, start, **fc, **gains)
+
+
+def check_specs(specs: list[RunSpec], robot: Delta | None = None) -> None:
+    """Build each distinct controller and uncertainty of ``specs`` once, so that an unknown gain
+    name or an out-of-range magnitude fails here, in one line, before a study runs anything.
+
+    Raises:
+        InvalidParameterError: naming the spec's controller and the bad gain or magnitude.
+    """
+    robot = robot or load_delta()
+    seen = set()
+    for spec in specs:
+        key = (
+            spec.controller,
+            spec.path,
+            spec.dt,
+            spec.sampling_aware,
+            spec.delay,
+            tuple(sorted(spec.gains.items())),
+        )
+        if key not in seen:
+            seen.add(key)
+            build_controller(spec, robot)
+        build_uncertainty(spec)
 
 
 def run_spec(

@@ -12,13 +12,13 @@ Integrals use the trapezoidal rule on the run's samples.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
 from delta_pin.sim.run import Run
 
-__all__ = ["RunMetrics", "compute_metrics"]
+__all__ = ["METRIC_NAMES", "RunMetrics", "compute_metrics"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,9 @@ class RunMetrics:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+
+METRIC_NAMES = tuple(f.name for f in fields(RunMetrics))  # what --metric and the tables accept
 
 
 def _trapezoid(values: np.ndarray, t: np.ndarray) -> float:

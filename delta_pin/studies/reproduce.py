@@ -29,9 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
+from delta_pin.errors import InvalidParameterError
+from delta_pin.model.robot import load_delta
 from delta_pin.sim.run import Run, load_run
-from delta_pin.studies.experiments import RunSpec
-from delta_pin.studies.metrics import compute_metrics
+from delta_pin.studies.experiments import RunSpec, check_specs
+from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
 from delta_pin.studies.sweep import grid_specs, run_sweep, spec_key
 from delta_pin.utils.atomic import write_text_atomically
 
@@ -540,6 +542,7 @@ def compare(
     from delta_pin.viz import plots
 
     out = Path(out)
+    check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
     points = run_sweep(
         specs,
         out / "cache",
@@ -603,6 +606,9 @@ def sweep(
 
     out = Path(out)
     specs = grid_specs(base, axes)
+    if metric not in METRIC_NAMES:
+        raise InvalidParameterError(f"metric={metric!r} must be one of {', '.join(METRIC_NAMES)}")
+    check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
     points = run_sweep(
         specs, out / "cache", workers=workers, scheduler=scheduler, progress=progress, robot_args=robot_args
     )

@@ -395,3 +395,35 @@ def test_sweep_batches_bdf2_points_and_matches_point_by_point(robot, tmp_path):
     for point, spec in zip(result, specs):
         alone = evaluate_spec(spec.as_dict())
         assert point.metrics["iae"] == pytest.approx(alone["metrics"]["iae"], rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("param", "extra", "match"),
+    [
+        ("banana=0:1:3", [], "banana"),
+        ("delta_m=2,5", [], "delta_m must be < 1"),
+        ("delta_m=0,0.3", ["--metric", "bogus"], "metric='bogus' must be one of iae"),
+    ],
+)
+def test_a_bad_sweep_is_refused_before_any_run(tmp_path, capsys, param, extra, match):
+    """These used to run every point, print 'wrote results.csv' and exit 0 (issue 15)."""
+    from delta_pin.cli import main
+
+    out = tmp_path / "sweep"
+    assert (
+        main(["sweep", "--param", param, *extra, "--t-end", "0.1", "--workers", "1", "--out", str(out)]) == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0]
+    assert not out.exists()
+
+
+def test_a_sweep_whose_runs_fail_says_so_and_exits_1(tmp_path, capsys):
+    """The paper's gains sampled at 1 kHz diverge at 0.11 s: both points fail."""
+    from delta_pin.cli import main
+
+    command = ["sweep", "--mode", "sampled", "--t-end", "0.2", "--param", "xi=0.001,0.002", "--workers", "1"]
+    assert main([*command, "--out", str(tmp_path / "a")]) == 1
+    err = capsys.readouterr().err
+    assert "2 of 2 runs failed; the first:" in err and "diverged" in err
+    assert main([*command, "--allow-failures", "--out", str(tmp_path / "b")]) == 0
