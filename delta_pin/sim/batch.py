@@ -190,6 +190,7 @@ def simulate_batch(
         outcomes.append(run(controller, run_plant, truth, reference, y0, timing))
     wall = (time.perf_counter() - wall) / count
 
+    alpha_d, alpha_dot_d, _ = table.rows(per_sample)
     results = []
     for controller, run_plant, y0, outcome in zip(controllers, plants, initial, outcomes):
         if outcome.failure is not None:
@@ -205,7 +206,6 @@ def simulate_batch(
         )  # fmt: skip
         if getattr(run_plant, "projections", 0):
             metadata["closure_projections"] = run_plant.projections
-        alpha_d, alpha_dot_d, _ = table.rows(per_sample)
         results.append(
             _run_from_samples(outcome, len(y0) - 6, dt, alpha_d, alpha_dot_d, sample_xyz, metadata)
         )

@@ -117,15 +117,16 @@ def run_python_loop(
         record.closure_residual,
     )
 
-    previous_reading = [None]  # the sensor's last angles, for a controller's own velocity estimate
+    previous_reading = None  # the sensor's last angles, for a controller's own velocity estimate
 
     def read(alpha: np.ndarray, alpha_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """What the controller sees of the joints: the sensor's reading (and its velocity, or the
         controller's estimate where the sensor gives none)."""
+        nonlocal previous_reading
         measured, velocity = sensor.read(alpha, alpha_dot, dt)
         if velocity is None:
-            velocity = controller.estimate_velocity(measured, previous_reading[0], dt)
-        previous_reading[0] = measured
+            velocity = controller.estimate_velocity(measured, previous_reading, dt)
+        previous_reading = measured
         return measured, velocity
 
     def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):

@@ -180,7 +180,7 @@ class AnalyticPlant(Plant):
 
     def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
         super().__init__(robot, friction, uncertainty)
-        self._geometry = as_table(kernel_geometry(robot.params))
+        self._geometry_table = as_table(kernel_geometry(robot.params))  # what Python passes to kernels
         self._cos, self._sin = chain_trigonometry()
         self._last_xyz = np.full(3, np.nan)
 
@@ -191,7 +191,7 @@ class AnalyticPlant(Plant):
         alpha, alpha_dot = x[:3], x[3:]
         mass, passive = self.acceleration_terms(t, alpha_dot)
         m_eq = mass + 1.5 * self.robot.params.m_b
-        ok, _, _, _, M, C, G = delta_terms(self._geometry, self._cos, self._sin, m_eq, alpha, alpha_dot)
+        ok, _, _, _, M, C, G = delta_terms(self._geometry_table, self._cos, self._sin, m_eq, alpha, alpha_dot)
         if not ok:
             raise SimulationError(f"alpha={alpha.tolist()} rad has no forward kinematics", t)
         rhs = tau - C @ alpha_dot - G - passive
@@ -201,7 +201,7 @@ class AnalyticPlant(Plant):
         return x[:3], x[3:]
 
     def platform_position(self, x):
-        ok, xyz, *_ = delta_terms(self._geometry, self._cos, self._sin, 1.0, x[:3], x[3:])
+        ok, xyz, *_ = delta_terms(self._geometry_table, self._cos, self._sin, 1.0, x[:3], x[3:])
         return xyz if ok else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha
 
 
