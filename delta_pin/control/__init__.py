@@ -4,6 +4,7 @@ from delta_pin.control.adaptive_robust import AdaptiveRobustController, Adaptive
 from delta_pin.control.base import CallableController, Controller, ControlOutput, Reference, as_controller
 from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
 from delta_pin.control.digital import TimeDelayControl, tdc
+from delta_pin.control.digital_robust import DigitalRobustController, digital_robust
 from delta_pin.control.nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "ControlOutput",
     "Controller",
     "DeltaNominalModel",
+    "DigitalRobustController",
     "NominalModel",
     "PDGravity",
     "PinocchioNominalModel",
@@ -23,5 +25,6 @@ __all__ = [
     "as_controller",
     "design1",
     "design2",
+    "digital_robust",
     "tdc",
 ]

@@ -16,13 +16,52 @@ and sample by sample outside it (:meth:`Controller.step`), the way a drive calls
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["CallableController", "ControlOutput", "Controller", "Reference", "as_controller"]
+from delta_pin.errors import InvalidParameterError
+
+__all__ = [
+    "CallableController",
+    "ControlOutput",
+    "Controller",
+    "Reference",
+    "as_controller",
+    "check_delay",
+    "check_period",
+    "check_torque_limit",
+]
+
+
+def check_period(dt: float) -> float:
+    """A sample period [s]: a finite number > 0."""
+    number = isinstance(dt, int | float | np.floating) and not isinstance(dt, bool)
+    if not (number and math.isfinite(dt) and dt > 0.0):
+        raise InvalidParameterError(f"dt={dt!r} must be a positive sample period [s]")
+    return float(dt)
+
+
+def check_delay(delay: int) -> int:
+    """Samples of computation delay: an integer >= 0."""
+    if not (isinstance(delay, int | np.integer) and not isinstance(delay, bool) and delay >= 0):
+        raise InvalidParameterError(f"delay={delay!r} must be an integer number of samples >= 0")
+    return int(delay)
+
+
+def check_torque_limit(torque_limit, dof: int) -> np.ndarray | None:
+    """The drive's torque limit per joint (dof,) [N m] (positive), or ``None`` for none."""
+    if torque_limit is None:
+        return None
+    limit = np.broadcast_to(np.asarray(torque_limit, dtype=float), (dof,)).copy()
+    if not (np.all(np.isfinite(limit)) and np.all(limit > 0.0)):
+        raise InvalidParameterError(
+            f"torque_limit={torque_limit!r} must be positive [N m], one value or one per joint"
+        )
+    return limit
 
 
 @dataclass(frozen=True)

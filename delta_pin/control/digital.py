@@ -44,19 +44,13 @@ import math
 
 import numpy as np
 
-from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.control.base import Controller, ControlOutput, Reference, check_delay, check_period
 from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["PAIRINGS", "TimeDelayControl", "tdc"]
 
 PAIRINGS = ("last", "mean")
-
-
-def _check_period(dt: float) -> float:
-    if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0.0):
-        raise InvalidParameterError(f"dt={dt!r} must be a positive sample period [s]")
-    return float(dt)
 
 
 class TimeDelayControl(Controller):
@@ -86,15 +80,13 @@ class TimeDelayControl(Controller):
             raise InvalidParameterError(
                 f"bandwidth={bandwidth!r} must be a positive angular frequency [rad/s]"
             )
-        if not (isinstance(delay, int) and delay >= 0):
-            raise InvalidParameterError(f"delay={delay!r} must be an integer number of samples >= 0")
         if pairing not in PAIRINGS:
             raise InvalidParameterError(f"pairing={pairing!r} must be one of {', '.join(PAIRINGS)}")
         self.nominal = nominal
         self.pairing = pairing
-        self.dt = _check_period(dt)
+        self.dt = check_period(dt)
         self.bandwidth = float(bandwidth)
-        self.delay = delay
+        self.delay = check_delay(delay)
         self.K_p, self.K_v = bandwidth**2, 2.0 * bandwidth
         self.reset()
 

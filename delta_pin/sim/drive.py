@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from delta_pin.control.base import check_delay, check_torque_limit
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["VELOCITIES", "Drive", "Encoder", "check_delay", "check_torque_limit"]
@@ -87,25 +88,6 @@ class Encoder:
 
     def metadata(self) -> dict:
         return {"bits": self.bits, "velocity": self.velocity, "noise": self.noise, "seed": self.seed}
-
-
-def check_delay(delay: int) -> int:
-    """Samples of computation delay: an integer >= 0."""
-    if not (isinstance(delay, int | np.integer) and not isinstance(delay, bool) and delay >= 0):
-        raise InvalidParameterError(f"delay={delay!r} must be an integer number of samples >= 0")
-    return int(delay)
-
-
-def check_torque_limit(torque_limit, dof: int) -> np.ndarray | None:
-    """The drive's torque limit per joint (dof,) [N m] (positive), or ``None`` for none."""
-    if torque_limit is None:
-        return None
-    limit = np.broadcast_to(np.asarray(torque_limit, dtype=float), (dof,)).copy()
-    if not (np.all(np.isfinite(limit)) and np.all(limit > 0.0)):
-        raise InvalidParameterError(
-            f"torque_limit={torque_limit!r} must be positive [N m], one value or one per joint"
-        )
-    return limit
 
 
 class Drive:

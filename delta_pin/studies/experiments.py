@@ -17,6 +17,7 @@ import numpy as np
 
 from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
 from delta_pin.control.digital import tdc
+from delta_pin.control.digital_robust import digital_robust
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.friction import Friction
 from delta_pin.model.robot import Delta, load_delta
@@ -41,7 +42,7 @@ __all__ = [
     "run_spec",
 ]
 
-CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc")
+CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")
 PATHS = ("I", "II", "adept")
 DEFAULT_T_END = {"I": 15.0, "II": 10.0, "adept": 3.0}  # [s]
 PAPER_ALPHA0 = 0.3322  # [rad] on every joint (Section V)
@@ -189,6 +190,10 @@ def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None
         return PDGravity(nominal, **fc, **gains)
     if spec.controller == "tdc":
         return tdc(nominal, spec.dt, delay=spec.delay, **gains)
+    if spec.controller == "digital-robust":
+        return digital_robust(
+            nominal, spec.dt, delay=spec.delay, torque_limit=spec.torque_limit, **fc, **gains
+        )
     trajectory = trajectory or build_trajectory(spec.path)
     start = robot.inverse_kinematics(trajectory.position(0.0))
     return LQR(nominal, start, **fc, **gains)

@@ -139,17 +139,27 @@ def _stepped_by_hand(robot, controller, t_end, dt=1e-3):
     return np.array(torques), x
 
 
-def test_step_outside_simulate_is_the_sampled_loop(robot):
+@pytest.mark.parametrize(
+    ("make", "moved"),
+    [
+        (lambda nominal: dp.design1(nominal, sampling_period=1e-3), "rho_hat"),
+        (lambda nominal: dp.tdc(nominal, 1e-3), "lumped_estimate"),
+        (lambda nominal: dp.digital_robust(nominal, 1e-3), "disturbance_estimate"),
+    ],
+    ids=["design1", "tdc", "digital-robust"],
+)
+def test_step_outside_simulate_is_the_sampled_loop(robot, make, moved):
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
-    controller = dp.design1(nominal, sampling_period=1e-3)
+    controller = make(nominal)
     run = dp.simulate(
         robot, controller, dp.PathI(), plant="analytic", t_end=0.2, alpha0=ALPHA0, friction=dp.Friction(),
-        uncertainty=dp.PaperUncertainty(), compiled=False,
+        uncertainty=dp.PaperUncertainty(), mode="sampled", compiled=False,
     )  # fmt: skip
     torques, x = _stepped_by_hand(robot, controller, 0.2)
     np.testing.assert_array_equal(torques, run.tau[:-1])
     np.testing.assert_array_equal(x[:3], run.alpha[-1])
-    assert np.abs(run.internals["rho_hat"][-1] - controller.initial_state()).max() > 1e-3  # rho moved
+    internal = np.reshape(run.internals[moved], (len(run.t), -1))
+    assert np.abs(internal[-1] - internal[0]).max() > 1e-3  # the law's state really moved
 
 
 def test_step_estimates_velocity_by_difference_when_none_is_measured():
