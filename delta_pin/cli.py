@@ -126,13 +126,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
     metrics = compute_metrics(run)
     out = Path(args.out)
     run.save(out / "run.npz")
+    warnings = []
+    if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
+        warnings.append(
+            f"the drive saturates most of the time: the torque limit bound at {metrics.torque_limit_hits} "
+            f"of {len(run.t)} samples"
+        )
     summary = {
         "spec": spec.as_dict(),
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
+        "warnings": warnings,
     }
-    if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
-        print(f"  the torque limit bound at {metrics.torque_limit_hits} of {len(run.t)} samples", flush=True)
+    for warning in warnings:
+        print(f"  warning: {warning}", flush=True)
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")

@@ -130,3 +130,22 @@ def test_run_on_a_digital_drive_reports_roughness_and_limit_hits(tmp_path):
     assert summary["metrics"]["torque_limit_hits"] == run.metadata["torque_limit_hits"] >= 0
     assert summary["spec"]["encoder_bits"] == 17 and run.metadata["sensor"]["bits"] == 17
     assert run.metadata["delay"] == 1 and run.metadata["controller"]["delay"] == 1
+
+
+def test_a_run_that_saturates_most_of_the_time_says_so(tmp_path, capsys):
+    """digital-robust with a 5 N m limit (the paper's disturbance F̄ = [2, 4, 6] N m alone exceeds
+    it on joint 3): the limit binds at most samples, and summary.json and the terminal both say so,
+    with the count from run.npz."""
+    out = tmp_path / "saturated"
+    code = main(
+        ["run", "--controller", "digital-robust", "--plant", "analytic", "--mode", "sampled",
+         "--t-end", "0.2", "--encoder-bits", "17", "--delay", "1", "--torque-limit", "5", "--out", str(out)]
+    )  # fmt: skip
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    hits = load_run(out / "run.npz").metadata["torque_limit_hits"]
+    assert hits > 0.5 * 201
+    assert summary["warnings"] == [
+        f"the drive saturates most of the time: the torque limit bound at {hits} of 201 samples"
+    ]
+    assert "warning: the drive saturates most of the time" in capsys.readouterr().out

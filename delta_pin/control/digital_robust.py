@@ -35,8 +35,9 @@ switching term. At sample k, with the readings alpha_k of the encoders:
    quantisation floor of ||s|| (~ (omega_o + D) q; 0.01 rad/s for a 17-bit encoder) and the O(T)
    residual, so that rho_hat does not grow on noise.
 
-tau = tau_0 + v, clipped to ``torque_limit`` where the drive has one (the observer is told the
-clipped torque, so a saturating drive does not wind it up).
+tau = tau_0 + v is the command. Where the drive saturates at ``torque_limit``, the observer is told
+the clipped torque that will act, so a saturating drive does not wind it up (the command itself
+is left for the drive to clip, so that the drive's count of saturated samples stays true).
 
 **Stability (and its limits).** The argument is the separation one of extended-state-observer
 control (Castañeda et al. 2015), not the Lyapunov proof of Theorem 1:
@@ -101,8 +102,8 @@ class DigitalRobustController(Controller):
             0.1, 10, 2, 0.3).
         epsilon: the dead zone on ||s|| [rad/s] (eq. 25).
         layer_samples: n_s, the samples over which the robust term's damper closes s (>= 1).
-        torque_limit: the drive's saturation [N m] (one value or one per joint), which the law
-            clips to and tells its observer (``None``: none).
+        torque_limit: the drive's saturation [N m] (one value or one per joint): the observer
+            is told the clipped torque (``None``: none).
     """
 
     name = "digital-robust"
@@ -195,13 +196,12 @@ class DigitalRobustController(Controller):
         size = float(np.linalg.norm(damper))
         robust = -damper if size <= rho else -rho / size * damper  # the projection on ||v|| <= rho
         tau = tau + robust
-        if self.torque_limit is not None:
-            tau = np.clip(tau, -self.torque_limit, self.torque_limit)
+        acting = tau if self.torque_limit is None else np.clip(tau, -self.torque_limit, self.torque_limit)
         s_norm = float(np.linalg.norm(s))
         leakage = self.b2 * math.exp(-s_norm) + self.b3
         growth = self.b1 * s_norm if s_norm > self.epsilon else 0.0  # the dead zone, eq. 25
         rho_next = max(rho + T * self.beta * (growth - leakage * rho), 0.0)
-        next_state = np.concatenate([estimate.ravel(), tau, commands[:-1].ravel(), [rho_next, 1.0]])
+        next_state = np.concatenate([estimate.ravel(), acting, commands[:-1].ravel(), [rho_next, 1.0]])
         internals = {
             "rho_hat": np.array([rho]),
             "robust_torque": robust,
