@@ -23,6 +23,7 @@ import csv
 import html
 import io
 import json
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +33,7 @@ import numpy as np
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import load_delta
 from delta_pin.sim.run import Run, load_run
+from delta_pin.studies.digital import DigitalStudy, digital_report_lines, digital_rows, digital_specs
 from delta_pin.studies.experiments import RunSpec, check_specs
 from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
 from delta_pin.studies.sweep import grid_specs, run_sweep, spec_key
@@ -79,20 +81,31 @@ class ReproduceSettings:
         grid: magnitudes of each surface axis [-].
         main_t_end: duration of the main runs [s] (``None``: 15 s on path I, 10 s on path II).
         surface_t_end: duration of each surface run [s].
+        digital: the digital-implementation study (:class:`~delta_pin.studies.digital.DigitalStudy`;
+            ``None``: none).
     """
 
     plant: str = "analytic"
     grid: tuple[float, ...] = (0.0, 0.45, 0.9)
     main_t_end: float | None = None
     surface_t_end: float = SURFACE_T_END
+    digital: DigitalStudy | None = None
 
     @classmethod
     def quick(cls) -> ReproduceSettings:
-        return cls()
+        """Analytic plant, 3 x 3 surfaces, the digital study at 1 and 4 kHz with 3 gains each."""
+        return cls(digital=DigitalStudy(plant="analytic", rates=(1000.0, 4000.0), trade_off_points=3))
 
     @classmethod
     def full(cls) -> ReproduceSettings:
-        return cls(plant="pinocchio", grid=tuple(round(v, 6) for v in np.linspace(0.0, 0.9, 11)))
+        """Pinocchio plant, 11 x 11 surfaces, the digital study at 1, 2, 4, 8 and 10 kHz."""
+        return cls(
+            plant="pinocchio",
+            grid=tuple(round(v, 6) for v in np.linspace(0.0, 0.9, 11)),
+            digital=DigitalStudy(
+                plant="pinocchio", rates=(1000.0, 2000.0, 4000.0, 8000.0, 10000.0), trade_off_points=5
+            ),
+        )
 
 
 @dataclass
@@ -107,6 +120,8 @@ class ReproductionResult:
     claims: list[dict]
     wall_time: float
     settings: ReproduceSettings | None = None
+    digital_rates: list[dict] | None = None  # rows of the digital study against the rate
+    digital_trade_off: list[dict] | None = None  # and over each design's main gain at 1 kHz
 
 
 def _main_specs(settings: ReproduceSettings) -> list[RunSpec]:
@@ -177,10 +192,13 @@ def reproduce(
 
     main_specs = _main_specs(settings)
     surface_specs = _surface_specs(settings)
-    every = main_specs + [s for specs in surface_specs.values() for s in specs]
+    digital_by_rate, digital_trade = digital_specs(settings.digital) if settings.digital else ({}, {})
+    digital = [*digital_by_rate.values(), *digital_trade.values()]
+    every = main_specs + [s for specs in surface_specs.values() for s in specs] + digital
     print(
-        f"delta-pin reproduce: {len(main_specs)} main runs ({plant} plant, continuous) and "
-        f"{len(every) - len(main_specs)} surface runs ({len(grid)} x {len(grid)} grids)",
+        f"delta-pin reproduce: {len(main_specs)} main runs ({plant} plant, continuous), "
+        f"{len(every) - len(main_specs) - len(digital)} surface runs ({len(grid)} x {len(grid)} grids) "
+        f"and {len(digital)} digital-drive runs",
         flush=True,
     )
     points = run_sweep(every, cache, save_runs=True, **options)
@@ -214,6 +232,8 @@ def reproduce(
         surfaces[key] = values
     claims = _claims(runs, metrics, surfaces, grid)
     result = ReproductionResult(out, runs, metrics, surfaces, grid, claims, 0.0, settings)
+    if digital:
+        result.digital_rates, result.digital_trade_off = digital_rows(digital_by_rate, digital_trade, by_key)
     _write_figures(result, figures)
     _write_tables(result)
     pages = _write_meshcat_pages(result)
@@ -332,10 +352,24 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
 
 
 # ------------------------------------------------------------------------------------------ outputs
+def _continuous_reference(result: ReproductionResult) -> dict[str, float]:
+    """The continuous designs' max ||r|| over the last 5 s of path I, the digital study's line."""
+    return {
+        name: value
+        for name in ("design I", "design II")
+        if math.isfinite(value := _metric(result.metrics, name, "I", "max_joint_error_last_5s"))
+    }
+
+
 def _write_figures(result: ReproductionResult, figures: Path) -> None:
+    from delta_pin.studies.digital import write_digital_figures
     from delta_pin.viz import plots
 
     runs = result.runs
+    if result.digital_rates:
+        write_digital_figures(
+            result.digital_rates, result.digital_trade_off or [], _continuous_reference(result), figures
+        )
     for design, numbers in (("design I", (6, 7, 8)), ("design II", (12, 13, 14))):
         run = runs.get((design, "I"))
         if run is None:
@@ -485,7 +519,12 @@ def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: li
         "| " + " | ".join(_cell(c[key]) for key in ("claim", "paper", "ours", "holds", "why")) + " |"
         for c in result.claims
     ]
-    lines += ["", "## Metrics", "", markdown_table(result.metrics), "", "## Figures", ""]
+    digital = digital_report_lines(
+        result.digital_rates or [], result.digital_trade_off or [], _continuous_reference(result)
+    )
+    lines += ["", "## Metrics", "", markdown_table(result.metrics)]
+    lines += ["", *digital] if digital else []
+    lines += ["", "## Figures", ""]
     lines += [f"![{name}](figures/{name})" for name in figures]
     if pages:
         lines += ["", "## Animations (standalone meshcat pages)", ""] + [f"- [{p}]({p})" for p in pages]
@@ -514,6 +553,8 @@ def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: li
             "<tr>" + "".join(f"<td>{html.escape(_format(row.get(c)))}</td>" for c in COLUMNS) + "</tr>"
         )
     body.append("</table>")
+    if digital:
+        body.append(f"<h2>Digital implementation</h2><pre>{html.escape(chr(10).join(digital[2:]))}</pre>")
     if pages:
         body.append(
             "<h2>Animations</h2><ul>" + "".join(f'<li><a href="{p}">{p}</a></li>' for p in pages) + "</ul>"

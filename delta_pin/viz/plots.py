@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import sys
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,7 @@ __all__ = [
     "METRIC_LABELS",
     "controller_label",
     "find_artist",
+    "plot_against_rate",
     "plot_error_comparison",
     "plot_metric_bars",
     "plot_paths_3d",
@@ -52,6 +54,7 @@ __all__ = [
     "plot_rho_surface",
     "plot_torques",
     "plot_tracking_errors",
+    "plot_trade_off",
     "run_label",
     "save_figure",
 ]
@@ -67,6 +70,7 @@ METRIC_LABELS: dict[str, tuple[str, str]] = {
     "rho_hat_final": (r"$\hat{\rho}(T)$", ""),
     "max_task_error_mm_last_5s": ("max task-space error, last 5 s", "mm"),
     "max_joint_error_last_5s": ("max ‖r‖, last 5 s", "rad"),
+    "torque_increment_rms_last_5s": ("RMS ‖τₖ − τₖ₋₁‖, last 5 s", "N·m"),
 }
 
 _CONTROLLER_NAMES = {
@@ -572,6 +576,117 @@ def plot_rho_surface(
 
 
 # -------------------------------------------------------------------------------------------- save
+def _rows_by_controller(rows: Sequence[Mapping[str, Any]], x_name: str, metric: str) -> dict[str, list]:
+    """{controller: [(x, value or None when the run diverged, diverged_at)]} in the rows' order."""
+    if not rows:
+        raise InvalidParameterError("rows must be a non-empty list of dicts")
+    lines: dict[str, list] = {}
+    for row in rows:
+        try:
+            x, label = float(row[x_name]), str(row["controller"])
+        except (KeyError, TypeError, ValueError):
+            raise InvalidParameterError(
+                f"every row needs 'controller' and a numeric {x_name!r}: {row!r}"
+            ) from None
+        diverged = row.get("diverged_at") is not None
+        value = None if diverged else float(row[metric])
+        lines.setdefault(label, []).append((x, value, row.get("diverged_at")))
+    return lines
+
+
+def plot_against_rate(
+    rows: Sequence[Mapping[str, Any]],
+    metric: str,
+    reference: Mapping[str, float] | None = None,
+    ax: Axes | None = None,
+) -> Figure:
+    """One index of sampled runs against the sample rate, log-log, one line per controller.
+
+    Args:
+        rows: dicts with ``controller``, ``rate_hz`` [Hz], ``metric``'s value and ``diverged_at``
+            (``None``, or the time [s] the run diverged: drawn as an x on the top edge, labelled
+            with that time).
+        metric: the index (e.g. ``"max_joint_error_last_5s"``).
+        reference: horizontal dashed lines ``{label: value}`` (e.g. the continuous designs).
+        ax: an Axes or None for a new figure.
+
+    Returns:
+        The figure; controller ``c``'s line has gid ``"rate:<c>"``, a reference ``"reference:<label>"``.
+    """
+    lines = _rows_by_controller(rows, "rate_hz", metric)
+    fig, ax = _new_axes(ax, (9.0, 4.5))
+    top = max((v for points in lines.values() for _, v, _ in points if v is not None), default=1.0)
+    for label, value in (reference or {}).items():
+        ax.axhline(value, linestyle="--", linewidth=1.0, color="gray", gid=f"reference:{label}")
+        ax.annotate(f"{label} (continuous)", (0.01, value), xycoords=("axes fraction", "data"), fontsize=8,
+                    color="gray", va="bottom")  # fmt: skip
+        top = max(top, value)
+    for i, (label, points) in enumerate(lines.items()):
+        color = f"C{i}"
+        kept = [(x, v) for x, v, _ in points if v is not None]
+        if kept:
+            xs, ys = zip(*kept)
+            ax.plot(xs, ys, "o-", color=color, label=label, gid=f"rate:{label}", linewidth=_linewidth(i))
+        lost = [(x, when) for x, v, when in points if v is None]
+        if lost:
+            ax.plot([x for x, _ in lost], [top * 2.0] * len(lost), "x", color=color,
+                    label=None if kept else f"{label} (diverged)", gid=f"diverged:{label}")  # fmt: skip
+        for x, when in lost:
+            if when is not None and not math.isnan(when):
+                ax.annotate(f"{when:.2g} s", (x, top * 2.0), fontsize=7, color=color,
+                            textcoords="offset points", xytext=(6, -8 * i))  # fmt: skip
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    name, unit = METRIC_LABELS.get(metric, (metric, ""))
+    ax.set_xlabel("sample rate [Hz]")
+    ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+    ax.set_title(f"{name} against the sample rate (x: diverged, at the time shown)", fontsize=10)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) -> Figure:
+    """Tracking error against torque roughness, one line per controller through its gain values
+    (log-log; each point labelled with its gain's value; diverged runs left out and listed in the
+    title).
+
+    Args:
+        rows: dicts with ``controller``, ``gain``, ``value``, ``max_joint_error_last_5s`` [rad],
+            ``torque_increment_rms_last_5s`` [N m] and ``diverged_at``.
+
+    Returns:
+        The figure; controller ``c``'s line has gid ``"trade-off:<c>"``.
+    """
+    lines = _rows_by_controller(rows, "value", "max_joint_error_last_5s")
+    roughness = {
+        (str(r["controller"]), float(r["value"])): r.get("torque_increment_rms_last_5s") for r in rows
+    }
+    gains = {str(r["controller"]): str(r.get("gain", "")) for r in rows}
+    fig, ax = _new_axes(ax, (9.0, 5.0))
+    diverged = []
+    for i, (label, points) in enumerate(lines.items()):
+        kept = [(roughness[(label, x)], v, x) for x, v, _ in points if v is not None]
+        diverged += [f"{label} {gains[label]}={x:g}" for x, v, _ in points if v is None]
+        if not kept:
+            continue
+        xs, ys, _ = zip(*kept)
+        ax.plot(xs, ys, "o-", color=f"C{i}", label=f"{label} (over {gains[label]})", gid=f"trade-off:{label}")
+        for x, y, value in kept:
+            ax.annotate(f"{value:g}", (x, y), fontsize=7, textcoords="offset points", xytext=(4, 2))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("torque roughness, RMS ‖τₖ − τₖ₋₁‖ over the last 5 s [N·m]")
+    ax.set_ylabel("max ‖r‖, last 5 s [rad]")
+    title = "error against roughness over each design's main gain"
+    if diverged:
+        title += "\n" + textwrap.fill("diverged: " + ", ".join(diverged), 100)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
 def save_figure(fig: Figure, path: str | Path, dpi: float = 120, close: bool = True) -> Path:
     """Write ``fig`` to ``path`` atomically (a temporary file in the same folder, then
     :func:`os.replace`), creating the parent folders.

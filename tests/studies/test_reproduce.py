@@ -9,11 +9,17 @@ import numpy as np
 import pytest
 
 from delta_pin.cli import main
+from delta_pin.errors import SimulationError
 from delta_pin.sim.run import load_run
+from delta_pin.studies.digital import DIGITAL_CONTROLLERS, DigitalStudy, digital_specs
+from delta_pin.studies.experiments import run_spec
 from delta_pin.studies.metrics import compute_metrics
 from delta_pin.studies.reproduce import ReproduceSettings, markdown_table, reproduce, settling_time
 
-TINY = ReproduceSettings(plant="analytic", grid=(0.0, 0.6), main_t_end=0.3, surface_t_end=0.3)
+DIGITAL = DigitalStudy(rates=(1000.0,), trade_off_points=1, t_end=0.3)
+TINY = ReproduceSettings(
+    plant="analytic", grid=(0.0, 0.6), main_t_end=0.3, surface_t_end=0.3, digital=DIGITAL
+)
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
@@ -36,7 +42,7 @@ def test_every_output_is_written(tiny):
         assert (out / name).stat().st_size > 0, name
     figures = sorted((out / "figures").glob("*.png"))
     numbers = sorted(int(p.name[3:5]) for p in figures)
-    assert numbers == list(range(6, 30))  # Figs. 6-29, one file each
+    assert numbers == list(range(6, 33))  # Figs. 6-29 and the digital study's 30-32, one file each
     for figure in figures:
         data = figure.read_bytes()
         assert data.startswith(PNG) and len(data) > 5000, figure.name
@@ -195,3 +201,38 @@ def test_compare_on_another_robot(tmp_path, capsys):
     assert run.metadata["robot"]["l_a"] == 0.25 and run.metadata["robot"]["l_b"] == 0.5
     assert main(["compare", "--set", "wingspan=2", "--out", str(out)]) == 2
     assert "wingspan" in capsys.readouterr().err
+
+
+def test_the_digital_study_reports_each_run_or_when_it_diverged(tiny):
+    """Each (controller, rate) cell is the run's own metric, or the time the same spec run alone
+    diverges at (the reference: SimulationError.t of run_spec)."""
+    out, result = tiny
+    by_rate, _ = digital_specs(DIGITAL)
+    assert [row["controller"] for row in result.digital_rates] == list(DIGITAL_CONTROLLERS.values())
+    for row in result.digital_rates:
+        spec = by_rate[(row["controller"], row["rate_hz"])]
+        assert spec.encoder_bits == 17 and spec.delay == 1 and spec.dt == 1e-3
+        if row["diverged_at"] is None:
+            continue
+        with pytest.raises(SimulationError) as failure:
+            run_spec(spec)
+        assert row["diverged_at"] == pytest.approx(failure.value.time, abs=1e-12)
+    assert any(row["diverged_at"] is not None for row in result.digital_rates)  # the paper's designs
+    robust = next(row for row in result.digital_rates if row["controller"] == "digital robust")
+    assert robust["diverged_at"] is None and np.isfinite(robust["max_joint_error_last_5s"])  # it held
+    section = (out / "report.md").read_text().split("## Digital implementation")[1].split("## Figures")[0]
+    tables = [t for t in section.split("\n\n") if t.startswith("|")]
+    assert len(tables) == 2
+    for table in tables:
+        _table_is_whole(table)
+    assert "diverged at t = " in section
+
+
+def test_digital_study_sizes():
+    study = DigitalStudy(rates=(1000.0, 8000.0), trade_off_points=3)
+    assert study.gain_values((1.0, 2.0, 3.0, 4.0, 5.0)) == (1.0, 3.0, 5.0)
+    assert study.gain_values((1.0, 2.0)) == (1.0, 2.0)
+    assert DigitalStudy(trade_off_points=0).gain_values((1.0, 2.0)) == ()
+    by_rate, trade_off = digital_specs(study)
+    assert len(by_rate) == 6 * 2 and len(trade_off) == 4 * 3  # 3 values of each main gain
+    assert {spec.dt for spec in by_rate.values()} == {1e-3, 1.25e-4}

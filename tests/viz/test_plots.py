@@ -20,6 +20,7 @@ from delta_pin.viz.plots import (  # noqa: E402
     METRIC_LABELS,
     controller_label,
     find_artist,
+    plot_against_rate,
     plot_error_comparison,
     plot_metric_bars,
     plot_paths_3d,
@@ -27,6 +28,7 @@ from delta_pin.viz.plots import (  # noqa: E402
     plot_rho_surface,
     plot_torques,
     plot_tracking_errors,
+    plot_trade_off,
     run_label,
     save_figure,
 )
@@ -347,3 +349,48 @@ def test_figures_are_headless_and_thread_safe(runs, tmp_path):
     assert all((tmp_path / f"t{i}.png").read_bytes()[:8] == PNG_SIGNATURE for i in range(4))
     pyplot = sys.modules.get("matplotlib.pyplot")
     assert (len(pyplot.get_fignums()) if pyplot else 0) == before
+
+
+RATE_ROWS = [
+    {"controller": "A", "rate_hz": 1000.0, "metric": 3e-4, "diverged_at": None},
+    {"controller": "A", "rate_hz": 4000.0, "metric": 1e-4, "diverged_at": None},
+    {"controller": "B", "rate_hz": 1000.0, "metric": None, "diverged_at": 0.02},
+    {"controller": "B", "rate_hz": 4000.0, "metric": 2e-4, "diverged_at": None},
+]
+
+
+def test_plot_against_rate_draws_each_controller_its_divergences_and_the_reference():
+    fig = plot_against_rate(RATE_ROWS, "metric", reference={"continuous": 5e-5})
+    line = find_artist(fig, "rate:A")
+    np.testing.assert_array_equal(line.get_xdata(), [1000.0, 4000.0])
+    np.testing.assert_array_equal(line.get_ydata(), [3e-4, 1e-4])
+    np.testing.assert_array_equal(find_artist(fig, "rate:B").get_xdata(), [4000.0])
+    marker = find_artist(fig, "diverged:B")
+    np.testing.assert_array_equal(marker.get_xdata(), [1000.0])
+    assert marker.get_ydata()[0] > 3e-4  # above every kept value
+    assert find_artist(fig, "reference:continuous").get_ydata()[0] == 5e-5
+    ax = fig.axes[0]
+    assert ax.get_xscale() == ax.get_yscale() == "log"
+    assert any(text.get_text() == "0.02 s" for text in ax.texts)
+
+
+def test_plot_trade_off_pairs_roughness_and_error_per_gain():
+    rows = [
+        {"controller": "C", "gain": "k", "value": 1.0, "max_joint_error_last_5s": 1e-3,
+         "torque_increment_rms_last_5s": 0.01, "diverged_at": None},
+        {"controller": "C", "gain": "k", "value": 2.0, "max_joint_error_last_5s": 5e-4,
+         "torque_increment_rms_last_5s": 0.05, "diverged_at": None},
+        {"controller": "C", "gain": "k", "value": 4.0, "diverged_at": 0.1},
+    ]  # fmt: skip
+    fig = plot_trade_off(rows)
+    line = find_artist(fig, "trade-off:C")
+    np.testing.assert_array_equal(line.get_xdata(), [0.01, 0.05])
+    np.testing.assert_array_equal(line.get_ydata(), [1e-3, 5e-4])
+    assert "C k=4" in fig.axes[0].get_title()
+
+
+def test_rate_plots_refuse_rows_without_a_rate():
+    with pytest.raises(InvalidParameterError, match="rate_hz"):
+        plot_against_rate([{"controller": "A", "metric": 1.0}], "metric")
+    with pytest.raises(InvalidParameterError, match="non-empty"):
+        plot_against_rate([], "metric")
