@@ -3,7 +3,7 @@
 Run: ``python benchmarks/bench_mujoco.py [--repeats 3] [--t-end 15] [--calls 2000]``
 (needs ``pip install -e '.[bench]'``; without MuJoCo it prints a "skipped" line and exits 0).
 
-The MJCF is built in code from the robot's Pinocchio model (``delta_pin.load_delta()``, Table 1):
+The MJCF is built by ``delta_pin.model.mjcf.delta_mjcf`` from the robot's Pinocchio model (Table 1):
 every joint placement, axis, mass and inertia and the closure points are read from it, nothing is
 written down twice. Massless links (the elbow cross, the platform slides) are merged into the
 next body as consecutive joints, since MuJoCo rejects moving bodies without mass; rod inertias
@@ -38,125 +38,15 @@ except ImportError:  # pragma: no cover - depends on the environment
 import pinocchio as pin
 
 import delta_pin as dp
+from delta_pin.model.mjcf import STIFF_CONNECT
+from delta_pin.sim.mujoco_delta import MujocoDelta
 from delta_pin.sim.plants import PinocchioPlant
 
 DT = 1e-3  # [s]
 ALPHA0 = 0.3322  # [rad] the paper's initial angle on every joint
 KP, KD = 40.0, 2.0  # [N m/rad], [N m s/rad]
 AMPLITUDE, FREQUENCY = 0.15, 0.5  # [rad], [Hz] of the reference sinusoid
-# connect softness: time constant 2 dt (the least MuJoCo advises), impedance near 1; MuJoCo's
-# defaults (0.02 s, 0.9-0.95) cost the same but leave closure gaps near 0.5 mm
-SOFTNESS = {"solref": "0.002 1", "solimp": "0.99 0.999 0.001"}
-INERTIA_FLOOR = 1e-9  # [kg m^2] added to every inertia (MuJoCo needs positive eigenvalues)
-
-_JOINT_TYPES = {
-    "RX": ("hinge", "1 0 0"),
-    "RY": ("hinge", "0 1 0"),
-    "RZ": ("hinge", "0 0 1"),
-    "PX": ("slide", "1 0 0"),
-    "PY": ("slide", "0 1 0"),
-    "PZ": ("slide", "0 0 1"),
-}
-
-
-def _numbers(values) -> str:
-    return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
-
-
-def delta_mjcf(robot: dp.Delta, solref: str | None = None, solimp: str | None = None) -> str:
-    """MJCF of ``robot``, built from its Pinocchio model and ``<constraint>`` closures."""
-    source = robot.pinocchio
-    model = source.model
-    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
-    for j in range(1, model.njoints):
-        children[model.parents[j]].append(j)
-    sites: dict[int, list[tuple[str, np.ndarray]]] = {}
-    closure_names = [c.name for c in source.description.closures]
-    for frame in model.frames:
-        if frame.type == pin.FrameType.OP_FRAME and frame.name.rsplit("_", 1)[0] in closure_names:
-            sites.setdefault(frame.parentJoint, []).append((frame.name, frame.placement.translation))
-
-    def body(j: int, indent: str) -> str:
-        placement = model.jointPlacements[j]
-        quat = pin.Quaternion(placement.rotation)
-        text = (
-            f'{indent}<body name="{model.names[j]}" pos="{_numbers(placement.translation)}" '
-            f'quat="{_numbers([quat.w, quat.x, quat.y, quat.z])}">\n'
-        )
-        chain = [j]  # a massless link joined to its only child at the same frame: one body, two joints
-        while (
-            model.inertias[chain[-1]].mass == 0.0
-            and chain[-1] not in sites
-            and len(children[chain[-1]]) == 1
-            and model.jointPlacements[children[chain[-1]][0]].isIdentity()
-        ):
-            chain.append(children[chain[-1]][0])
-        for joint in chain:
-            kind, axis = _JOINT_TYPES[model.joints[joint].shortname().removeprefix("JointModel")]
-            text += f'{indent}  <joint name="{model.names[joint]}" type="{kind}" axis="{axis}"/>\n'
-        last = chain[-1]
-        inertia = model.inertias[last]
-        if inertia.mass == 0.0:
-            raise ValueError(f"link of joint {model.names[last]!r} is massless and cannot be merged")
-        c = inertia.inertia + INERTIA_FLOOR * np.eye(3)
-        text += (
-            f'{indent}  <inertial pos="{_numbers(inertia.lever)}" mass="{inertia.mass!r}" '
-            f'fullinertia="{_numbers([c[0, 0], c[1, 1], c[2, 2], c[0, 1], c[0, 2], c[1, 2]])}"/>\n'
-        )
-        for name, position in sites.get(last, []):
-            text += f'{indent}  <site name="{name}" pos="{_numbers(position)}"/>\n'
-        for child in children[last]:
-            text += body(child, indent + "  ")
-        return text + f"{indent}</body>\n"
-
-    soft = (f' solref="{solref}"' if solref else "") + (f' solimp="{solimp}"' if solimp else "")
-    connects = "".join(
-        f'    <connect name="{name}" site1="{name}_parent" site2="{name}_child"{soft}/>\n'
-        for name in closure_names
-    )
-    bodies = "".join(body(j, "    ") for j in children[0])
-    return (
-        f'<mujoco model="{robot.pinocchio.model.name or "delta"}">\n'
-        f'  <option timestep="{DT!r}" integrator="RK4" gravity="{_numbers(model.gravity.linear)}"/>\n'
-        f"  <worldbody>\n{bodies}  </worldbody>\n"
-        f"  <equality>\n{connects}  </equality>\n"
-        "</mujoco>\n"
-    )
-
-
-class MujocoDelta:
-    """MuJoCo model and data of the Delta, with index maps to Pinocchio's coordinates."""
-
-    def __init__(self, robot: dp.Delta, **soft: str) -> None:
-        self.robot = robot
-        self.model = mujoco.MjModel.from_xml_string(delta_mjcf(robot, **soft))
-        self.data = mujoco.MjData(self.model)
-        pin_model = robot.pinocchio.model
-        names = [pin_model.names[j] for j in range(1, pin_model.njoints)]
-        ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in names]
-        self.qpos_index = np.array([self.model.jnt_qposadr[i] for i in ids])  # Pinocchio q order
-        self.dof_index = np.array([self.model.jnt_dofadr[i] for i in ids])
-        self.active = self.dof_index[robot.pinocchio.active_indices]
-        self.active_qpos = self.qpos_index[robot.pinocchio.active_indices]
-        self.platform = self.qpos_index[robot.pinocchio.platform_indices]
-        self.site_pairs = [
-            (
-                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_parent"),
-                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_child"),
-            )
-            for c in robot.pinocchio.description.closures
-        ]
-
-    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
-        mujoco.mj_resetData(self.model, self.data)
-        self.data.qpos[self.qpos_index] = q
-        self.data.qvel[self.dof_index] = v
-        mujoco.mj_forward(self.model, self.data)
-
-    def closure_gap(self) -> float:
-        """Largest distance between the paired closure sites [m] (needs kinematics computed)."""
-        xpos = self.data.site_xpos
-        return max(float(np.linalg.norm(xpos[a] - xpos[b])) for a, b in self.site_pairs)
+SOFTNESS = STIFF_CONNECT
 
 
 def torque_law(robot: dp.Delta, steps: int):
@@ -171,7 +61,7 @@ def torque_law(robot: dp.Delta, steps: int):
 
 def mujoco_run(sim: MujocoDelta, q0, v0, gravity, reference, gaps: list | None = None) -> None:
     """The torque law under ``mj_step``; ``gaps`` collects the closure gap after each step."""
-    model, data, active, active_qpos = sim.model, sim.data, sim.active, sim.active_qpos
+    model, data, active, active_qpos = sim.model, sim.data, sim.active_dof, sim.active_qpos
     sim.set_state(q0, v0)
     step = mujoco.mj_step
     for ref in reference:
@@ -238,14 +128,14 @@ def sanity_checks(robot: dp.Delta, sim: MujocoDelta, plant: PinocchioPlant) -> l
     )
     # zero torque for 0.3 s: the robot falls, the loops must hold
     steps = 300
-    z0 = float(sim.data.qpos[sim.platform[2]])
+    z0 = float(sim.data.qpos[sim.platform_qpos[2]])
     gaps = []
     for _ in range(steps):
         mujoco.mj_step(sim.model, sim.data)
         gaps.append(sim.closure_gap())
     mujoco.mj_forward(sim.model, sim.data)
     x = rk4_run(plant.derivative, x0, plant.active, plant.nq, np.zeros(3), np.zeros((steps, 3)), 0.0, 0.0)
-    z_mj = float(sim.data.qpos[sim.platform[2]])
+    z_mj = float(sim.data.qpos[sim.platform_qpos[2]])
     z_pin = float(plant.platform_position(x)[2])
     alpha_gap = np.abs(sim.data.qpos[sim.active_qpos] - x[plant.active]).max()
     lines.append(
@@ -270,7 +160,7 @@ def main() -> int:
     print(f"machine: {machine_info()}, MuJoCo {mujoco.__version__}, Pinocchio {pin.__version__}")
     for title, checked in (
         (f"connect {SOFTNESS}, as timed", sim),
-        ("MuJoCo's default connect softness, for comparison", MujocoDelta(robot)),
+        ("MuJoCo's default connect softness, for comparison", MujocoDelta(robot, solref=None, solimp=None)),
     ):
         print(f"\nMJCF sanity checks, {title}:")
         for line in sanity_checks(robot, checked, plant):

@@ -13,6 +13,7 @@ __all__ = [
     "InvalidParameterError",
     "NativeUnavailableError",
     "NonFiniteError",
+    "OptionalDependencyError",
     "SimulationError",
     "URDFConventionError",
     "UnreachablePoseError",
@@ -67,3 +68,8 @@ class SimulationError(DeltaPinError):
 class NativeUnavailableError(DeltaPinError, RuntimeError):
     """The native library (Pinocchio's C++ behind delta-pin's C ABI) cannot be built or loaded
     here: no C++ compiler, missing headers, or ``DELTA_PIN_NATIVE=0``."""
+
+
+class OptionalDependencyError(DeltaPinError, ImportError):
+    """An optional extra (e.g. ``dask``, ``mujoco``) is needed for the requested feature; the
+    message gives the pip command."""

@@ -16,6 +16,7 @@ FAST = {
     "sweep_on_dask.py": ["--points", "2", "--t-end", "0.2", "--out", "{tmp}/sweep"],
     "serial_robot_design1.py": ["--t-end", "1.2"],
     "export_run_html.py": ["--t-end", "0.3", "--out", "{tmp}/run.html"],
+    "mujoco_digital_robust.py": ["--t-end", "1"],
 }
 
 
@@ -29,6 +30,8 @@ def test_example_runs_headless(name, tmp_path):
         pytest.importorskip("dask.distributed")
     if name == "serial_robot_design1.py":
         pytest.importorskip("cmeel")
+    if name == "mujoco_digital_robust.py":
+        pytest.importorskip("mujoco")
     args = [a.format(tmp=tmp_path) for a in FAST[name]]
     result = subprocess.run(
         [sys.executable, str(EXAMPLES / name), *args],

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from delta_pin.errors import DeltaPinError, InvalidParameterError
+from delta_pin.errors import DeltaPinError, InvalidParameterError, OptionalDependencyError
 from delta_pin.studies.experiments import RunSpec, batch_group, run_batch, run_spec
 from delta_pin.studies.metrics import compute_metrics
 from delta_pin.utils.atomic import write_text_atomically
@@ -71,11 +71,6 @@ RECORD_FORMAT = "delta-pin-sweep-point"
 RECORD_VERSION = 1
 _log = logging.getLogger(__name__)
 _FIELD_TYPES = {f.name: str(f.type) for f in fields(RunSpec)}
-
-
-class OptionalDependencyError(DeltaPinError, ImportError):
-    """An optional extra (e.g. ``dask``) is needed for the requested feature; the message gives
-    the pip command."""
 
 
 # --------------------------------------------------------------------------------------------------
