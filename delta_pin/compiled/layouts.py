@@ -17,18 +17,26 @@ import numpy as np
 
 __all__ = [
     "CONTROLLER",
+    "DIGITAL_INFO",
+    "DIGITAL_LAW",
+    "DIGITAL_ROBUST",
+    "DIGITAL_SAMPLE",
+    "DRIVE",
     "FRICTION",
     "GEOMETRY",
     "INFO",
     "NATIVE_TREE",
+    "OBSERVER_MAX",
     "PLANT",
     "REFERENCE",
     "SAMPLE",
+    "TDC",
     "TIMING",
     "TREE_LOOP_LIMITS",
     "TRUTH",
     "WORKSPACE",
     "as_table",
+    "digital_loop_state",
     "record",
     "records",
     "tree_loop_state",
@@ -83,6 +91,77 @@ CONTROLLER = np.dtype(
         ("normal_force", F8, (3,)),  # nominal F_n [N]
         ("m_eq", F8),  # nominal m_o + 3/2 m_b [kg]
         ("geometry", GEOMETRY),  # the nominal model's geometry
+    ]
+)
+
+OBSERVER_MAX = 6  # states per joint of the largest extended-state observer (order 4)
+TDC, DIGITAL_ROBUST = 1, 2  # DIGITAL_LAW.kind
+
+#: A discrete-time law on the Delta's analytic nominal model: time-delay control
+#: (delta_pin.control.digital) or the sampled-data adaptive robust law (delta_pin.control.digital_robust).
+DIGITAL_LAW = np.dtype(
+    [
+        ("kind", I8),  # TDC or DIGITAL_ROBUST
+        ("dt", F8),  # sample period T [s]
+        ("delay", I8),  # samples of computation delay d
+        ("K_p", F8),  # omega^2 [1/s^2]
+        ("K_v", F8),  # 2 omega [1/s]
+        ("mean_pairing", B1),  # TDC: pair the second difference with the mean of two torques
+        ("D", F8),  # digital robust: s = r_dot + D r [1/s]
+        ("beta", F8),  # the adaptive law (eq. 24)
+        ("b1", F8),
+        ("b2", F8),
+        ("b3", F8),
+        ("epsilon", F8),  # its dead zone on ||s|| [rad/s]
+        ("layer_time", F8),  # n_s T [s]: K_s = lambda_min(M-bar) / layer_time
+        ("has_limit", B1),  # the observer is told the torque clipped at torque_limit
+        ("torque_limit", F8, (3,)),  # [N m]
+        ("observer_size", I8),  # N = order + 2 states per joint
+        ("transition", F8, (OBSERVER_MAX, OBSERVER_MAX)),  # Phi (first N x N)
+        ("input_gain", F8, (OBSERVER_MAX,)),  # Gamma
+        ("observer_gain", F8, (OBSERVER_MAX,)),  # L
+        ("compensation", B1),  # include the nominal friction M-bar_f in n-bar
+        ("disturbance", F8, (3,)),  # nominal F-bar [N m]
+        ("friction", FRICTION),  # nominal friction (``on`` False: none)
+        ("normal_force", F8, (3,)),  # nominal F_n [N]
+        ("m_eq", F8),  # nominal m_o + 3/2 m_b [kg]
+        ("geometry", GEOMETRY),  # the nominal model's geometry
+    ]
+)
+
+#: What a digital law's step reports besides its torque (each law fills its own fields).
+DIGITAL_INFO = np.dtype(
+    [
+        ("ok", B1),  # False: the nominal model has no FK where the law evaluated it
+        ("rho_hat", F8),  # digital robust: the bound used at this sample [N m]
+        ("robust_torque", F8, (3,)),  # digital robust: v [N m]
+        ("disturbance_estimate", F8, (3,)),  # digital robust: M-bar f-hat [N m]
+        ("velocity_estimate", F8, (3,)),  # digital robust: the observer's alpha_dot [rad/s]
+        ("s", F8, (3,)),  # digital robust: r_dot + D r at the predicted state [rad/s]
+        ("lumped_estimate", F8, (3,)),  # TDC: N-hat [N m]
+    ]
+)
+
+#: The digital drive of delta_pin.sim.drive: encoder, computation delay, torque limit.
+DRIVE = np.dtype(
+    [
+        ("resolution", F8),  # encoder count q [rad]; 0: the controller sees the true state
+        ("exact_velocity", B1),  # the true velocity (else the difference of the readings)
+        ("delay", I8),  # samples
+        ("has_limit", B1),
+        ("torque_limit", F8, (3,)),  # [N m]
+    ]
+)
+
+#: One recorded sample of a compiled digital run.
+DIGITAL_SAMPLE = np.dtype(
+    [
+        ("alpha", F8, (3,)),
+        ("alpha_dot", F8, (3,)),
+        ("tau", F8, (3,)),  # the torque that acted [N m]
+        ("tau_command", F8, (3,)),  # the law's output [N m]
+        ("xyz", F8, (3,)),
+        ("closure_gap", F8),  # [m]; 0 on the analytic plant
     ]
 )
 
@@ -195,6 +274,26 @@ def tree_loop_state(nx: int) -> np.dtype:
             ("rho_hat", F8, (3,)),
             ("tau", F8, (3,)),  # the held torque [N m]
             ("rho_dot", F8, (3,)),
+        ]
+    )
+
+
+def digital_loop_state(nx: int, nz: int, delay: int) -> np.dtype:
+    """The resumable state of the compiled digital loop: plant state of nx numbers, law state of
+    nz, a drive of ``delay`` samples."""
+    return np.dtype(
+        [
+            ("sample", I8),  # k: the sample being computed
+            ("substep", I8),  # j > 0: resume sample k after sub-step j - 1 with the held torque
+            ("gap", F8),  # closure gap of x [m]
+            ("x", F8, (nx,)),  # the plant state
+            ("z", F8, (nz,)),  # the law's state at sample k
+            ("z_next", F8, (nz,)),  # its state at sample k + 1, held while sample k is integrated
+            ("tau", F8, (3,)),  # the torque acting over sample k [N m]
+            ("pending", F8, (max(delay, 1), 3)),  # commands not yet acting, a ring buffer
+            ("head", I8),  # the oldest of them
+            ("previous_reading", F8, (3,)),  # the encoder's last angles [rad]
+            ("hits", I8),  # samples at which the torque limit bound
         ]
     )
 

@@ -48,7 +48,6 @@ from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
 from delta_pin.control.nominal import DeltaNominalModel, NominalModel
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.friction import kernel_friction
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
@@ -159,7 +158,6 @@ class AdaptiveRobustController(Controller):
         """This controller as the compiled step reads it (a
         :data:`~delta_pin.compiled.layouts.CONTROLLER` record)."""
         ctc, gains = self.computed_torque, self.gains
-        compensated = self.friction_compensation and nominal.friction_parameters.on
         return record(
             CONTROLLER,
             D=ctc.D,
@@ -175,11 +173,7 @@ class AdaptiveRobustController(Controller):
             vector_rho=self.vector_rho,
             sampling_period=self.sampling_period or 0.0,
             sampling_margin=self.sampling_margin,
-            disturbance=nominal.disturbance(),
-            friction=nominal.friction_parameters if compensated else kernel_friction(None),
-            normal_force=nominal.normal_force if compensated else np.zeros(3),
-            m_eq=nominal.m_eq,
-            geometry=nominal.geometry,
+            **nominal.kernel_fields(self.friction_compensation),
         )
 
     def initial_state(self) -> np.ndarray:

@@ -107,6 +107,18 @@ class DeltaNominalModel(NominalModel):
             raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
         return M, C, G
 
+    def kernel_fields(self, friction_compensation: bool = True) -> dict:
+        """The nominal model as a compiled law's record reads it: ``disturbance``, ``friction``
+        (off without friction or its compensation), ``normal_force``, ``m_eq``, ``geometry``."""
+        compensated = friction_compensation and self.friction_parameters.on
+        return {
+            "disturbance": self.disturbance(),
+            "friction": self.friction_parameters if compensated else kernel_friction(None),
+            "normal_force": self.normal_force if compensated else np.zeros(3),
+            "m_eq": self.m_eq,
+            "geometry": self.geometry,
+        }
+
     def disturbance(self):
         return self._disturbance
 
