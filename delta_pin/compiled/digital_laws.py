@@ -18,7 +18,13 @@ from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve
 from delta_pin.compiled.jit import as_record, njit
 from delta_pin.compiled.layouts import DIGITAL_ROBUST, TDC
 
-__all__ = ["digital_law_step", "digital_robust_step", "law_state_size", "tdc_step"]
+__all__ = [
+    "digital_law_step",
+    "digital_robust_step",
+    "law_state_size",
+    "smallest_eigenvalue",
+    "tdc_step",
+]
 
 
 @njit(cache=True)
@@ -27,7 +33,7 @@ def law_state_size(law) -> int:
     law = as_record(law)
     if law.kind == TDC:
         return 6 + 3 * (law.delay + 2) + 1
-    return 3 * law.observer_size + 3 * (law.delay + 1) + 2
+    return 3 * law.observer_size + 3 * (law.delay + 1) + 12 + 2
 
 
 @njit(cache=True)
@@ -87,21 +93,36 @@ def _model(law, cos_phi, sin_phi, estimate):
 
 
 @njit(cache=True)
-def _propagate(law, cos_phi, sin_phi, estimate, torque):
-    """(ok, the estimate one period later) with ``torque`` [N m] acting over it."""
+def _predict(law, estimate, M, n_bar, torque):
+    """The estimate one period later with ``torque`` [N m] acting over it, for the nominal model
+    (M-bar, n-bar) at the estimate."""
     size = law.observer_size
-    ok, M, n_bar = _model(law, cos_phi, sin_phi, estimate)
-    out = np.zeros((size, 3))
-    if not ok:
-        return False, out
     acceleration = solve3(M, torque - n_bar)
+    out = np.empty((size, 3))
     for i in range(size):
         for j in range(3):
             value = 0.0
             for m in range(size):
                 value += law.transition[i, m] * estimate[m, j]
             out[i, j] = value + law.input_gain[i] * acceleration[j]
-    return True, out
+    return out
+
+
+@njit(cache=True)
+def smallest_eigenvalue(A):
+    """The smallest eigenvalue of a symmetric 3x3 matrix, in closed form (Smith, CACM 1961): the
+    same number as ``np.linalg.eigvalsh(A)[0]`` to rounding, without a LAPACK call."""
+    p1 = A[0, 1] ** 2 + A[0, 2] ** 2 + A[1, 2] ** 2
+    if p1 == 0.0:
+        return min(A[0, 0], min(A[1, 1], A[2, 2]))
+    q = (A[0, 0] + A[1, 1] + A[2, 2]) / 3.0
+    p2 = (A[0, 0] - q) ** 2 + (A[1, 1] - q) ** 2 + (A[2, 2] - q) ** 2 + 2.0 * p1
+    p = math.sqrt(p2 / 6.0)
+    b00, b11, b22 = (A[0, 0] - q) / p, (A[1, 1] - q) / p, (A[2, 2] - q) / p
+    b01, b02, b12 = A[0, 1] / p, A[0, 2] / p, A[1, 2] / p
+    r = 0.5 * (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02))
+    r = min(max(r, -1.0), 1.0)
+    return q + 2.0 * p * math.cos(math.acos(r) / 3.0 + 2.0 * math.pi / 3.0)
 
 
 @njit(cache=True)
@@ -113,14 +134,14 @@ def digital_robust_step(law, cos_phi, sin_phi, state, alpha, ref_alpha, ref_alph
     law, info = as_record(law), as_record(info)
     d, T, size = law.delay, law.dt, law.observer_size
     n_estimate = 3 * size
+    model = n_estimate + 3 * (d + 1)
     estimate = state[0:n_estimate].reshape((size, 3)).copy()
-    commands = state[n_estimate : n_estimate + 3 * (d + 1)].reshape((d + 1, 3))  # newest first
+    commands = state[n_estimate:model].reshape((d + 1, 3))  # newest first
     rho, started = state[-2], state[-1]
     info.ok = False
     if started != 0.0:  # the torque that acted over [t_{k-1}, t_k) was commanded at sample k-1-d
-        ok, estimate = _propagate(law, cos_phi, sin_phi, estimate, commands[d].copy())
-        if not ok:
-            return False
+        M_last = state[model : model + 9].reshape((3, 3)).copy()
+        estimate = _predict(law, estimate, M_last, state[model + 9 : model + 12], commands[d].copy())
         innovation = alpha - estimate[0]
         for i in range(size):
             for j in range(3):
@@ -128,22 +149,24 @@ def digital_robust_step(law, cos_phi, sin_phi, state, alpha, ref_alpha, ref_alph
     else:
         estimate[:, :] = 0.0
         estimate[0] = alpha
-    ahead = estimate.copy()
+    ok, M_estimate, n_estimate_bar = _model(law, cos_phi, sin_phi, estimate)  # kept for the next sample
+    if not ok:
+        return False
+    M, n_bar = M_estimate, n_estimate_bar
+    ahead = estimate
     for j in range(d):  # over [t_{k+j}, t_{k+j+1}) acts the command of sample k+j-d
-        ok, ahead = _propagate(law, cos_phi, sin_phi, ahead, commands[d - 1 - j].copy())
+        ahead = _predict(law, ahead, M, n_bar, commands[d - 1 - j].copy())
+        ok, M, n_bar = _model(law, cos_phi, sin_phi, ahead)
         if not ok:
             return False
     lead = d * T
     alpha_d = ref_alpha + lead * ref_alpha_dot + 0.5 * lead**2 * ref_alpha_ddot
     alpha_dot_d = ref_alpha_dot + lead * ref_alpha_ddot
     r, r_dot = ahead[0] - alpha_d, ahead[1] - alpha_dot_d
-    ok, M, n_bar = _model(law, cos_phi, sin_phi, ahead)
-    if not ok:
-        return False
     disturbance = ahead[2].copy()
     command = M @ (ref_alpha_ddot - law.K_v * r_dot - law.K_p * r - disturbance) + n_bar
     s = r_dot + law.D * r
-    damper = np.linalg.eigvalsh(M)[0] / law.layer_time * s
+    damper = smallest_eigenvalue(M) / law.layer_time * s
     size_damper = math.sqrt(damper[0] ** 2 + damper[1] ** 2 + damper[2] ** 2)
     robust = -damper if size_damper <= rho else -rho / size_damper * damper
     tau[:] = command + robust
@@ -157,7 +180,9 @@ def digital_robust_step(law, cos_phi, sin_phi, state, alpha, ref_alpha, ref_alph
     rho_next = max(rho + T * law.beta * (growth - leakage * rho), 0.0)
     next_state[0:n_estimate] = estimate.ravel()
     next_state[n_estimate : n_estimate + 3] = acting
-    next_state[n_estimate + 3 : n_estimate + 3 * (d + 1)] = state[n_estimate : n_estimate + 3 * d]
+    next_state[n_estimate + 3 : model] = state[n_estimate : n_estimate + 3 * d]
+    next_state[model : model + 9] = M_estimate.ravel()
+    next_state[model + 9 : model + 12] = n_estimate_bar
     next_state[-2] = rho_next
     next_state[-1] = 1.0
     info.ok = True

@@ -190,26 +190,29 @@ class DigitalRobustController(Controller):
         return law
 
     # state: [estimate (N x n), the last delay + 1 commands newest first, rho_hat, started]
+    # state: [estimate (N x n), the last delay + 1 commands newest first, M-bar (n x n) and n-bar (n)
+    # at the estimate (the next sample's prediction starts there), rho_hat, started]
     def initial_state(self) -> np.ndarray:
-        n = self.nominal.dof
-        return np.concatenate([np.zeros(self.observer.size * n + n * (self.delay + 1)), [self.rho0, 0.0]])
+        n, size = self.nominal.dof, self.observer.size
+        return np.concatenate([np.zeros(size * n + n * (self.delay + 1) + n * n + n), [self.rho0, 0.0]])
 
     def _split(self, state: np.ndarray):
+        """Views of a state: (estimate, commands, M-bar and n-bar at the estimate, rho_hat, started)."""
         n, size = self.nominal.dof, self.observer.size
-        estimate = state[: size * n].reshape(size, n)
-        commands = state[size * n : size * n + n * (self.delay + 1)].reshape(self.delay + 1, n)
-        return estimate, commands, state[-2], state[-1]
+        first = size * n
+        model = first + n * (self.delay + 1)
+        estimate = state[:first].reshape(size, n)
+        commands = state[first:model].reshape(self.delay + 1, n)
+        return (
+            estimate, commands, state[model : model + n * n].reshape(n, n), state[model + n * n : -2],
+            state[-2], state[-1],
+        )  # fmt: skip
 
     def _model(self, estimate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(M̄, n̄) at an estimate's angle and velocity."""
         alpha, alpha_dot = estimate[0], estimate[1]
         M, C, G = self.nominal.terms(alpha, alpha_dot)
         return M, C @ alpha_dot + G + self.nominal.compensation(alpha_dot, self.friction_compensation)
-
-    def _propagate(self, estimate: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """The estimate one period later, with ``torque`` acting over it."""
-        M, n_bar = self._model(estimate)
-        return self.observer.predict(estimate, np.linalg.solve(M, torque - n_bar))
 
     def evaluate(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
@@ -239,19 +242,21 @@ class DigitalRobustController(Controller):
     ) -> ControlOutput:
         """The law as written in the module docstring (the compiled step's reference)."""
         d, T = self.delay, self.dt
-        estimate, commands, rho, started = self._split(state)
+        estimate, commands, M_last, n_last, rho, started = self._split(state)
         if started:  # the torque that acted over [t_{k-1}, t_k) was commanded at sample k-1-d
-            estimate = self.observer.correct(self._propagate(estimate, commands[-1]), alpha)
+            predicted = self.observer.predict(estimate, np.linalg.solve(M_last, commands[-1] - n_last))
+            estimate = self.observer.correct(predicted, alpha)
         else:
             estimate = self.observer.start(alpha)
+        M_estimate, n_estimate = M, n_bar = self._model(estimate)  # kept for the next sample
         ahead = estimate
         for j in range(d):  # over [t_{k+j}, t_{k+j+1}) acts the command of sample k+j-d
-            ahead = self._propagate(ahead, commands[d - 1 - j])
+            ahead = self.observer.predict(ahead, np.linalg.solve(M, commands[d - 1 - j] - n_bar))
+            M, n_bar = self._model(ahead)
         lead = d * T  # the reference at t_{k+d}, by its Taylor series
         alpha_d = reference.alpha + lead * reference.alpha_dot + 0.5 * lead**2 * reference.alpha_ddot
         alpha_dot_d = reference.alpha_dot + lead * reference.alpha_ddot
         r, r_dot = ahead[0] - alpha_d, ahead[1] - alpha_dot_d
-        M, n_bar = self._model(ahead)
         disturbance = ahead[2]  # f̂ [rad/s^2]
         tau = M @ (reference.alpha_ddot - self.K_v * r_dot - self.K_p * r - disturbance) + n_bar
         s = r_dot + self.D * r
@@ -264,7 +269,9 @@ class DigitalRobustController(Controller):
         leakage = self.b2 * math.exp(-s_norm) + self.b3
         growth = self.b1 * s_norm if s_norm > self.epsilon else 0.0  # the dead zone, eq. 25
         rho_next = max(rho + T * self.beta * (growth - leakage * rho), 0.0)
-        next_state = np.concatenate([estimate.ravel(), acting, commands[:-1].ravel(), [rho_next, 1.0]])
+        next_state = np.concatenate(
+            [estimate.ravel(), acting, commands[:-1].ravel(), M_estimate.ravel(), n_estimate, [rho_next, 1.0]]
+        )
         internals = {
             "rho_hat": np.array([rho]),
             "robust_torque": robust,

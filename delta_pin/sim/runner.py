@@ -25,6 +25,7 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.loop import run_python_loop
@@ -53,15 +54,17 @@ def _runs_compiled(
 ) -> bool:
     """Whether the run goes to the compiled loops: BDF2 always (it exists only there); sampled
     runs where they apply, unless ``compiled=False`` (``compiled=True``: required, so that
-    :func:`simulate_batch` names what it cannot run). The compiled loops do not model an
-    encoder, a delay or a torque limit yet: such runs take the Python loop."""
+    :func:`simulate_batch` names what it cannot run). The compiled loops of designs I/II do not
+    model an encoder, a delay or a torque limit: such runs take the Python loop (the digital laws
+    have their own compiled loop, :func:`~delta_pin.sim.digital_batch.simulate_digital`)."""
     if integrator == "bdf2":
         return True
     if drive_effects:
         if compiled:
             raise InvalidParameterError(
-                "compiled=True: the compiled loops do not model a sensor, a delay or a torque limit yet; "
-                "use compiled=None or False"
+                "compiled=True: the compiled loops model a sensor, a delay or a torque limit only for the "
+                "digital laws (tdc, digital_robust) on the Delta's analytic nominal model; use compiled=None "
+                "or False"
             )
         return False
     if mode != "sampled" or compiled is False:
@@ -141,7 +144,9 @@ def simulate(
         progress: show the simulated time on stderr (``None``: only on a terminal).
         compiled: sampled mode only: run the whole loop compiled
             (:func:`~delta_pin.sim.batch.simulate_batch`, the same arithmetic, ~10x faster) where
-            it applies -- designs I/II with their compiled step, on the analytic plant or on the
+            it applies -- designs I/II with their compiled step (without a sensor, delay or torque
+            limit), and the digital laws TDC and digital-robust with theirs (with or without them,
+            :func:`~delta_pin.sim.digital_batch.simulate_digital`), on the analytic plant or on the
             Pinocchio plant in full coordinates with the native library. ``None`` (the default):
             where it applies; ``False``: never (the Python loop, the reference the compiled loops
             are tested against); ``True``: required (an error where it does not apply).
@@ -169,6 +174,12 @@ def simulate(
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
     _check_digital(as_controller(controller), mode, dt, drive_effects)
+    if mode == "sampled" and compiled is not False and digital_compilable(controller, plant):
+        return simulate_digital(
+            robot, controller, trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps, alpha0=alpha0,
+            alpha_dot0=alpha_dot0, friction=friction, uncertainty=uncertainty, sensor=sensor, delay=delay,
+            torque_limit=torque_limit,
+        )  # fmt: skip
     if _runs_compiled(controller, plant, mode, integrator, compiled, drive_effects):
         return simulate_batch(
             robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,

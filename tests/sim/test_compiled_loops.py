@@ -87,6 +87,67 @@ def test_compiled_sampled_run_equals_the_python_loop(robot, plant, design, subst
         assert fast.metadata["rhs_evaluations"] == 4 * 200 * substeps  # four tree evaluations per step
 
 
+@pytest.mark.parametrize("substeps", [1, 2])
+@pytest.mark.parametrize("law", ["tdc", "digital-robust"])
+@pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
+def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, substeps):
+    """The digital laws on a digital drive (17-bit encoders with seeded noise, one sample of delay,
+    a torque limit that binds): the compiled digital loop against the Python loop, on the tree bit
+    for bit (with projections at almost every step, as above)."""
+    from delta_pin.sim.drive import Encoder
+
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    runs = []
+    for compiled in (None, False):
+        if plant == "pinocchio":
+            made = PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
+        else:
+            made = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
+        controller = (
+            dp.tdc(nominal, 1e-3, delay=1, pairing="mean")
+            if law == "tdc"
+            else dp.digital_robust(nominal, 1e-3, delay=1, torque_limit=4.0)
+        )
+        runs.append(
+            dp.simulate(
+                robot,
+                controller,
+                dp.PathI(),
+                plant=made,
+                t_end=0.2,
+                substeps=substeps,
+                alpha0=ALPHA0,
+                sensor=Encoder(bits=17, noise=1e-5, seed=11),
+                delay=1,
+                torque_limit=4.0,
+                compiled=compiled,
+            )
+        )
+    fast, reference = runs
+    _assert_same_run(fast, reference)
+    assert fast.metadata["torque_limit_hits"] == reference.metadata["torque_limit_hits"] > 0
+    assert fast.metadata["sensor"] == reference.metadata["sensor"]
+    if plant == "pinocchio":
+        for name in RUN_ARRAYS:
+            np.testing.assert_array_equal(getattr(fast, name), getattr(reference, name))
+        assert fast.metadata["closure_projections"] == reference.metadata["closure_projections"] >= 5
+
+
+def test_a_diverging_digital_run_fails_when_the_python_loop_does(robot):
+    """Time-delay control at 20 times its bandwidth: the error dynamics' poles leave the unit
+    circle; both loops stop at the same sample."""
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    times = []
+    for compiled in (None, False):
+        with pytest.raises(SimulationError) as failure:
+            dp.simulate(
+                robot, dp.tdc(nominal, 1e-3, bandwidth=1600.0), dp.PathI(), plant="analytic", t_end=1.0,
+                alpha0=ALPHA0, compiled=compiled,
+            )  # fmt: skip
+        times.append(failure.value.time)
+    assert times[0] == pytest.approx(times[1], abs=1e-12) and times[0] < 1.0
+
+
 @pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
 def test_a_failing_run_fails_as_the_python_loop_does(robot, plant):
     """The paper's gains sampled at 1 kHz destabilise the loop (docs/architecture.md section 6):
