@@ -13,6 +13,7 @@ __all__ = [
     "InvalidParameterError",
     "NativeUnavailableError",
     "NonFiniteError",
+    "SchedulerUnreachableError",
     "SimulationError",
     "URDFConventionError",
     "UnreachablePoseError",
@@ -67,3 +68,7 @@ class SimulationError(DeltaPinError):
 class NativeUnavailableError(DeltaPinError, RuntimeError):
     """The native library (Pinocchio's C++ behind delta-pin's C ABI) cannot be built or loaded
     here: no C++ compiler, missing headers, or ``DELTA_PIN_NATIVE=0``."""
+
+
+class SchedulerUnreachableError(DeltaPinError, ConnectionError):
+    """No Dask scheduler answers at the given address within the connect timeout."""

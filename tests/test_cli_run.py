@@ -38,6 +38,9 @@ def test_run_writes_a_loadable_run_and_a_consistent_summary(tmp_path, capsys):
     recomputed = compute_metrics(run).as_dict()
     for name, value in summary["metrics"].items():
         expected = recomputed[name]
+        if expected is not None and np.isnan(expected):  # a "last 5 s" index of a 0.5 s run
+            assert value is None and name.endswith("_last_5s"), name
+            continue
         assert value == (None if expected is None else pytest.approx(expected, rel=1e-12)), name
     assert summary["spec"]["controller"] == "design1" and summary["spec"]["sampling_aware"] is True
     assert run.metadata["controller"]["sampling_period"] == 1e-3
@@ -117,7 +120,7 @@ def test_run_on_a_digital_drive_reports_roughness_and_limit_hits(tmp_path):
     time-delay controller; summary.json carries the drive's metrics, recomputed from run.npz."""
     out = tmp_path / "tdc"
     code = main(
-        ["run", "--controller", "tdc", "--plant", "analytic", "--mode", "sampled", "--t-end", "0.3",
+        ["run", "--controller", "tdc", "--plant", "analytic", "--mode", "sampled", "--t-end", "5",
          "--encoder-bits", "17", "--velocity", "difference", "--delay", "1", "--torque-limit", "20",
          "--out", str(out)]
     )  # fmt: skip

@@ -195,3 +195,35 @@ def test_compare_on_another_robot(tmp_path, capsys):
     assert run.metadata["robot"]["l_a"] == 0.25 and run.metadata["robot"]["l_b"] == 0.5
     assert main(["compare", "--set", "wingspan=2", "--out", str(out)]) == 2
     assert "wingspan" in capsys.readouterr().err
+
+
+def test_reproduce_on_another_robot_in_the_same_folder(tiny, tmp_path):
+    """``reproduce --set l_a=0.22`` ran everything, then failed with a KeyError: the result lookup
+    ignored the robot arguments that the cache keys hold (issue 15). Into a folder that already
+    holds the Table 1 robot's cache, none of it may answer for the other robot."""
+    import shutil
+
+    out = tmp_path / "reproduce"
+    shutil.copytree(tiny[0], out)
+    before = len(list((out / "cache").glob("*.json")))
+    result = reproduce(out, settings=TINY, workers=1, robot_args={"l_a": 0.22})
+    assert len(list((out / "cache").glob("*.json"))) == 2 * before  # all computed again
+    assert len(result.runs) == 10
+    assert {run.metadata["robot"]["l_a"] for run in result.runs.values()} == {0.22}
+    assert "Table 1 robot with l_a = 0.22" in (out / "report.md").read_text()
+
+
+def test_a_truncated_cached_run_is_computed_again(tiny, tmp_path):
+    """A cached run.npz cut short (a killed copy, a full disk) used to end the reproduction with a
+    traceback; like an unreadable record, it is now computed again (issue 15)."""
+    import shutil
+
+    out = tmp_path / "reproduce"
+    shutil.copytree(tiny[0], out)
+    runs = sorted((out / "cache").glob("*.npz"))
+    victim = runs[0]
+    victim.write_bytes(victim.read_bytes()[:1000])
+    others = {p.name: p.stat().st_mtime_ns for p in runs[1:]}
+    reproduce(out, settings=TINY, workers=1)
+    assert load_run(victim).t[-1] == pytest.approx(0.3)  # whole again (every TINY run is 0.3 s)
+    assert {p.name: p.stat().st_mtime_ns for p in runs[1:]} == others  # the rest from the cache
