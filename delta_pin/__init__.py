@@ -20,6 +20,7 @@ from delta_pin.errors import (
     InvalidParameterError,
     NativeUnavailableError,
     NonFiniteError,
+    SchedulerUnreachableError,
     SimulationError,
     UnreachablePoseError,
     URDFConventionError,
