@@ -21,6 +21,7 @@ from delta_pin.errors import (
     NativeUnavailableError,
     NonFiniteError,
     OptionalDependencyError,
+    SchedulerUnreachableError,
     SimulationError,
     UnreachablePoseError,
     URDFConventionError,

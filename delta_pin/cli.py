@@ -5,15 +5,110 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import math
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from delta_pin.errors import DeltaPinError, XacroArgumentError
+from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError, XacroArgumentError
 from delta_pin.utils.atomic import write_text_atomically
 
-__all__ = ["main"]
+__all__ = ["MAX_SWEEP_POINTS", "main"]
+
+MAX_SWEEP_POINTS = 100_000  # a larger grid needs --force
+RESUMABLE = ("compare", "sweep", "reproduce")  # commands whose finished runs are cached on disk
+EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Each option's help ends with its default (not for required options and plain flags)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.required or isinstance(action, argparse._StoreTrueAction):
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
+class _UsageError(Exception):
+    """A command-line error of argparse, already worded as one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (``delta-pin run: error: ...``, no usage block), so that
+    every failure of the command is one line; :func:`main` returns exit code 2 for them."""
+
+    def error(self, message: str):
+        raise _UsageError(f"{self.prog}: error: {message}")
+
+
+def _integer(minimum: int):
+    """An argparse type: an integer >= ``minimum``, naming the value otherwise."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{text} must be an integer >= {minimum}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+def _size(count: float) -> str:
+    """A byte count in words: ``"2.3 TiB"``."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if count < 1024 or unit == "PiB":
+            return f"{count:.3g} {unit}"
+        count /= 1024
+    raise AssertionError  # pragma: no cover
+
+
+def _check_output_dir(flag: str, path: Path) -> None:
+    """Refuse, before any work, an output folder that is a file or cannot be created or written."""
+    if path.exists() and not path.is_dir():
+        raise InvalidParameterError(f"{flag} {path} is a file; give a directory")
+    _check_writable(flag, path, "directory")
+
+
+def _check_output_file(flag: str, path: Path) -> None:
+    """Refuse, before any work, an output file that is a folder or cannot be written."""
+    if path.is_dir():
+        raise InvalidParameterError(f"{flag} {path} is a directory; give a file name")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise InvalidParameterError(f"{flag} {path} is not writable; give a file you can write")
+    _check_writable(flag, path.parent, "file")
+
+
+def _check_writable(flag: str, path: Path, what: str) -> None:
+    existing = path.absolute()
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InvalidParameterError(f"{flag} {path}: {existing} is a file, not a folder; give a {what} path")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InvalidParameterError(
+            f"{flag} {path} is not writable (no write permission in {existing}); give a writable {what}"
+        )
+
+
+def _check_memory(specs, args: argparse.Namespace) -> None:
+    """Refuse a run whose arrays would not fit (about half of this machine's memory), unless
+    --force; the message gives the estimate (:func:`delta_pin.studies.experiments.estimated_memory`)."""
+    from delta_pin.studies.experiments import estimated_memory, memory_limit
+
+    spec = max(specs, key=estimated_memory)
+    need, limit = estimated_memory(spec), memory_limit()
+    if need > limit and not args.force:
+        samples = round(spec.duration / spec.dt) + 1
+        raise InvalidParameterError(
+            f"--t-end {spec.duration:g} at --dt {spec.dt:g} is {samples:.3g} samples: about "
+            f"{_size(need)} of arrays, more than {_size(limit)} (half of this machine's memory); "
+            "shorten --t-end, lengthen --dt, or give --force"
+        )
 
 
 class _Choices(Sequence):
@@ -81,6 +176,8 @@ def _load_robot(args: argparse.Namespace):
 def _cmd_urdf(args: argparse.Namespace) -> int:
     from delta_pin.model.description import compile_urdf
 
+    if args.output is not None:
+        _check_output_file("--output", args.output)
     text = compile_urdf(**_parse_settings(args.settings))
     if args.output is None:
         sys.stdout.write(text)
@@ -99,8 +196,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from delta_pin.studies.experiments import run_spec
-    from delta_pin.studies.metrics import compute_metrics
+    from delta_pin.studies.experiments import check_specs, run_spec
+    from delta_pin.studies.metrics import compute_metrics, window_note
 
     spec = _spec_from_args(
         args,
@@ -116,7 +213,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         delay=args.delay,
         torque_limit=args.torque_limit,
     )
+    out = Path(args.out)
+    _check_output_dir("--out", out)
+    if args.html is not None:
+        _check_output_file("--html", args.html)
+    _check_memory([spec], args)
     robot = _load_robot(args)
+    check_specs([spec], robot)  # a bad gain, magnitude or seed fails before the run
+    _remove_earlier_run(out)
     print(
         f"delta-pin run: {spec.controller} on path {spec.path}, {spec.plant} plant, {spec.mode} mode, "
         f"{spec.duration:g} s ...",
@@ -124,7 +228,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     )
     run = run_spec(spec, robot, progress=None)  # a progress bar on a terminal
     metrics = compute_metrics(run)
-    out = Path(args.out)
     run.save(out / "run.npz")
     warnings = []
     if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
@@ -132,28 +235,52 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"the drive saturates most of the time: the torque limit bound at {metrics.torque_limit_hits} "
             f"of {len(run.t)} samples"
         )
+    written = [out / "run.npz"]
+    if args.html is not None:
+        from delta_pin.viz.meshcat_export import export_html
+
+        written.append(export_html(run, args.html, robot))
     summary = {
         "spec": spec.as_dict(),
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
         "warnings": warnings,
+        "outputs": [str(path) for path in written],  # what a rerun into this --out removes first
     }
     for warning in warnings:
         print(f"  warning: {warning}", flush=True)
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
+    note = window_note(run)
+    if note:
+        print(f"  note: {note}")
     print(f"wrote {out / 'run.npz'} and {out / 'summary.json'}")
     if args.html is not None:
-        from delta_pin.viz.meshcat_export import export_html
-
-        print(f"wrote {export_html(run, args.html, robot)}")
+        print(f"wrote {written[-1]}")
     return 0
+
+
+def _remove_earlier_run(out: Path) -> None:
+    """Remove what an earlier ``run`` wrote into ``out`` (its run.npz, summary.json and the page
+    its summary lists, or run.html beside a summary written before the list existed), so that no
+    stale file sits beside the new results."""
+    summary = out / "summary.json"
+    if not summary.is_file():
+        return
+    try:
+        listed = json.loads(summary.read_text()).get("outputs")
+    except (OSError, ValueError, AttributeError):
+        listed = None
+    names = [Path(p) for p in listed] if isinstance(listed, list) else [out / "run.npz", out / "run.html"]
+    for path in [*names, summary]:
+        path.unlink(missing_ok=True)
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from delta_pin.studies.reproduce import reproduce
 
+    _check_output_dir("--out", args.out)
     result = reproduce(args.out, quick=not args.full, **_executor_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     print(
@@ -191,6 +318,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         for c in _split(args.controllers)
         for fc in ((True, False) if args.with_and_without_fc else (True,))
     ]
+    _check_output_dir("--out", args.out)
+    _check_memory(specs, args)
     metrics = compare(specs, args.out, **_executor_options(args))
     print(markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
@@ -202,9 +331,19 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from delta_pin.studies.sweep import parse_axes
 
     base = _spec_from_args(args, controller=args.controller, path=args.path)
+    _check_output_dir("--out", args.out)
+    axes = parse_axes(args.param)
+    count = math.prod(len(values) for values in axes.values())
+    if count > MAX_SWEEP_POINTS and not args.force:
+        shape = " x ".join(f"{name} {len(values)}" for name, values in axes.items())
+        raise InvalidParameterError(
+            f"the grid has {count:,} points ({shape}), more than {MAX_SWEEP_POINTS:,}; "
+            "give fewer values or --force"
+        )
+    _check_memory([base], args)
     rows = sweep(
         base,
-        parse_axes(args.param),
+        axes,
         args.out,
         metric=args.metric,
         **_executor_options(args),
@@ -228,20 +367,38 @@ _INTEGRATOR_HELP = (
 )
 
 
+_PLANT_HELP = "the simulated robot: constrained Pinocchio model or the paper's analytic model"
+_MODE_HELP = "sampled: a digital drive (zero-order hold); continuous: the controller inside the integrator"
+
+
 def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic")
-    _add_choice_argument(parser, "--mode", MODES, default="continuous")
+    parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic", help=_PLANT_HELP)
+    _add_choice_argument(parser, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(parser, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
-    parser.add_argument("--t-end", type=float, default=None, help="duration [s] (path default)")
+    parser.add_argument("--t-end", type=float, default=None, help="duration [s] (None: the path's default)")
     parser.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
-    parser.add_argument("--sampling-aware", action="store_true")
+    parser.add_argument(
+        "--sampling-aware",
+        action="store_true",
+        help="cap the robust gain so a sampled loop of period dt stays stable",
+    )
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument(
         "--allow-failures",
         action="store_true",
         help="exit 0 even when some runs fail (they are still listed)",
     )
+    _add_force_argument(parser)
     _add_executor_arguments(parser)
+
+
+def _add_force_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="run even when a run's arrays would take more than half of this machine's memory, "
+        f"or a sweep has more than {MAX_SWEEP_POINTS:,} points",
+    )
 
 
 def _executor_options(args: argparse.Namespace) -> dict:
@@ -258,9 +415,9 @@ def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
     _add_robot_arguments(parser, allow_urdf=False)
     parser.add_argument(
         "--workers",
-        type=int,
+        type=_integer(1),
         default=os.cpu_count() or 1,
-        help="local worker processes (default: one per core)",
+        help="local worker processes (one per core)",
     )
     parser.add_argument(
         "--scheduler",
@@ -283,49 +440,56 @@ def _cmd_view(args: argparse.Namespace) -> int:
         return 0
 
 
+_DEBUG_HELP = "on an error, show Python's traceback instead of one line"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="delta-pin",
         description="Model-based control of Delta parallel robots, built on Pinocchio.",
+        epilog="Exit codes: 0 done, 1 a run or check failed, 2 bad input, 130 interrupted.",
     )
+    parser.add_argument("--debug", action="store_true", help=_DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    urdf = sub.add_parser("urdf", help="compile the parametric Delta xacro to a URDF")
+    def add(name: str, **options) -> argparse.ArgumentParser:
+        command = sub.add_parser(name, formatter_class=_HelpFormatter, **options)
+        command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG_HELP)
+        return command
+
+    urdf = add("urdf", help="compile the parametric Delta xacro to a URDF")
     _add_robot_arguments(urdf, allow_urdf=False)
-    urdf.add_argument("-o", "--output", type=Path, help="output file (default: standard output)")
+    urdf.add_argument("-o", "--output", type=Path, help="output file (None: standard output)")
     urdf.set_defaults(func=_cmd_urdf)
 
-    validate = sub.add_parser(
-        "validate", help="compare the analytic model with the constrained Pinocchio model"
-    )
+    validate = add("validate", help="compare the analytic model with the constrained Pinocchio model")
     _add_robot_arguments(validate)
-    validate.add_argument("--samples", type=int, default=100, help="random states (default 100)")
-    validate.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    validate.add_argument("--samples", type=_integer(1), default=100, help="random states")
+    validate.add_argument("--seed", type=int, default=0, help="random seed")
     validate.add_argument(
-        "--tol",
-        type=float,
-        default=1e-10,
-        help="relative tolerance of the M, C a_dot, G agreement (default 1e-10)",
+        "--tol", type=float, default=1e-10, help="relative tolerance of the M, C a_dot, G agreement"
     )
     validate.set_defaults(func=_cmd_validate)
 
-    run = sub.add_parser("run", help="simulate one controller on one path (the paper's Section V scenario)")
-    _add_choice_argument(run, "--controller", CONTROLLERS, default="design1")
-    _add_choice_argument(run, "--path", PATHS, default="I")
-    run.add_argument("--plant", choices=("pinocchio", "analytic"), default="pinocchio")
-    _add_choice_argument(run, "--mode", MODES, default="continuous")
+    run = add("run", help="simulate one controller on one path (the paper's Section V scenario)")
+    _add_choice_argument(run, "--controller", CONTROLLERS, default="design1", help="the control law")
+    _add_choice_argument(run, "--path", PATHS, default="I", help="the reference path")
+    run.add_argument("--plant", choices=("pinocchio", "analytic"), default="pinocchio", help=_PLANT_HELP)
+    _add_choice_argument(run, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(run, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
-    run.add_argument("--t-end", type=float, default=None, help="duration [s] (15 for path I, 10 for path II)")
-    run.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s] (default 1e-3)")
-    run.add_argument("--no-friction-compensation", action="store_true")
+    run.add_argument(
+        "--t-end", type=float, default=None, help="duration [s] (None: 15 for path I, 10 for II, 3 for adept)"
+    )
+    run.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
+    run.add_argument(
+        "--no-friction-compensation", action="store_true", help="leave the friction out of the controller"
+    )
     run.add_argument(
         "--sampling-aware",
         action="store_true",
         help="cap the robust gain so a sampled loop of period dt stays stable",
     )
-    run.add_argument(
-        "--uncertainty", type=float, default=0.3, help="magnitude Delta_m = Delta_fc = Delta_f (default 0.3)"
-    )
+    run.add_argument("--uncertainty", type=float, default=0.3, help="magnitude Delta_m = Delta_fc = Delta_f")
     run.add_argument(
         "--seed",
         type=int,
@@ -337,27 +501,31 @@ def build_parser() -> argparse.ArgumentParser:
         "--encoder-bits",
         type=int,
         default=None,
-        help="encoders of 2^bits counts per turn, 8-32 (default: exact state)",
+        help="encoders of 2^bits counts per turn, 8-32 (None: the exact state)",
     )
     _add_choice_argument(
         drive,
         "--velocity",
         VELOCITIES,
         default="difference",
-        help="with an encoder, the velocity the controller gets (default: difference of readings)",
+        help="with an encoder, the velocity the controller gets (difference: of the readings)",
     )
-    drive.add_argument("--delay", type=int, default=0, help="samples of computation delay (default 0)")
+    drive.add_argument("--delay", type=int, default=0, help="samples of computation delay")
     drive.add_argument(
-        "--torque-limit", type=float, default=None, help="the drive's saturation [N m] (default none)"
+        "--torque-limit", type=float, default=None, help="the drive's saturation [N m] (None: none)"
     )
-    run.add_argument("--out", type=Path, required=True, help="output directory (run.npz, summary.json)")
+    run.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output directory (run.npz, summary.json); a rerun first removes an earlier run's files",
+    )
     run.add_argument("--html", type=Path, default=None, help="also export a standalone meshcat page")
+    _add_force_argument(run)
     _add_robot_arguments(run)
     run.set_defaults(func=_cmd_run)
 
-    reproduce = sub.add_parser(
-        "reproduce", help="the paper's Section V study: runs, surfaces, figures, report"
-    )
+    reproduce = add("reproduce", help="the paper's Section V study: runs, surfaces, figures, report")
     size = reproduce.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true", help="analytic plant, 3 x 3 surfaces (the default)")
     size.add_argument("--full", action="store_true", help="Pinocchio plant, 11 x 11 surfaces")
@@ -365,7 +533,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_executor_arguments(reproduce)
     reproduce.set_defaults(func=_cmd_reproduce)
 
-    compare = sub.add_parser("compare", help="several controllers on several paths: metrics and figures")
+    compare = add("compare", help="several controllers on several paths: metrics and figures")
     compare.add_argument("--controllers", default="design1,design2,lqr", help="comma-separated")
     compare.add_argument("--paths", default="I,II", help="comma-separated: I, II, adept")
     compare.add_argument(
@@ -376,7 +544,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_study_arguments(compare)
     compare.set_defaults(func=_cmd_compare)
 
-    sweep = sub.add_parser("sweep", help="a grid over uncertainty magnitudes or gains")
+    sweep = add("sweep", help="a grid over uncertainty magnitudes or gains")
     sweep.add_argument(
         "--param",
         action="append",
@@ -384,28 +552,67 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=SPEC",
         help="an axis: delta_m=0:0.9:4 (start:stop:count) or xi=0.001,0.01 (repeatable)",
     )
-    _add_choice_argument(sweep, "--controller", CONTROLLERS, default="design1")
-    _add_choice_argument(sweep, "--path", PATHS, default="I")
+    _add_choice_argument(sweep, "--controller", CONTROLLERS, default="design1", help="the control law")
+    _add_choice_argument(sweep, "--path", PATHS, default="I", help="the reference path")
     sweep.add_argument("--metric", default="rho_hat_max", help="surface of this metric for two axes")
     _add_study_arguments(sweep)
     sweep.set_defaults(func=_cmd_sweep)
 
-    view = sub.add_parser("view", help="open a live meshcat viewer of a saved run")
+    view = add("view", help="open a live meshcat viewer of a saved run")
     view.add_argument("run", type=Path, help="a run.npz written by delta-pin run")
     view.add_argument("--open", action="store_true", help="open the browser")
     view.set_defaults(func=_cmd_view)
     return parser
 
 
+def _one_line(text: str) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``delta-pin`` console script; returns the exit code."""
+    """Entry point of the ``delta-pin`` console script; returns the exit code.
+
+    Every expected failure is one line on stderr, ``delta-pin COMMAND: error: ...``: exit code 2
+    for bad input (arguments, files), 1 for a run or check that failed, 130 for Ctrl-C. With
+    ``--debug`` the error is raised instead, with its traceback.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except _UsageError as exc:
+        print(_one_line(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except SystemExit as exc:  # --help
+        return exc.code if isinstance(exc.code, int) else 0
+    prefix = f"delta-pin {args.command}"
     try:
         return args.func(args)
-    except DeltaPinError as exc:
-        print(f"delta-pin {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        resume = "; rerun the same command to resume" if args.command in RESUMABLE else ""
+        print(f"{prefix}: interrupted{resume}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:
+        if args.debug:
+            raise
+        code, message = _error_line(exc)
+        print(f"{prefix}: error: {message}", file=sys.stderr)
+        return code
+
+
+def _error_line(exc: Exception) -> tuple[int, str]:
+    """(exit code, one-line message) of an exception that ends a command."""
+    if isinstance(exc, SimulationError):
+        return EXIT_FAILED, _one_line(exc)
+    if isinstance(exc, DeltaPinError):
+        return EXIT_BAD_INPUT, _one_line(exc)
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return EXIT_BAD_INPUT, _one_line(f"{exc.filename}: {exc.strerror or exc}")
+    if isinstance(exc, MemoryError):
+        return EXIT_FAILED, "out of memory; shorten the run (--t-end) or lengthen --dt"
+    detail = f"{type(exc).__name__}: {_one_line(exc)}"
+    return EXIT_FAILED, f"unexpected {detail} (rerun with --debug for the traceback)"
 
 
 if __name__ == "__main__":

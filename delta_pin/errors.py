@@ -14,6 +14,7 @@ __all__ = [
     "NativeUnavailableError",
     "NonFiniteError",
     "OptionalDependencyError",
+    "SchedulerUnreachableError",
     "SimulationError",
     "URDFConventionError",
     "UnreachablePoseError",
@@ -73,3 +74,7 @@ class NativeUnavailableError(DeltaPinError, RuntimeError):
 class OptionalDependencyError(DeltaPinError, ImportError):
     """An optional extra (e.g. ``dask``, ``mujoco``) is needed for the requested feature; the
     message gives the pip command."""
+
+
+class SchedulerUnreachableError(DeltaPinError, ConnectionError):
+    """No Dask scheduler answers at the given address within the connect timeout."""

@@ -186,6 +186,23 @@ class AdaptiveRobustController(Controller):
         gradient = kappa if self.vector_rho else np.array([kappa.sum()])
         return float(gradient @ rho_hat), gradient
 
+    def boundary_layer(self, alpha_dot_d: np.ndarray, alpha_ddot_d: np.ndarray) -> float:
+        """Thinnest boundary layer [rad/s] in s along a reference (N, 3): xi / Lambda_max, with
+        Lambda of eq. 67 at perfect tracking and rho_hat_0. A continuous-mode integrator has to
+        resolve it (:func:`delta_pin.sim.runner.simulate` tightens LSODA's rtol to do so): ~7e-5
+        rad/s on path II, ~1.4e-5 on path I, ~4e-6 on the Adept cycle (87 rad/s^2: Lambda ~240)."""
+        kappa = np.stack(
+            [
+                np.linalg.norm(alpha_ddot_d, axis=-1),
+                np.linalg.norm(alpha_dot_d, axis=-1),
+                np.ones(len(alpha_dot_d)),
+            ],
+            axis=-1,
+        )
+        rho0 = self.initial_state()
+        largest = float((kappa @ rho0 if self.vector_rho else kappa.sum(axis=-1) * rho0[0]).max())
+        return self.gains.xi / largest
+
     def robust_gain_factor(self, omega_norm: float) -> float:
         """phi of eq. 31 (design I) or eq. 56 (design II) for ||omega||."""
         xi = self.gains.xi

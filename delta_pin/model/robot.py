@@ -141,9 +141,18 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
         path = Path(urdf)
         if not path.is_file():
             raise URDFConventionError(f"URDF file {str(path)!r} does not exist")
-        text = path.read_text()
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise URDFConventionError(
+                f"URDF file {str(path)!r} is not text (a binary file?); give a URDF or xacro (XML) file"
+            ) from None
         if path.suffix == ".xacro":
             from xacrodoc import XacroDoc
 
             text = XacroDoc.from_file(str(path)).to_urdf_string()
+        try:
+            return Delta(read_description(text, g=g), xacro_args)
+        except URDFConventionError as exc:  # name the file
+            raise URDFConventionError(f"URDF file {str(path)!r}: {exc}") from None
     return Delta(read_description(text, g=g), xacro_args)

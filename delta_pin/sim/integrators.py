@@ -74,8 +74,9 @@ def integrate_lsoda(closed_loop, sample, check, finish_step, x, z, t, rtol, atol
             atol=atol,
             max_step=dt,
         )
-        if solution.status != 0:
-            raise SimulationError(f"the integrator failed: {solution.message}", float(t[k]))
+        if solution.status != 0:  # the time of the last sample it reached, not the chunk's start
+            reached = float(solution.t[-1]) if len(solution.t) else float(t[k])
+            raise SimulationError(f"the integrator failed: {solution.message}", reached)
         for j in range(1, stop - k):
             xs, zs = solution.y[:nx, j], solution.y[nx:, j]
             check(t[k + j], xs, zs)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import platform
 import sys
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -98,15 +100,24 @@ def load_run(path: str | Path) -> Run:
     path = Path(path)
     if not path.is_file():
         raise DeltaPinError(f"run file {str(path)!r} does not exist")
-    with np.load(path, allow_pickle=False) as data:
-        try:
-            arrays = {name: data[name] for name in ARRAYS}
-        except KeyError as exc:
-            raise DeltaPinError(f"{str(path)!r} is not a delta-pin run: missing {exc}") from None
-        internals = {
-            key.removeprefix("internal__"): data[key] for key in data.files if key.startswith("internal__")
-        }
-        metadata = json.loads(str(data["metadata_json"]))
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            try:
+                arrays = {name: data[name] for name in ARRAYS}
+            except KeyError as exc:
+                raise DeltaPinError(f"{str(path)!r} is not a delta-pin run: missing {exc}") from None
+            internals = {
+                key.removeprefix("internal__"): data[key]
+                for key in data.files
+                if key.startswith("internal__")
+            }
+            metadata = json.loads(str(data["metadata_json"]))
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        # a truncated or foreign file: numpy's own error would not name it
+        raise DeltaPinError(
+            f"{str(path)!r} is not a readable delta-pin run ({type(exc).__name__}: {exc}); "
+            "give a run.npz written by delta-pin"
+        ) from None
     return Run(**arrays, internals=internals, metadata=metadata)
 
 

@@ -49,6 +49,24 @@ def _choose_integrator(integrator: str, mode: str) -> str:
     return integrator
 
 
+LAYER_FRACTION = 0.25  # LSODA's velocity error bound: at most this fraction of the robust term's layer
+
+
+def _layer_resolving_rtol(controller, table, rtol: float) -> float:
+    """LSODA's ``rtol``, tightened where the controller's robust term slides in a boundary layer
+    (``controller.boundary_layer``, designs I/II) thinner than LSODA would resolve: the velocity
+    error it allows, rtol max|alpha_dot^d|, must stay below :data:`LAYER_FRACTION` of the layer.
+    Otherwise the corrector's iterates land outside the layer, where design I's phi has a kink and
+    the unit-vector term no radial stiffness, and LSODA stops with "repeated convergence failures"
+    (the Adept cycle: Lambda ~240, a layer of ~4e-6 rad/s, rtol 1.6e-7). Paths I and II keep 1e-6."""
+    layer = getattr(controller, "boundary_layer", None)
+    if layer is None:
+        return rtol
+    width = layer(table.alpha_dot, table.alpha_ddot)  # [rad/s]
+    speed = max(float(np.abs(table.alpha_dot).max()), 1.0)  # [rad/s]
+    return min(rtol, LAYER_FRACTION * width / speed)
+
+
 def _runs_compiled(
     controller, plant, mode: str, integrator: str, compiled: bool | None, drive_effects: bool
 ) -> bool:
@@ -140,7 +158,9 @@ def simulate(
             sampled mode and LSODA in continuous mode, where the robust term's boundary-layer gain
             makes the closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains: RK4
             would need ~80 substeps per millisecond).
-        rtol, atol: LSODA tolerances (relative; absolute in SI units of the state).
+        rtol, atol: LSODA tolerances (relative; absolute in SI units of the state). For designs
+            I/II rtol is tightened where needed to resolve the robust term's boundary layer (a fast
+            path such as the Adept cycle); ``metadata["rtol"]`` is the one used.
         progress: show the simulated time on stderr (``None``: only on a terminal).
         compiled: sampled mode only: run the whole loop compiled
             (:func:`~delta_pin.sim.batch.simulate_batch`, the same arithmetic, ~10x faster) where
@@ -197,6 +217,8 @@ def simulate(
     per_sample = 1 if mode == "sampled" else (2 * substeps if integrator == "rk4" else 4)
     table, sample_xyz, alpha0 = tabulate_reference(robot, trajectory, alpha0, dof, steps, dt, per_sample)
     alpha0 = joint_vector(alpha0, "alpha0", dof)
+    if integrator == "lsoda":
+        rtol = _layer_resolving_rtol(controller, table, rtol)
     alpha_dot0 = np.zeros(dof) if alpha_dot0 is None else joint_vector(alpha_dot0, "alpha_dot0", dof)
     if integrator == "rk4":
         plant.precompute_truth(h / 2.0, 2 * steps * substeps + 1)

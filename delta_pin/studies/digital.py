@@ -115,9 +115,10 @@ _DIVERGED_AT = re.compile(r"\(at t=([0-9.eE+-]+) s\)")
 def _row(point, **fields) -> dict:
     """One table row from a sweep point: its error and roughness, or when and why it failed."""
     row = dict(fields)
-    if point.ok:
-        row["max_joint_error_last_5s"] = point.metrics["max_joint_error_last_5s"]
-        row["torque_increment_rms_last_5s"] = point.metrics["torque_increment_rms_last_5s"]
+    if point.ok:  # None (a shorter run's "last 5 s" index) reads as NaN
+        for name in ("max_joint_error_last_5s", "torque_increment_rms_last_5s"):
+            value = point.metrics[name]
+            row[name] = math.nan if value is None else value
         row["diverged_at"] = None
     else:
         found = _DIVERGED_AT.search(point.error or "")
@@ -126,26 +127,32 @@ def _row(point, **fields) -> dict:
     return row
 
 
-def digital_rows(by_rate: dict, trade_off: dict, points: Mapping) -> tuple[list[dict], list[dict]]:
-    """Rows of the two tables from ``points`` (``{spec_key: SweepPoint}``)."""
-    from delta_pin.studies.sweep import spec_key
-
+def digital_rows(by_rate: dict, trade_off: dict, points: list) -> tuple[list[dict], list[dict]]:
+    """Rows of the two tables from the sweep ``points`` of ``[*by_rate.values(),
+    *trade_off.values()]``, in that order."""
+    points = list(points)
+    if len(points) != len(by_rate) + len(trade_off):
+        raise ValueError(f"{len(points)} points for {len(by_rate) + len(trade_off)} digital runs")
+    rate_points, trade_points = points[: len(by_rate)], points[len(by_rate) :]
     rate_rows = [
-        _row(points[spec_key(spec)], controller=label, rate_hz=rate)
-        for (label, rate), spec in by_rate.items()
+        _row(point, controller=label, rate_hz=rate) for (label, rate), point in zip(by_rate, rate_points)
     ]
     trade_rows = [
-        _row(points[spec_key(spec)], controller=label, gain=gain, value=value)
-        for (label, gain, value), spec in trade_off.items()
+        _row(point, controller=label, gain=gain, value=value)
+        for (label, gain, value), point in zip(trade_off, trade_points)
     ]
     return rate_rows, trade_rows
+
+
+def _number(value: float, form: str) -> str:
+    return "n/a" if math.isnan(value) else format(value, form)
 
 
 def _cell(row: dict, name: str) -> str:
     if row.get("diverged_at") is not None:
         when = row["diverged_at"]
         return "diverged" + ("" if math.isnan(when) else f" at t = {when:.3g} s")
-    return f"{row[name]:.2e}"
+    return _number(row[name], ".2e")
 
 
 def digital_report_lines(
@@ -186,7 +193,8 @@ def digital_report_lines(
                 row_cells.append(_cell(row, ""))
             else:
                 row_cells.append(
-                    f"{row['max_joint_error_last_5s']:.2e} / {row['torque_increment_rms_last_5s']:.3g}"
+                    f"{_number(row['max_joint_error_last_5s'], '.2e')} / "
+                    f"{_number(row['torque_increment_rms_last_5s'], '.3g')}"
                 )
         lines.append(f"| {label} | " + " | ".join(row_cells) + " |")
     if trade_rows:
@@ -199,7 +207,9 @@ def digital_report_lines(
         ]
         for row in trade_rows:
             roughness = (
-                "" if row.get("diverged_at") is not None else f"{row['torque_increment_rms_last_5s']:.3g}"
+                ""
+                if row.get("diverged_at") is not None
+                else _number(row["torque_increment_rms_last_5s"], ".3g")
             )
             lines.append(
                 f"| {row['controller']} | {row['gain']} | {row['value']:g} | "

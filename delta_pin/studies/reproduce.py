@@ -36,7 +36,7 @@ from delta_pin.sim.run import Run, load_run
 from delta_pin.studies.digital import DigitalStudy, digital_report_lines, digital_rows, digital_specs
 from delta_pin.studies.experiments import RunSpec, check_specs
 from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
-from delta_pin.studies.sweep import grid_specs, run_sweep, spec_key
+from delta_pin.studies.sweep import grid_specs, run_sweep
 from delta_pin.utils.atomic import write_text_atomically
 
 __all__ = [
@@ -202,11 +202,12 @@ def reproduce(
         flush=True,
     )
     points = run_sweep(every, cache, save_runs=True, **options)
-    by_key = {p.key: p for p in points}
+    # the points come in the order of ``every``; their keys cover the robot arguments too, so a
+    # cache folder shared with another robot never answers for this one
+    main_points, surface_points = points[: len(main_specs)], iter(points[len(main_specs) :])
 
     runs, metrics = {}, []
-    for spec in main_specs:
-        point = by_key[spec_key(spec)]
+    for spec, point in zip(main_specs, main_points):
         if not point.ok:
             metrics.append({"controller": _label(spec), "path": spec.path, "error": point.error})
             continue
@@ -225,20 +226,21 @@ def reproduce(
     surfaces = {}
     for key, specs in surface_specs.items():
         values = np.full((len(grid), len(grid)), np.nan)
-        for k, spec in enumerate(specs):
-            point = by_key[spec_key(spec)]
+        for k, point in zip(range(len(specs)), surface_points):
             if point.ok:
                 values[k // len(grid), k % len(grid)] = point.metrics["rho_hat_max"]
         surfaces[key] = values
     claims = _claims(runs, metrics, surfaces, grid)
     result = ReproductionResult(out, runs, metrics, surfaces, grid, claims, 0.0, settings)
     if digital:
-        result.digital_rates, result.digital_trade_off = digital_rows(digital_by_rate, digital_trade, by_key)
+        result.digital_rates, result.digital_trade_off = digital_rows(
+            digital_by_rate, digital_trade, points[len(points) - len(digital) :]
+        )
     _write_figures(result, figures)
     _write_tables(result)
     pages = _write_meshcat_pages(result)
     result.wall_time = time.perf_counter() - start
-    _write_report(result, quick, plant, pages)
+    _write_report(result, quick, plant, pages, robot_args)
     print(
         f"wrote {out}/index.html, report.md, metrics.csv, metrics.md and {len(list(figures.glob('*.png')))} "
         f"figures in {result.wall_time:.0f} s",
@@ -251,7 +253,7 @@ def reproduce(
 def _metric(metrics: list[dict], controller: str, path: str, name: str) -> float:
     for row in metrics:
         if row["controller"] == controller and row["path"] == path and name in row:
-            return row[name]
+            return float("nan") if row[name] is None else row[name]  # None: a run shorter than 5 s
     return float("nan")
 
 
@@ -424,6 +426,10 @@ def _write_figures(result: ReproductionResult, figures: Path) -> None:
             )
 
 
+def _settings(robot_args: dict) -> str:
+    return ", ".join(f"{name} = {value}" for name, value in sorted(robot_args.items()))
+
+
 def _slug(text: str) -> str:
     return text.replace(" ", "_").replace("(", "").replace(")", "")
 
@@ -497,14 +503,17 @@ def _write_meshcat_pages(result: ReproductionResult) -> list[str]:
     return pages
 
 
-def _write_report(result: ReproductionResult, quick: bool, plant: str, pages: list[str]) -> None:
+def _write_report(
+    result: ReproductionResult, quick: bool, plant: str, pages: list[str], robot_args: dict | None = None
+) -> None:
     figures = sorted(p.name for p in (result.out / "figures").glob("*.png"))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     lines = [
         "# Reproduction of Section V",
         "",
         f"{'--quick' if quick else '--full'}: main runs on the {plant} plant, continuous mode, "
-        "Table 1 robot, "
+        + ("Table 1 robot" if not robot_args else f"Table 1 robot with {_settings(robot_args)}")
+        + ", "
         f"Δ_m = Δ_fc = Δ_f = 0.3, α₀ = 0.3322 rad; ρ̂_max surfaces on {len(result.grid)} x {len(result.grid)} "
         f"grids (analytic plant, batched BDF2 at 1 ms, {result.settings.surface_t_end:g} s, "
         f"ρ̂₀ = {SURFACE_RHO0}). "

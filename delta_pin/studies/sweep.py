@@ -45,7 +45,13 @@ from pathlib import Path
 
 import numpy as np
 
-from delta_pin.errors import DeltaPinError, InvalidParameterError, OptionalDependencyError
+from delta_pin.errors import (
+    DeltaPinError,
+    InvalidParameterError,
+    OptionalDependencyError,
+    SchedulerUnreachableError,
+)
+from delta_pin.sim.run import load_run
 from delta_pin.studies.experiments import RunSpec, batch_group, run_batch, run_spec
 from delta_pin.studies.metrics import compute_metrics
 from delta_pin.utils.atomic import write_text_atomically
@@ -67,6 +73,7 @@ __all__ = [
 
 EXECUTORS = ("serial", "process", "dask")
 BATCH_SIZE = 32  # points per compiled batch (one executor task)
+SCHEDULER_TIMEOUT = 5.0  # [s] to connect to a Dask scheduler before giving up
 RECORD_FORMAT = "delta-pin-sweep-point"
 RECORD_VERSION = 1
 _log = logging.getLogger(__name__)
@@ -348,9 +355,22 @@ def _read_cached(cache_dir: Path, key: str, need_run: bool, retry_failed: bool) 
         return None
     if record.get("error") is not None:
         return None if retry_failed else record
-    if need_run and not (cache_dir / f"{key}.npz").is_file():
+    if need_run and not _run_loads(cache_dir / f"{key}.npz"):
         return None
     return record
+
+
+def _run_loads(path: Path) -> bool:
+    """Whether the cached run ``path`` exists and loads (a truncated file is recomputed, like an
+    unreadable record)."""
+    if not path.is_file():
+        return False
+    try:
+        load_run(path)
+    except DeltaPinError as exc:
+        _log.warning("unreadable cached run %s (%s): recomputing it", path, exc)
+        return False
+    return True
 
 
 def _store(cache_dir: Path, key: str, record: dict, robot_args: dict) -> None:
@@ -426,7 +446,9 @@ def _backend(executor, workers: int | None, scheduler: str | None):
         yield lambda fn, items: ((key, fn(*args)) for key, args in items)
         return
     if executor == "process":
-        pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers)
+        # Ctrl-C reaches the whole process group: the workers leave it to this process, which
+        # stops the pool (instead of each printing its own KeyboardInterrupt traceback)
+        pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
         clean = False
         try:
             yield functools.partial(
@@ -435,6 +457,8 @@ def _backend(executor, workers: int | None, scheduler: str | None):
             clean = True
         finally:
             pool.shutdown(wait=clean, cancel_futures=True)
+            if not clean:  # Ctrl-C or an error: the workers' running points are not waited for
+                _terminate_workers(pool)
         return
     # dask
     distributed = _import_distributed()
@@ -445,7 +469,13 @@ def _backend(executor, workers: int | None, scheduler: str | None):
         client = distributed.Client(cluster)
     else:
         cluster = None
-        client = distributed.Client(scheduler)
+        try:
+            client = distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise SchedulerUnreachableError(
+                f"no Dask scheduler answers at --scheduler {scheduler} within {SCHEDULER_TIMEOUT:g} s "
+                f"({type(exc).__name__}); start one (dask scheduler) or give its address, or 'local'"
+            ) from None
     try:
         submit = functools.partial(client.submit, pure=False)
         yield functools.partial(_run_futures, submit, distributed.as_completed, lambda f: f.cancel())
@@ -453,6 +483,23 @@ def _backend(executor, workers: int | None, scheduler: str | None):
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def _terminate_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
+    """Stop the pool's worker processes now (they only compute: the cache is written here)."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+
+
+def _ignore_sigint() -> None:
+    """Initializer of the pool's workers: Ctrl-C is for the parent process to handle."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _resolve_executor(executor, workers, scheduler):

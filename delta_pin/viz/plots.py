@@ -589,8 +589,10 @@ def _rows_by_controller(rows: Sequence[Mapping[str, Any]], x_name: str, metric: 
                 f"every row needs 'controller' and a numeric {x_name!r}: {row!r}"
             ) from None
         diverged = row.get("diverged_at") is not None
-        value = None if diverged else float(row[metric])
-        lines.setdefault(label, []).append((x, value, row.get("diverged_at")))
+        value = None if diverged else row.get(metric)
+        if not diverged and (value is None or not math.isfinite(float(value))):
+            continue  # no value (e.g. a "last 5 s" index of a shorter run): no point
+        lines.setdefault(label, []).append((x, None if diverged else float(value), row.get("diverged_at")))
     return lines
 
 

@@ -50,3 +50,27 @@ def test_runs_without_an_estimate_report_none():
     t = np.linspace(0.0, 1.0, 11)
     m = compute_metrics(_run(t, np.zeros((11, 3)), np.zeros((11, 3))))
     assert m.rho_hat_max is None and m.rho_hat_final is None
+
+
+def test_last_5_s_indices_of_a_shorter_run_are_nan_and_say_so():
+    """Over "the last 5 s" of a 3 s run the indices used to describe the initial transient under
+    the name of the steady state; now they are NaN (None in the dict), and a note says why."""
+    from delta_pin.studies.metrics import window_note
+
+    for duration, short in ((3.0, True), (5.0, False), (8.0, False)):
+        t = np.linspace(0.0, duration, round(duration * 1000) + 1)
+        error = np.zeros((len(t), 3))
+        error[:, 0] = 0.1 * np.exp(-t)
+        run = _run(t, error, np.ones((len(t), 3)))
+        m = compute_metrics(run)
+        names = ("max_task_error_mm_last_5s", "max_joint_error_last_5s", "torque_increment_rms_last_5s")
+        if short:
+            assert all(np.isnan(getattr(m, name)) and m.as_dict()[name] is None for name in names)
+            assert window_note(run) == (
+                "the run lasts 3 s, less than the 5 s of the 'last_5s' indices: they are NaN"
+            )
+        else:
+            expected = 0.1 * np.exp(-(duration - 5.0))  # [rad] the error 5 s before the end
+            assert m.max_joint_error_last_5s == pytest.approx(expected, rel=1e-12)
+            assert window_note(run) is None
+        assert m.iae > 0  # the whole-run indices are always there

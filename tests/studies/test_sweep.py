@@ -97,7 +97,7 @@ def test_workers_alone_pick_the_process_pool(grid, serial, tmp_path, monkeypatch
 
     monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", recording_pool)
     points = run_sweep(grid[:2], tmp_path, workers=2)
-    assert created == [{"max_workers": 2}]
+    assert [kwargs["max_workers"] for kwargs in created] == [2]
     assert _metrics(points) == _metrics(serial[:2])
 
 

@@ -1,0 +1,319 @@
+"""One error path for the whole command (issue 15): every expected failure of every subcommand is
+one line on stderr that names the bad value, exit code 2 for bad input, 130 for Ctrl-C, and no
+traceback unless ``--debug``. Every case fails before anything is simulated."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from delta_pin import cli
+from delta_pin.cli import main
+from delta_pin.errors import InvalidParameterError
+from delta_pin.studies import sweep as sweep_module
+
+SCHEDULER = "tcp://127.0.0.1:1"  # nothing listens there
+SHORT = ["--t-end", "0.1", "--workers", "1"]
+
+# (argv, exit code, text the one line must contain); {file}: an existing file, {dir}: an existing
+# folder, {out}: a fresh output folder, {binary}: random bytes, {npz}: a truncated run.npz,
+# {missing}: a path that does not exist
+CASES = [
+    # the command itself
+    (["nope"], 2, "'nope'"),
+    ([], 2, "required: command"),
+    # urdf
+    (["urdf", "-o", "{dir}"], 2, "--output {dir} is a directory"),
+    (["urdf", "-o", "{file}/x.urdf"], 2, "{file} is a file, not a folder"),
+    (["urdf", "--set", "l_a=-1"], 2, "l_a='-1'"),
+    (["urdf", "--set", "oops"], 2, "'oops'"),
+    # validate
+    (["validate", "--seed", "-1"], 2, "seed=-1"),
+    (["validate", "--samples", "0"], 2, "--samples: 0 must be an integer >= 1"),
+    (["validate", "--tol", "abc"], 2, "'abc'"),
+    (["validate", "--urdf", "{binary}"], 2, "{binary}' is not text"),
+    (["validate", "--urdf", "{missing}"], 2, "{missing}' does not exist"),
+    (["validate", "--urdf", "{file}"], 2, "{file}': the URDF is not valid XML"),
+    # run
+    (["run", "--out", "{file}"], 2, "--out {file} is a file; give a directory"),
+    (["run", "--out", "{file}/sub"], 2, "{file} is a file, not a folder"),
+    (["run", "--out", "{out}", "--html", "{dir}"], 2, "--html {dir} is a directory"),
+    (["run", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
+    (["run", "--dt", "1e-12", "--out", "{out}"], 2, "--dt 1e-12"),
+    (["run", "--dt", "-1", "--out", "{out}"], 2, "dt=-1.0"),
+    (["run", "--controller", "nope", "--out", "{out}"], 2, "'nope'"),
+    (["run", "--seed", "-3", "--plant", "analytic", "--out", "{out}"], 2, "seed=-3"),
+    (["run", "--uncertainty", "1.5", "--plant", "analytic", "--out", "{out}"], 2, "1.5"),
+    (["run", "--controller", "tdc", "--plant", "analytic", "--out", "{out}"], 2, "'tdc'"),
+    (["run", "--urdf", "{binary}", "--out", "{out}"], 2, "{binary}' is not text"),
+    (["run", "--set", "wingspan=2", "--out", "{out}"], 2, "'wingspan'"),
+    # view
+    (["view", "{missing}"], 2, "{missing}' does not exist"),
+    (["view", "{npz}"], 2, "{npz}' is not a readable delta-pin run"),
+    (["view", "{binary}"], 2, "{binary}' is not a readable delta-pin run"),
+    # compare
+    (["compare", "--out", "{file}"], 2, "--out {file} is a file"),
+    (["compare", "--controllers", "nope", "--paths", "I", *SHORT, "--out", "{out}"], 2, "'nope'"),
+    (["compare", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
+    (["compare", "--workers", "0", "--out", "{out}"], 2, "--workers: 0 must be an integer >= 1"),
+    (["compare", "--set", "wingspan=2", "--out", "{out}"], 2, "'wingspan'"),
+    (
+        [
+            "compare",
+            "--controllers",
+            "design1",
+            "--paths",
+            "I",
+            "--t-end",
+            "0.1",
+            "--scheduler",
+            SCHEDULER,
+            "--out",
+            "{out}",
+        ],
+        2,
+        f"--scheduler {SCHEDULER}",
+    ),
+    # sweep
+    (["sweep", "--param", "delta_m=0:0.9:2", "--out", "{file}"], 2, "--out {file} is a file"),
+    (["sweep", "--param", "delta_m=oops", "--out", "{out}"], 2, "'oops' is not a valid delta_m"),
+    (
+        ["sweep", "--param", "delta_m=0:0.9:1000", "--param", "delta_f=0:0.9:1000", "--out", "{out}"],
+        2,
+        "1,000,000 points",
+    ),
+    (["sweep", "--param", "delta_m=0,0.3", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
+    (["sweep", "--param", "delta_m=0,0.3", "--metric", "nope", *SHORT, "--out", "{out}"], 2, "'nope'"),
+    (
+        ["sweep", "--param", "delta_m=0,0.3", "--t-end", "0.1", "--scheduler", SCHEDULER, "--out", "{out}"],
+        2,
+        f"--scheduler {SCHEDULER}",
+    ),
+    # reproduce
+    (["reproduce", "--out", "{file}"], 2, "--out {file} is a file"),
+    (["reproduce", "--quick", "--full"], 2, "--full"),
+    (["reproduce", "--workers", "-1", "--out", "{out}"], 2, "--workers: -1 must be an integer >= 1"),
+    (["reproduce", "--set", "wingspan=2", "--out", "{out}"], 2, "'wingspan'"),
+    (["reproduce", "--scheduler", SCHEDULER, "--out", "{out}"], 2, f"--scheduler {SCHEDULER}"),
+]
+
+
+@pytest.fixture
+def paths(tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep_module, "SCHEDULER_TIMEOUT", 0.5)  # [s] keep the unreachable case short
+    (tmp_path / "a_file").write_text("not a folder\n")
+    (tmp_path / "a_dir").mkdir()
+    (tmp_path / "binary.urdf").write_bytes(np.random.default_rng(0).bytes(256) + b"\xff\xfe")
+    np.savez(tmp_path / "whole.npz", t=np.zeros(1000))
+    (tmp_path / "truncated.npz").write_bytes((tmp_path / "whole.npz").read_bytes()[:300])
+    return {
+        "file": str(tmp_path / "a_file"),
+        "dir": str(tmp_path / "a_dir"),
+        "out": str(tmp_path / "out"),
+        "binary": str(tmp_path / "binary.urdf"),
+        "npz": str(tmp_path / "truncated.npz"),
+        "missing": str(tmp_path / "missing.npz"),
+    }
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def _case_id(case) -> str:
+    return " ".join(case[0])[:60] or "(no command)"
+
+
+@pytest.mark.parametrize(("argv", "code", "text"), CASES, ids=[_case_id(c) for c in CASES])
+def test_bad_input_is_one_line_naming_the_value(paths, capsys, argv, code, text):
+    argv = [arg.format(**paths) for arg in argv]
+    start = time.perf_counter()
+    assert main(argv) == code
+    line = _one_line(capsys)
+    command = argv[0] if argv and argv[0] in cli.build_parser()._subparsers._group_actions[0].choices else ""
+    assert line.startswith(f"delta-pin {command}".rstrip() + ": error: "), line
+    assert text.format(**paths) in line
+    assert time.perf_counter() - start < 20.0  # [s] it failed up front (the scheduler waits 0.5 s)
+    assert not os.path.exists(os.path.join(paths["out"], "run.npz"))
+
+
+def test_every_subcommand_is_in_the_table():
+    commands = set(cli.build_parser()._subparsers._group_actions[0].choices)
+    assert commands == {case[0][0] for case in CASES if case[0] and case[0][0] != "nope"}
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
+def test_an_output_folder_without_write_permission_is_refused(tmp_path, capsys):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    try:
+        for argv in (["run"], ["compare"], ["sweep", "--param", "delta_m=0,0.3"], ["reproduce"]):
+            assert main([*argv, "--out", str(locked / "out")]) == 2
+            assert f"--out {locked / 'out'} is not writable" in _one_line(capsys)
+        assert main(["urdf", "-o", str(locked / "x.urdf")]) == 2
+        assert "is not writable" in _one_line(capsys)
+    finally:
+        locked.chmod(0o755)
+
+
+def test_run_refuses_an_output_file_before_simulating(tmp_path, capsys, monkeypatch):
+    """`run` used to simulate first and fail when saving; now nothing runs."""
+    import delta_pin.studies.experiments as experiments
+
+    def never(*args, **kwargs):
+        raise AssertionError("simulated")
+
+    monkeypatch.setattr(experiments, "run_spec", never)
+    (tmp_path / "x").write_text("")
+    assert main(["run", "--plant", "analytic", "--out", str(tmp_path / "x")]) == 2
+    assert _one_line(capsys) == f"delta-pin run: error: --out {tmp_path / 'x'} is a file; give a directory"
+
+
+def test_the_size_guard_gives_its_estimate_and_force_lifts_it(tmp_path, capsys, monkeypatch):
+    import delta_pin.studies.experiments as experiments
+
+    assert main(["run", "--t-end", "1e7", "--out", str(tmp_path)]) == 2
+    line = _one_line(capsys)
+    assert "1e+10 samples: about 23.3 TiB of arrays" in line and "--force" in line  # 1e10 x 2560 bytes
+    calls = []
+    monkeypatch.setattr(experiments, "run_spec", lambda *a, **k: calls.append(a) or (_ for _ in ()).throw(
+        KeyboardInterrupt))  # fmt: skip
+    assert main(["run", "--t-end", "1e7", "--force", "--plant", "analytic", "--out", str(tmp_path)]) == 130
+    assert len(calls) == 1  # --force: it ran (and was interrupted at once)
+    capsys.readouterr()
+
+
+def test_a_large_sweep_runs_with_force(tmp_path, capsys, monkeypatch):
+    import delta_pin.studies.reproduce as reproduce
+
+    seen = []
+    monkeypatch.setattr(reproduce, "sweep", lambda base, axes, out, **k: seen.append(axes) or [])
+    argv = ["sweep", "--param", "delta_m=0:0.9:400", "--param", "xi=0.001:0.01:400", "--out", str(tmp_path)]
+    assert main(argv) == 2
+    assert "160,000 points (delta_m 400 x xi 400), more than 100,000" in _one_line(capsys)
+    assert main([*argv, "--force"]) == 0 and len(seen) == 1
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    (tmp_path / "x").write_text("")
+    with pytest.raises(InvalidParameterError, match="is a file"):
+        main(["--debug", "run", "--out", str(tmp_path / "x")])
+    with pytest.raises(InvalidParameterError, match="is a file"):
+        main(["run", "--debug", "--out", str(tmp_path / "x")])
+
+
+def test_an_unexpected_error_is_one_line_and_exit_1(tmp_path, capsys, monkeypatch):
+    import delta_pin.model.description as description
+
+    def broken(**kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(description, "compile_urdf", broken)
+    assert main(["urdf"]) == 1
+    assert _one_line(capsys) == (
+        "delta-pin urdf: error: unexpected ZeroDivisionError: a bug (rerun with --debug for the traceback)"
+    )
+
+
+# every command, interrupted inside its work: (argv, function to interrupt, resumable)
+INTERRUPTS = [
+    (["urdf"], "delta_pin.model.description.compile_urdf", False),
+    (["validate"], "delta_pin.model.validation.validate", False),
+    (["run", "--plant", "analytic", "--out", "{out}"], "delta_pin.studies.experiments.run_spec", False),
+    (["view", "{run}"], "delta_pin.viz.meshcat_export.view_live", False),
+    (["compare", "--out", "{out}"], "delta_pin.studies.reproduce.compare", True),
+    (["sweep", "--param", "delta_m=0,0.3", "--out", "{out}"], "delta_pin.studies.reproduce.sweep", True),
+    (["reproduce", "--out", "{out}"], "delta_pin.studies.reproduce.reproduce", True),
+]
+
+
+@pytest.mark.parametrize(("argv", "target", "resumable"), INTERRUPTS, ids=[i[0][0] for i in INTERRUPTS])
+def test_ctrl_c_is_one_line_and_exit_130(tmp_path, capsys, monkeypatch, argv, target, resumable):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(target, interrupted)
+    argv = [arg.format(out=tmp_path / "out", run=tmp_path / "run.npz") for arg in argv]
+    assert main(argv) == 130
+    expected = "interrupted; rerun the same command to resume" if resumable else "interrupted"
+    assert _one_line(capsys) == f"delta-pin {argv[0]}: {expected}"
+
+
+def test_ctrl_c_of_a_real_reproduction(tmp_path):
+    """SIGINT to the whole process group, as a terminal's Ctrl-C: the command and its worker
+    processes stop, one line, exit 130, no traceback from anyone."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "delta_pin.cli", "reproduce", "--workers", "2", "--out", str(tmp_path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, which the signal goes to
+    )
+    try:
+        assert "delta-pin reproduce:" in process.stdout.readline()  # the runs have started
+        time.sleep(2.0)
+        os.killpg(process.pid, signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err
+    assert err.strip().splitlines() == ["delta-pin reproduce: interrupted; rerun the same command to resume"]
+
+
+@pytest.mark.parametrize("command", ["urdf", "validate", "run", "view", "compare", "sweep", "reproduce"])
+def test_help_shows_the_defaults(capsys, command):
+    assert main([command, "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    expected = {
+        "urdf": "(default: [])",
+        "validate": "random states (default: 100)",
+        "run": "sample / control period [s] (default: 0.001)",
+        "view": "",
+        "compare": "comma-separated (default: design1,design2,lqr)",
+        "sweep": "surface of this metric for two axes (default: rho_hat_max)",
+        "reproduce": "output directory (default: out/reproduce)",
+    }[command]
+    assert expected in out
+    if command != "view":  # its only option is a flag
+        assert "(default: " in out
+
+
+def test_run_summary_says_the_last_5_s_indices_are_nan_on_a_short_run(tmp_path, capsys):
+    argv = ["run", "--plant", "analytic", "--mode", "sampled", "--sampling-aware", "--t-end", "0.3"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "note: the run lasts 0.3 s, less than the 5 s of the 'last_5s' indices: they are NaN" in out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["metrics"]["max_joint_error_last_5s"] is None  # strict JSON: null, not NaN
+    assert summary["metrics"]["iae"] > 0
+
+
+def test_a_rerun_removes_the_earlier_run_s_page(tmp_path):
+    """A rerun of `run` without --html left the earlier run.html beside the new results."""
+    out = tmp_path / "out"
+    argv = ["run", "--plant", "analytic", "--mode", "sampled", "--sampling-aware", "--t-end", "0.1"]
+    assert main([*argv, "--out", str(out), "--html", str(out / "run.html")]) == 0
+    assert (out / "run.html").is_file()
+    first = (out / "run.npz").stat().st_mtime_ns
+    assert main([*argv, "--out", str(out)]) == 0
+    assert not (out / "run.html").exists()
+    assert (out / "run.npz").stat().st_mtime_ns >= first
+    assert json.loads((out / "summary.json").read_text())["outputs"] == [str(out / "run.npz")]
+    # a summary written before the list of outputs existed: its run.html goes too
+    (out / "run.html").write_text("old page")
+    (out / "summary.json").write_text("{}")
+    (out / "keep.txt").write_text("not a run's")
+    assert main([*argv, "--out", str(out)]) == 0
+    assert not (out / "run.html").exists() and (out / "keep.txt").exists()
