@@ -40,18 +40,31 @@ def main() -> None:
         "computed torque": dp.ComputedTorque(nominal),
         "PD + gravity": dp.PDGravity(nominal),
         "LQR": dp.LQR(nominal, reference.alpha[0]),
+        "digital robust (delay 1)": dp.digital_robust(nominal, 1e-3, delay=1),
+        "TDC (delay 1)": dp.tdc(nominal, 1e-3, delay=1),
     }
     timings = []
     for name, controller in controllers.items():
         state = controller.initial_state()
+        if controller.dt is not None:  # a discrete-time law: from a running state, not the first sample
+            state = controller.evaluate(0.0, alpha, alpha_dot, ref, state).next_state
         times = per_call(
             lambda c=controller, z=state: c.evaluate(0.0, alpha, alpha_dot, ref, z), args.calls, args.repeats
         )
         timings.append(Timing(name, times, note=f"per call, {args.calls} calls per repeat"))
+        if controller.dt is not None:
+            times = per_call(
+                lambda c=controller, z=state: c.evaluate_reference(0.0, alpha, alpha_dot, ref, z),
+                args.calls,
+                args.repeats,
+            )
+            timings.append(
+                Timing(f"{name}, reference law", times, note=f"per call, {args.calls} calls per repeat")
+            )
     print(f"machine: {machine_info()}")
     print_table("one controller step (torque + state derivative)", timings, reference=timings[0])
     for timing in timings:
-        if timing.name in ("design I", "design II"):
+        if timing.name in ("design I", "design II", "digital robust (delay 1)"):
             report_target(f"one controller step, {timing.name} (compiled)", timing.median, STEP_LIMIT)
 
 

@@ -41,6 +41,22 @@ TARGETS = {  # label: (spec, run_spec options, limit for 15 s [s] or None for a 
     "the same, LSODA (the default integrator)": (CONTINUOUS.with_(integrator="lsoda"), {}, None, 1),
 }
 CLOSURE_LIMIT = 1e-9  # [m]
+# issue 13: the digital laws on a digital drive (17-bit encoders, one sample of delay), Pinocchio plant
+DRIVE = {"encoder_bits": 17, "delay": 1}
+DIGITAL = {  # label: (spec, run_spec options, repeats or None)
+    "design I, sampling-aware, exact state, compiled (the reference)": (SAMPLED, {}, None),
+    "digital robust, compiled": (SAMPLED.with_(controller="digital-robust", **DRIVE), {}, None),
+    "digital robust, Python loop (compiled=False)": (
+        SAMPLED.with_(controller="digital-robust", **DRIVE),
+        {"compiled": False},
+        1,
+    ),
+    "TDC, mean pairing, compiled": (
+        SAMPLED.with_(controller="tdc", gains={"pairing": "mean"}, **DRIVE),
+        {},
+        None,
+    ),
+}
 
 
 def main() -> None:
@@ -112,6 +128,30 @@ def main() -> None:
             report_target(f"15 s {label}, Pinocchio plant{suffix}", timing.median, limit * scale)
     sampled = next(iter(TARGETS))
     report_target(f"closure residual of the {sampled} run", residuals[sampled], CLOSURE_LIMIT, unit="m")
+
+    digital = [
+        measure(
+            label,
+            lambda spec=spec, options=options: run_spec(spec.with_(t_end=args.t_end), robot, **options),
+            repeats or args.repeats,
+            f"{args.t_end:g} s, Pinocchio plant",
+            warmup=lambda spec=spec, options=options: run_spec(
+                spec.with_(t_end=WARMUP_T_END), robot, **options
+            ),
+        )
+        for label, (spec, options, repeats) in DIGITAL.items()
+    ]
+    print_table(
+        f"issue 13: digital laws, 17-bit encoders and one sample of delay, {args.t_end:g} s of path I",
+        digital,
+        reference=digital[0],
+    )
+    report_target(
+        "digital robust compiled / design I compiled, 15 s Pinocchio plant (issue 13: no longer)",
+        digital[1].median / digital[0].median,
+        1.0,
+        unit="x",
+    )
 
 
 if __name__ == "__main__":

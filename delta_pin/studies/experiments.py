@@ -286,7 +286,7 @@ def batch_group(spec: RunSpec) -> tuple | None:
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (spec.controller in ("design1", "design2") and (continuous or sampled)) or spec.drive_effects:
-        return None  # the compiled loops do not model an encoder, a delay or a torque limit yet
+        return None  # designs I/II with a drive, and the digital laws, run one by one (compiled)
     if spec.plant == "pinocchio" and not native_available():
         return None
     vector_rho = bool(spec.gains.get("vector_rho"))
