@@ -27,6 +27,7 @@ BENCHMARKS = {
     "bench_validate.py": ["--repeats", "5"],
     "bench_sweep.py": ["--repeats", "3", "--full"],
     "bench_meshcat_export.py": ["--repeats", "5"],
+    "bench_cli.py": ["--repeats", "5"],
 }
 QUICK = {
     "bench_model.py": ["--repeats", "3", "--calls", "500"],
@@ -36,6 +37,7 @@ QUICK = {
     "bench_validate.py": ["--repeats", "2"],
     "bench_sweep.py": ["--repeats", "1", "--t-end", "3", "--runs", "4"],
     "bench_meshcat_export.py": ["--repeats", "2"],
+    "bench_cli.py": ["--repeats", "3"],
 }
 # targets of issue 7 measured by a script that may not report them (missing, skipped or failed)
 EXPECTED = {

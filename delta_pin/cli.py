@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import math
 import os
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 
+from delta_pin.choices import CONTROLLERS, INTEGRATOR_CHOICES, MODES, PATHS, VELOCITIES
 from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError, XacroArgumentError
 from delta_pin.utils.atomic import write_text_atomically
 
@@ -111,35 +110,9 @@ def _check_memory(specs, args: argparse.Namespace) -> None:
         )
 
 
-class _Choices(Sequence):
-    """A tuple constant of a submodule as argparse ``choices``, imported only when argparse reads
-    it: ``experiments`` and ``simulate`` load SciPy, numba and the controllers (~0.6 s) that
-    ``delta-pin validate`` and ``delta-pin urdf`` do not need."""
-
-    def __init__(self, module: str, name: str) -> None:
-        self._module, self._name = module, name
-
-    def _values(self) -> tuple:
-        return getattr(importlib.import_module(self._module), self._name)
-
-    def __getitem__(self, index):
-        return self._values()[index]
-
-    def __len__(self) -> int:
-        return len(self._values())
-
-
-CONTROLLERS = _Choices("delta_pin.studies.experiments", "CONTROLLERS")
-PATHS = _Choices("delta_pin.studies.experiments", "PATHS")
-MODES = _Choices("delta_pin.sim.arguments", "MODES")
-INTEGRATOR_CHOICES = _Choices("delta_pin.sim.runner", "INTEGRATOR_CHOICES")
-VELOCITIES = _Choices("delta_pin.sim.drive", "VELOCITIES")
-
-
-def _add_choice_argument(parser: argparse.ArgumentParser, flag: str, choices: _Choices, **options) -> None:
-    """``parser.add_argument(flag, choices=choices, **options)`` without reading ``choices`` now
-    (``add_argument`` formats the choices once to check the metavar)."""
-    parser.add_argument(flag, **options).choices = choices
+def _add_choice_argument(parser: argparse.ArgumentParser, flag: str, choices: tuple, **options) -> None:
+    """``parser.add_argument(flag, choices=choices, **options)``."""
+    parser.add_argument(flag, choices=choices, **options)
 
 
 def _parse_settings(settings: list[str]) -> dict[str, str]:

@@ -5,6 +5,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 
 def _run(code: str) -> str:
     result = subprocess.run(
@@ -60,3 +62,24 @@ def test_no_module_shadows_a_public_name():
         assert callable(dp.simulate) and callable(dp.simulate_batch)
         """
     )
+
+
+@pytest.mark.parametrize("command", ["urdf", "validate", "run", "view", "compare", "sweep", "reproduce"])
+def test_help_loads_no_heavy_module(command):
+    """``delta-pin CMD --help`` lists every choice without importing SciPy, numba or Pinocchio
+    (issue 14: it took 2.4 s when the choices lived in the modules that implement them)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom delta_pin.cli import main\n"
+        f"try:\n    main([{command!r}, '--help'])\nexcept SystemExit:\n    pass\n"
+        "loaded = {m.split('.')[0] for m in sys.modules}\n"
+        "heavy = sorted(loaded & {'scipy', 'numba', 'pinocchio', 'matplotlib'})\n"
+        "print('HEAVY', heavy)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert "HEAVY []" in result.stdout, result.stdout[-300:]
+    assert "--help" in result.stdout or "usage:" in result.stdout

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from delta_pin.choices import MODES
 from delta_pin.errors import InvalidParameterError, NonFiniteError
 from delta_pin.model.kinematics import as_vector3
 
 __all__ = ["MODES", "check_mode", "check_substeps", "check_timing", "joint_vector"]
-
-MODES = ("sampled", "continuous")
 
 
 def check_timing(dt: float, t_end: float) -> int:

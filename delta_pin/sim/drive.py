@@ -14,12 +14,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from delta_pin.choices import VELOCITIES
 from delta_pin.control.base import check_delay, check_torque_limit
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["VELOCITIES", "Drive", "Encoder", "check_delay", "check_torque_limit"]
-
-VELOCITIES = ("difference", "none", "exact")
 
 
 @dataclass

@@ -12,12 +12,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from delta_pin.choices import INTEGRATORS
 from delta_pin.compiled.rk4 import within_limits
 from delta_pin.errors import SimulationError
 
 __all__ = ["INTEGRATORS", "LSODA_CHUNK", "MAX_JOINT_SPEED", "check_state", "integrate_lsoda", "rk4_step"]
 
-INTEGRATORS = ("rk4", "lsoda", "bdf2")
 MAX_JOINT_SPEED = 1e3  # [rad/s] a state beyond this has diverged
 LSODA_CHUNK = 1000  # samples per LSODA call (each restart costs a start-up; finish_step runs between)
 

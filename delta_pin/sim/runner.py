@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from delta_pin.choices import INTEGRATOR_CHOICES
 from delta_pin.control.base import as_controller
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import Delta
@@ -34,8 +35,6 @@ from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
 __all__ = ["INTEGRATOR_CHOICES", "simulate"]
-
-INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
 
 
 def _choose_integrator(integrator: str, mode: str) -> str:

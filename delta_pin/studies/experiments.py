@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from delta_pin.choices import CONTROLLERS, PATHS
 from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
 from delta_pin.control.digital import tdc
 from delta_pin.control.digital_robust import digital_robust
@@ -45,8 +46,6 @@ __all__ = [
     "run_spec",
 ]
 
-CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")
-PATHS = ("I", "II", "adept")
 DEFAULT_T_END = {"I": 15.0, "II": 10.0, "adept": 3.0}  # [s]
 PAPER_ALPHA0 = 0.3322  # [rad] on every joint (Section V)
 

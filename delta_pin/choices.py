@@ -1,0 +1,14 @@
+"""The names a user chooses among (controllers, paths, modes, integrators, encoder velocities):
+one home, importing nothing, so that ``delta-pin ... --help`` lists them without loading SciPy,
+numba or Pinocchio. The modules that implement each choice import their tuple from here."""
+
+from __future__ import annotations
+
+__all__ = ["CONTROLLERS", "INTEGRATORS", "INTEGRATOR_CHOICES", "MODES", "PATHS", "VELOCITIES"]
+
+CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")  # studies.experiments
+PATHS = ("I", "II", "adept")  # path I (eq. 66), path II (eq. 69), the Adept pick-and-place cycle
+MODES = ("sampled", "continuous")  # sim.arguments
+INTEGRATORS = ("rk4", "lsoda", "bdf2")  # sim.integrators
+INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
+VELOCITIES = ("difference", "none", "exact")  # what an encoder gives as velocity (sim.drive)
