@@ -9,6 +9,6 @@ __all__ = ["CONTROLLERS", "INTEGRATORS", "INTEGRATOR_CHOICES", "MODES", "PATHS",
 CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")  # studies.experiments
 PATHS = ("I", "II", "adept")  # path I (eq. 66), path II (eq. 69), the Adept pick-and-place cycle
 MODES = ("sampled", "continuous")  # sim.arguments
-INTEGRATORS = ("rk4", "lsoda", "bdf2")  # sim.integrators
+INTEGRATORS = ("rk4", "lsoda", "bdf2", "radau")  # sim.integrators; bdf2 and radau are compiled
 INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
 VELOCITIES = ("difference", "none", "exact")  # what an encoder gives as velocity (sim.drive)

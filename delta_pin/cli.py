@@ -335,8 +335,9 @@ def _failures(errors: list, args: argparse.Namespace) -> int:
 
 
 _INTEGRATOR_HELP = (
-    "auto: RK4 sampled, LSODA continuous; bdf2: compiled implicit BDF2 (designs I/II, continuous, "
-    "either plant (Pinocchio: native library); sweeps batch it)"
+    "auto: RK4 sampled; continuous: the compiled Radau IIA with error control for designs I/II, "
+    "else LSODA; radau, bdf2 (fixed 1 ms steps, batched by sweeps): compiled, designs I/II, either plant "
+    "(Pinocchio: native library); lsoda: SciPy's"
 )
 
 

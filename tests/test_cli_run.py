@@ -176,8 +176,28 @@ def test_every_controller_runs_the_adept_cycle(tmp_path, controller):
     run = load_run(out / "run.npz")
     assert run.t[-1] == pytest.approx(0.3) and np.isfinite(run.alpha).all()
     if controller in ("design1", "design2"):
-        assert run.metadata["rtol"] < 1e-6  # tightened to the layer
+        assert run.metadata["integrator"] == "radau"  # the compiled default resolves the layer itself
         assert np.linalg.norm(run.error[-1]) < np.linalg.norm(run.error[0])  # it is converging
+
+
+@pytest.mark.parametrize("controller", ["design1", "design2"])
+def test_lsoda_runs_the_adept_cycle_with_a_tolerance_tightened_to_the_layer(tmp_path, controller):
+    out = tmp_path / controller
+    argv = [
+        "run",
+        "--controller",
+        controller,
+        "--path",
+        "adept",
+        "--plant",
+        "analytic",
+        "--integrator",
+        "lsoda",
+    ]
+    assert main([*argv, "--t-end", "0.3", "--out", str(out)]) == 0
+    run = load_run(out / "run.npz")
+    assert run.metadata["integrator"] == "lsoda" and run.metadata["rtol"] < 1e-6  # tightened to the layer
+    assert np.linalg.norm(run.error[-1]) < np.linalg.norm(run.error[0])
 
 
 def test_design1_runs_the_adept_cycle_on_the_pinocchio_plant(tmp_path):

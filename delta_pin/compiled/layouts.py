@@ -30,6 +30,7 @@ __all__ = [
     "PLANT",
     "REFERENCE",
     "SAMPLE",
+    "STEP_CONTROL",
     "TDC",
     "TIMING",
     "TREE_LOOP_LIMITS",
@@ -218,6 +219,17 @@ TIMING = np.dtype(
         ("samples", I8),  # steps: the run records samples 0 .. steps
         ("max_speed", F8),  # |alpha_dot| [rad/s] beyond which the run has diverged
         ("sampled", B1),  # zero-order hold and RK4 (else BDF2)
+    ]
+)
+
+#: Error control of the compiled Radau IIA integrator.
+STEP_CONTROL = np.dtype(
+    [
+        ("rtol", F8),  # relative tolerance [-]
+        ("atol", F8),  # absolute tolerance (SI units of the state)
+        ("first_step", F8),  # [s]
+        ("max_step", F8),  # [s]
+        ("grid_step", F8),  # [s] of the truth and reference tables
     ]
 )
 

@@ -25,18 +25,21 @@ Example:
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from delta_pin.compiled import closed_loop, tree_loop
+from delta_pin.compiled import closed_loop, radau, tree_loop
 from delta_pin.compiled.layouts import (
     INFO,
     NATIVE_TREE,
     PLANT,
+    REFERENCE,
     SAMPLE,
+    STEP_CONTROL,
     TIMING,
     TREE_LOOP_LIMITS,
     WORKSPACE,
@@ -59,6 +62,9 @@ from delta_pin.sim.run import Run, run_metadata
 
 __all__ = ["batchable", "native_available", "simulate_batch"]
 
+RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
+RADAU_MAX_STEP = 1e-2  # [s]
+_RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
 _FAILURES = {
     closed_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",
     closed_loop.NO_CONVERGENCE: "Newton's method did not converge even on 1024 sub-steps",
@@ -119,6 +125,9 @@ def simulate_batch(
     friction=None,
     uncertainties: Sequence | None = None,
     errors: str = "raise",
+    integrator: str = "bdf2",
+    rtol: float = 1e-6,
+    atol: float = 1e-8,
 ) -> list:
     """Simulate one run per controller (design I or II), compiled: BDF2 in continuous mode, RK4
     under a zero-order hold in sampled mode.
@@ -139,6 +148,9 @@ def simulate_batch(
         friction: :class:`~delta_pin.model.friction.Friction` of every run, ``True`` or ``None``.
         uncertainties: one profile per run (``None`` entries: no uncertainty), or ``None``.
         errors: ``"raise"`` the first failure, or ``"return"`` it in place of its run.
+        integrator: continuous mode: ``"bdf2"`` (fixed steps dt / substeps) or ``"radau"`` (Radau
+            IIA with error control, :mod:`delta_pin.compiled.radau`; its samples every dt).
+        rtol, atol: ``"radau"``'s tolerances (relative; absolute in SI units of the state).
 
     Returns:
         A list of :class:`~delta_pin.sim.run.Run` (or :class:`~delta_pin.errors.SimulationError`
@@ -151,6 +163,11 @@ def simulate_batch(
     controllers = _check_controllers(controllers, plant, mode)
     if errors not in ("raise", "return"):
         raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")
+    if integrator not in ("bdf2", "radau"):
+        raise InvalidParameterError(f"integrator={integrator!r} must be 'bdf2' or 'radau' (continuous mode)")
+    radau = mode == "continuous" and integrator == "radau"
+    if radau and not (math.isfinite(rtol) and math.isfinite(atol) and rtol > 0.0 and atol > 0.0):
+        raise InvalidParameterError(f"rtol={rtol!r} and atol={atol!r} must be positive")
     check_substeps(substeps)
     steps = check_timing(dt, t_end)
     count = len(controllers)
@@ -169,15 +186,18 @@ def simulate_batch(
     # the step grid (BDF2) or the half-step grid (RK4 stages), as simulate() tabulates them
     alpha0_rows = np.asarray(alpha0, dtype=float) if alpha0 is not None else None
     per_run_alpha0 = alpha0_rows is not None and alpha0_rows.ndim == 2
-    per_sample = 1 if sampled else substeps
+    per_sample = 1 if sampled else (RADAU_GRID if radau else substeps)
     table, sample_xyz, start = tabulate_reference(
         robot, trajectory, alpha0_rows[0] if per_run_alpha0 else alpha0, 3, steps, dt, per_sample
     )
     reference = table.records()
-    grid = np.arange(2 * steps * substeps + 1) * (h / 2.0) if sampled else np.arange(steps * substeps + 1) * h
+    if sampled:
+        grid = np.arange(2 * steps * substeps + 1) * (h / 2.0)
+    else:
+        grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
     timing = record(
-        TIMING, step=dt if sampled else h, substeps=substeps, samples=steps, max_speed=MAX_JOINT_SPEED,
-        sampled=sampled,
+        TIMING, step=dt if sampled or radau else h, substeps=substeps, samples=steps,
+        max_speed=MAX_JOINT_SPEED, sampled=sampled,
     )  # fmt: skip
 
     wall = time.perf_counter()
@@ -186,6 +206,9 @@ def simulate_batch(
         y0 = _initial_state(controller, alpha0_rows[b] if per_run_alpha0 else start, alpha_dot0, b)
         initial.append(y0)
         truth = truth_records(*run_plant.evaluate_truth(grid))
+        if radau:
+            outcomes.append(_run_radau(controller, run_plant, truth, table, y0, timing, rtol, atol))
+            continue
         run = _run_on_tree if tree and sampled else _run_closed_loop
         outcomes.append(run(controller, run_plant, truth, reference, y0, timing))
     wall = (time.perf_counter() - wall) / count
@@ -200,9 +223,12 @@ def simulate_batch(
             continue
         metadata = run_metadata(
             robot, controller, trajectory, run_plant, mode=mode, dt=dt, t_end=steps * dt,
-            substeps=substeps, integrator="rk4" if sampled else "bdf2", alpha0=y0[:3].tolist(),
+            substeps=substeps, integrator="rk4" if sampled else integrator, alpha0=y0[:3].tolist(),
             alpha_dot0=y0[3:6].tolist(), wall_time=wall, rhs_evaluations=int(outcome.counters[0]),
-            split_steps=int(outcome.counters[1]), batch_size=count, compiled=True,
+            batch_size=count, compiled=True,
+            **({"rtol": rtol, "atol": atol, "rejected_steps": int(outcome.counters[1]),
+                "accepted_steps": int(outcome.counters[2]), "jacobians": int(outcome.counters[3])}
+               if radau else {"split_steps": int(outcome.counters[1])}),
         )  # fmt: skip
         if getattr(run_plant, "projections", 0):
             metadata["closure_projections"] = run_plant.projections
@@ -255,20 +281,25 @@ def _plant_record(plant: Plant, controller: AdaptiveRobustController) -> np.reco
     )
 
 
+def _attach_tree(plant_record, plant: PinocchioPlant, y0) -> None:
+    """The Pinocchio tree in active coordinates in the plant record: the native tree, whose
+    completions of q(alpha) restart from the closed configuration at alpha0."""
+    tree = plant.native_tree()
+    source = plant.robot.pinocchio
+    tree.set_active(source.active_indices, source.platform_indices, source.configuration(y0[:3]))
+    plant_record["tree"] = True
+    plant_record["active_dynamics"] = tree.address_active
+    plant_record["tree_handle"] = tree.handle
+    plant_record["nominal_platform_mass"] = plant.nominal_platform_mass
+    plant_record["nominal_platform_rotational"] = plant.nominal_platform_rotational
+
+
 def _run_closed_loop(controller, plant: Plant, truth, reference, y0, timing) -> _Outcome:
     """One run through :func:`~delta_pin.compiled.closed_loop.run_closed_loop`: the analytic plant,
     or the Pinocchio tree in active coordinates (continuous mode)."""
     plant_record = _plant_record(plant, controller)
     if isinstance(plant, PinocchioPlant):
-        tree = plant.native_tree()
-        source = plant.robot.pinocchio
-        # completions of q(alpha) restart from the closed configuration at alpha0
-        tree.set_active(source.active_indices, source.platform_indices, source.configuration(y0[:3]))
-        plant_record["tree"] = True
-        plant_record["active_dynamics"] = tree.address_active
-        plant_record["tree_handle"] = tree.handle
-        plant_record["nominal_platform_mass"] = plant.nominal_platform_mass
-        plant_record["nominal_platform_rotational"] = plant.nominal_platform_rotational
+        _attach_tree(plant_record, plant, y0)
     samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
     counters = np.zeros(2, dtype=np.int64)
     status, when = closed_loop.run_closed_loop(
@@ -279,6 +310,40 @@ def _run_closed_loop(controller, plant: Plant, truth, reference, y0, timing) -> 
     if status != closed_loop.OK:
         method = "rk4" if timing["sampled"] else "bdf2"
         failure = SimulationError(f"{method}: {_FAILURES[int(status)]}", float(when))
+    return _Outcome(samples, info, counters, failure)
+
+
+RADAU_GRID = 4  # truth and reference rows per sample for the Radau integrator (dt / 4, as LSODA's)
+
+
+def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, atol: float) -> _Outcome:
+    """One continuous run through :func:`~delta_pin.compiled.radau.run_radau`: the analytic plant
+    or the Pinocchio tree in active coordinates; truth and reference on the grid dt / RADAU_GRID."""
+    plant_record = _plant_record(plant, controller)
+    if isinstance(plant, PinocchioPlant):
+        _attach_tree(plant_record, plant, y0)
+    reference = records(REFERENCE, len(table.alpha))
+    reference["alpha"], reference["alpha_dot"], reference["alpha_ddot"] = (
+        table.alpha,
+        table.alpha_dot,
+        table.alpha_ddot,
+    )
+    control = record(
+        STEP_CONTROL, rtol=rtol, atol=atol, first_step=RADAU_FIRST_STEP, max_step=RADAU_MAX_STEP,
+        grid_step=table.step,
+    )  # fmt: skip
+    samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
+    counters = np.zeros(4, dtype=np.int64)
+    jerk = np.ascontiguousarray(table.alpha_dddot)
+    status, when = radau.run_radau(
+        controller.kernel_parameters, *chain_trigonometry(), plant_record, truth, reference, jerk, control,
+        y0, timing, record(WORKSPACE), samples, info, counters,
+    )  # fmt: skip
+    failure = None
+    if status != closed_loop.OK:
+        failure = SimulationError(
+            f"radau: {_RADAU_FAILURES.get(int(status), _FAILURES.get(int(status)))}", float(when)
+        )
     return _Outcome(samples, info, counters, failure)
 
 

@@ -6,7 +6,8 @@ Two timings (docs/architecture.md section 6):
   hold) over [t_k, t_k + dt) while the plant integrates with ``substeps`` RK4 steps; the
   controller's internal state (rho_hat) advances once per period, z_{k+1} = z_k + dt z_dot_k;
 * ``mode="continuous"`` -- the analysis of the paper: the controller is evaluated inside the
-  integrator (LSODA by default, RK4 or the compiled BDF2 on request).
+  integrator (the compiled Radau IIA with error control by default for designs I/II, LSODA for
+  other controllers; RK4 or the compiled fixed-step BDF2 on request).
 
 :func:`simulate` checks its arguments, chooses the compiled loops
 (:func:`~delta_pin.sim.batch.simulate_batch`) where they apply or the Python loop
@@ -37,13 +38,18 @@ from delta_pin.sim.run import Run, run_metadata
 __all__ = ["INTEGRATOR_CHOICES", "simulate"]
 
 
-def _choose_integrator(integrator: str, mode: str) -> str:
-    """The integrator ``"auto"`` stands for in ``mode``, or ``integrator`` if it fits the mode."""
+def _choose_integrator(integrator: str, mode: str, controller=None, plant="pinocchio", compiled=None) -> str:
+    """The integrator ``"auto"`` stands for in ``mode``, or ``integrator`` if it fits the mode:
+    in continuous mode the compiled Radau IIA where it applies (designs I/II with their compiled
+    step; not with ``compiled=False``), else LSODA; RK4 in sampled mode."""
     if integrator == "auto":
-        return "lsoda" if mode == "continuous" else "rk4"
+        if mode != "continuous":
+            return "rk4"
+        fits = compiled is not False and controller is not None and batchable(controller, plant, mode)
+        return "radau" if fits else "lsoda"
     if integrator not in INTEGRATORS or (integrator != "rk4" and mode == "sampled"):
         raise InvalidParameterError(
-            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda' or 'bdf2'"
+            f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda', 'bdf2' or 'radau'"
         )
     return integrator
 
@@ -74,7 +80,7 @@ def _runs_compiled(
     :func:`simulate_batch` names what it cannot run). The compiled loops of designs I/II do not
     model an encoder, a delay or a torque limit: such runs take the Python loop (the digital laws
     have their own compiled loop, :func:`~delta_pin.sim.digital_batch.simulate_digital`)."""
-    if integrator == "bdf2":
+    if integrator in ("bdf2", "radau"):
         return True
     if drive_effects:
         if compiled:
@@ -148,16 +154,17 @@ def simulate(
         uncertainty: an :class:`~delta_pin.sim.uncertainty.Uncertainty` profile or ``None``.
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
         integrator: ``"rk4"`` (fixed step dt / substeps), ``"lsoda"`` (scipy's adaptive
-            stiff/non-stiff switching solver, continuous mode only) or ``"bdf2"`` (compiled implicit
-            BDF2 with step dt / substeps, continuous mode, designs I/II on either plant -- the
-            Pinocchio plant in active coordinates through the native library --:
-            :func:`~delta_pin.sim.batch.simulate_batch`; 5-25x faster than LSODA, less accurate:
-            ~3e-6 rad from a tight reference after 0.1 s at 1 ms steps, up to 5e-4 rad in a
-            reaching phase, against ~1e-8 rad for LSODA's defaults). ``"auto"`` takes RK4 in
-            sampled mode and LSODA in continuous mode, where the robust term's boundary-layer gain
-            makes the closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains: RK4
-            would need ~80 substeps per millisecond).
-        rtol, atol: LSODA tolerances (relative; absolute in SI units of the state). For designs
+            stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (the compiled
+            Radau IIA of order 5 with error control, :mod:`delta_pin.compiled.radau`: continuous
+            mode, designs I/II with their compiled step, on either plant -- the Pinocchio plant in
+            active coordinates through the native library; 3.7e-8 rad from a tight reference over
+            15 s of path I at the default tolerances, reaching phase included, in ~0.1 s on the
+            analytic plant) or ``"bdf2"`` (compiled implicit BDF2 with fixed steps dt / substeps;
+            up to 5e-4 rad off in a reaching phase; what sweeps batch). ``"auto"`` takes RK4 in
+            sampled mode and, in continuous mode, where the robust term's boundary-layer gain makes
+            the closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains), Radau where
+            it applies and LSODA elsewhere.
+        rtol, atol: LSODA's or Radau's tolerances (relative; absolute in SI units of the state). For designs
             I/II rtol is tightened where needed to resolve the robust term's boundary layer (a fast
             path such as the Adept cycle); ``metadata["rtol"]`` is the one used.
         progress: show the simulated time on stderr (``None``: only on a terminal).
@@ -188,7 +195,7 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
-    integrator = _choose_integrator(integrator, mode)
+    integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
@@ -203,7 +210,8 @@ def simulate(
         return simulate_batch(
             robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,
             mode=mode, alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction,
-            uncertainties=[uncertainty],
+            uncertainties=[uncertainty], integrator="radau" if integrator == "radau" else "bdf2", rtol=rtol,
+            atol=atol,
         )[0]  # fmt: skip
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)

@@ -59,8 +59,10 @@ class RunSpec:
         path: ``"I"`` (eq. 66), ``"II"`` (eq. 69) or ``"adept"`` (pick-and-place cycle).
         plant: ``"pinocchio"`` or ``"analytic"``.
         mode: ``"continuous"`` or ``"sampled"``.
-        integrator: ``"auto"`` (RK4 sampled, LSODA continuous), ``"rk4"``, ``"lsoda"`` or
-            ``"bdf2"`` (compiled, designs I/II, continuous, on either plant; batched by sweeps).
+        integrator: ``"auto"`` (RK4 sampled; continuous: the compiled Radau IIA for designs I/II,
+            LSODA for the others), ``"rk4"``, ``"lsoda"``, ``"radau"`` (compiled, error-controlled)
+            or ``"bdf2"`` (compiled, fixed steps; batched by sweeps), the compiled ones for designs
+            I/II on either plant.
         t_end: duration [s]; ``None`` for the path's default (15 s, 10 s, 3 s).
         dt: sample / control period [s].
         friction_compensation: include M̄_f in the controller.

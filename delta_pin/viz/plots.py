@@ -643,7 +643,8 @@ def plot_against_rate(
     ax.set_xlabel("sample rate [Hz]")
     ax.set_ylabel(f"{name} [{unit}]" if unit else name)
     ax.set_title(f"{name} against the sample rate (x: diverged, at the time shown)", fontsize=10)
-    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    if ax.get_legend_handles_labels()[0]:  # a study whose rows all lack a value draws no line
+        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     ax.grid(True, which="both", alpha=0.3)
     return fig
 
@@ -684,7 +685,8 @@ def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) ->
     if diverged:
         title += "\n" + textwrap.fill("diverged: " + ", ".join(diverged), 100)
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    if ax.get_legend_handles_labels()[0]:  # a study whose rows all lack a value draws no line
+        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     ax.grid(True, which="both", alpha=0.3)
     return fig
 
