@@ -11,10 +11,11 @@ integrator of ``delta_pin.sim.runner`` with the controller inside.
 Second table: design I on the Pinocchio plant as ``delta_pin.studies.experiments.RunSpec`` runs it
 (Section V conditions), sampled at 1 kHz with the sampling-aware gain cap (target: 15 s in at most
 1 s, closure residual <= 1e-9 m; the compiled loop of ``delta_pin.compiled.tree_loop``) and continuous
-with the paper's gains (target: 15 s in at most 1.3 s; compiled BDF2 in active coordinates,
-chosen on measurements: see README). Each target row has its reference in the same table: the
-Python loop (``compiled=False``) and LSODA, the default continuous integrator (timed once: ~20
-s). With ``--t-end`` shorter than 15 s the time limits are scaled by t_end / 15.
+with the paper's gains: the default, the compiled Radau IIA (issue 14: at most 1.0 s, within 1e-6
+rad of a tight reference), and the fixed-step BDF2 (at most 1.3 s). Each target row has its
+reference in the same table: the Python loop (``compiled=False``) and LSODA (timed once: ~20 s).
+The accuracy is measured against LSODA at rtol 1e-11 (~30 s). With ``--t-end`` shorter than 15 s
+the time limits are scaled by t_end / 15.
 
 Each case is warmed up by a 0.2 s run (numba compilation, caches), then timed ``repeats`` times.
 """
@@ -28,7 +29,13 @@ from common import machine_info, measure, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.sim.runner import simulate
-from delta_pin.studies.experiments import RunSpec, run_spec
+from delta_pin.studies.experiments import (
+    RunSpec,
+    build_controller,
+    build_trajectory,
+    build_uncertainty,
+    run_spec,
+)
 
 WARMUP_T_END = 0.2  # [s]
 PAPER_T_END = 15.0  # [s] the duration the targets are stated for
@@ -37,8 +44,19 @@ CONTINUOUS = RunSpec(controller="design1", plant="pinocchio", mode="continuous",
 TARGETS = {  # label: (spec, run_spec options, limit for 15 s [s] or None for a reference, repeats)
     "design I, sampling-aware, sampled (RK4 1 kHz), compiled": (SAMPLED, {}, 1.0, None),
     "the same, Python loop (compiled=False)": (SAMPLED, {"compiled": False}, None, 1),
+    "design I, paper gains, continuous, the default (compiled Radau IIA)": (
+        CONTINUOUS.with_(integrator="auto"),
+        {},
+        1.0,
+        None,
+    ),
     "design I, paper gains, continuous, compiled BDF2 (1 ms)": (CONTINUOUS, {}, 1.3, None),
-    "the same, LSODA (the default integrator)": (CONTINUOUS.with_(integrator="lsoda"), {}, None, 1),
+    "the same, LSODA (SciPy, rtol 1e-6: the default before Radau)": (
+        CONTINUOUS.with_(integrator="lsoda"),
+        {},
+        None,
+        1,
+    ),
 }
 CLOSURE_LIMIT = 1e-9  # [m]
 # issue 13: the digital laws on a digital drive (17-bit encoders, one sample of delay), Pinocchio plant
@@ -119,8 +137,11 @@ def main() -> None:
         f"issue 7 run-time targets: design I, {args.t_end:g} s of path I",
         [t for _, t, _ in targets],
     )
-    for (label, timing, _), (_, reference, _) in zip(targets[::2], targets[1::2]):
-        print(f"{label}: {reference.median / timing.median:.1f}x faster than its reference")
+    (sampled, compiled, _), (_, python_loop, _) = targets[0], targets[1]
+    print(f"{sampled}: {python_loop.median / compiled.median:.1f}x faster than the Python loop")
+    lsoda = targets[-1][1]
+    for label, timing, _ in targets[2:4]:
+        print(f"{label}: {lsoda.median / timing.median:.1f}x faster than LSODA")
 
     for label, timing, limit in targets:
         if limit is not None:
@@ -128,6 +149,23 @@ def main() -> None:
             report_target(f"15 s {label}, Pinocchio plant{suffix}", timing.median, limit * scale)
     sampled = next(iter(TARGETS))
     report_target(f"closure residual of the {sampled} run", residuals[sampled], CLOSURE_LIMIT, unit="m")
+
+    # issue 14: accuracy of the continuous default against a tight reference (LSODA at rtol 1e-11,
+    # which agrees with itself at 1e-10 to 4e-8 rad and across the two plants to 3e-11 rad)
+    default = run_spec(CONTINUOUS.with_(integrator="auto", t_end=args.t_end), robot)
+    tight = simulate(
+        robot, build_controller(CONTINUOUS, robot), build_trajectory("I"), plant="pinocchio",
+        t_end=args.t_end, mode="continuous", integrator="lsoda", rtol=1e-11, atol=1e-13,
+        alpha0=np.full(3, 0.3322), friction=dp.Friction(), uncertainty=build_uncertainty(CONTINUOUS),
+    )  # fmt: skip
+    deviation = float(np.abs(default.alpha - tight.alpha).max())
+    print(
+        f"\ncontinuous default ({default.metadata['integrator']}) against LSODA at rtol 1e-11: "
+        f"{deviation:.1e} rad over {args.t_end:g} s (the reference took {tight.metadata['wall_time']:.1f} s)"
+    )
+    report_target(
+        "continuous design I default: deviation from a tight reference", deviation, 1e-6, unit="rad"
+    )
 
     digital = [
         measure(
