@@ -244,6 +244,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         "spec": spec.as_dict(),
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
+        # steps whose loop-closure gap was projected back (Pinocchio plant; null on the analytic)
+        "closure_projections": run.metadata.get("closure_projections"),
+        "closure_gap_projected_max": run.metadata.get("closure_gap_projected_max"),
         "warnings": warnings,
         "outputs": [str(path) for path in written],  # what a rerun into this --out removes first
     }
@@ -252,6 +255,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
+    if run.metadata.get("closure_projections"):
+        print(
+            f"  {'closure_projections':<28} {run.metadata['closure_projections']} (largest gap projected "
+            f"back: {run.metadata.get('closure_gap_projected_max', float('nan')):.3g} m)"
+        )
     note = window_note(run)
     if note:
         print(f"  note: {note}")
