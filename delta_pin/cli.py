@@ -289,7 +289,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from delta_pin.studies.reproduce import reproduce
 
     _check_output_dir("--out", args.out)
-    result = reproduce(args.out, quick=not args.full, **_executor_options(args))
+    result = reproduce(args.out, quick=not args.full, **_executor_options(args), **_folder_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     print(
         f"{holds} of {len(result.claims)} of the paper's claims hold on this plant: "
@@ -328,7 +328,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     ]
     _check_output_dir("--out", args.out)
     _check_memory(specs, args)
-    metrics = compare(specs, args.out, **_executor_options(args))
+    metrics = compare(specs, args.out, **_executor_options(args), **_folder_options(args))
     print(markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
     return _failures([row.get("error") for row in metrics], args)
@@ -355,6 +355,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         args.out,
         metric=args.metric,
         **_executor_options(args),
+        **_folder_options(args),
     )
     print(f"{len(rows)} points: wrote {args.out}/results.csv")
     return _failures([row.get("error") for row in rows], args)
@@ -419,7 +420,18 @@ def _executor_options(args: argparse.Namespace) -> dict:
     return {"workers": args.workers, "scheduler": args.scheduler, "robot_args": robot_args or None}
 
 
+def _folder_options(args: argparse.Namespace) -> dict:
+    """How a study treats its output folder (delta_pin.studies.manifest)."""
+    return {"overwrite": args.overwrite, "command_line": args.command_line}
+
+
 def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the outputs of a different study in --out (by default such a folder is refused; "
+        "its cache/ is kept either way)",
+    )
     _add_robot_arguments(parser, allow_urdf=False)
     parser.add_argument(
         "--workers",
@@ -593,6 +605,7 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help
         return exc.code if isinstance(exc.code, int) else 0
     prefix = f"delta-pin {args.command}"
+    args.command_line = ["delta-pin", *(sys.argv[1:] if argv is None else argv)]
     try:
         return args.func(args)
     except KeyboardInterrupt:
