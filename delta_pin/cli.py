@@ -446,18 +446,35 @@ def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _stop(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
 def _cmd_view(args: argparse.Namespace) -> int:
-    from delta_pin.viz.meshcat_export import view_live
+    """The live viewer until Ctrl-C or SIGTERM (or SIGHUP), either of which also ends its meshcat
+    server (a SIGTERM used to leave the server on port 7000)."""
+    import signal
+    import time
 
-    viewer = view_live(args.run, open_browser=args.open)
-    print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop")
+    from delta_pin.viz.meshcat_export import close_live, view_live
+
+    stops = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = {signum: signal.signal(signum, _stop) for signum in stops}
+    viewer = None
     try:
-        import time
-
+        viewer = view_live(args.run, open_browser=args.open)
+        print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
+        if viewer is None:
+            raise  # stopped while starting: interrupted
         return 0
+    finally:
+        if viewer is not None:
+            close_live(viewer)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 _DEBUG_HELP = "on an error, show Python's traceback instead of one line"
