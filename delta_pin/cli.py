@@ -217,6 +217,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         "spec": spec.as_dict(),
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
+        # steps whose loop-closure gap was projected back (Pinocchio plant; null on the analytic)
+        "closure_projections": run.metadata.get("closure_projections"),
+        "closure_gap_projected_max": run.metadata.get("closure_gap_projected_max"),
         "warnings": warnings,
         "outputs": [str(path) for path in written],  # what a rerun into this --out removes first
     }
@@ -225,6 +228,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
+    if run.metadata.get("closure_projections"):
+        print(
+            f"  {'closure_projections':<28} {run.metadata['closure_projections']} (largest gap projected "
+            f"back: {run.metadata.get('closure_gap_projected_max', float('nan')):.3g} m)"
+        )
     note = window_note(run)
     if note:
         print(f"  note: {note}")
@@ -254,7 +262,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from delta_pin.studies.reproduce import reproduce
 
     _check_output_dir("--out", args.out)
-    result = reproduce(args.out, quick=not args.full, **_executor_options(args))
+    result = reproduce(args.out, quick=not args.full, **_executor_options(args), **_folder_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
     print(
         f"{holds} of {len(result.claims)} of the paper's claims hold on this plant: "
@@ -293,7 +301,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     ]
     _check_output_dir("--out", args.out)
     _check_memory(specs, args)
-    metrics = compare(specs, args.out, **_executor_options(args))
+    metrics = compare(specs, args.out, **_executor_options(args), **_folder_options(args))
     print(markdown_table(metrics))
     print(f"wrote {args.out}/metrics.csv, metrics.md and figures/")
     return _failures([row.get("error") for row in metrics], args)
@@ -320,6 +328,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         args.out,
         metric=args.metric,
         **_executor_options(args),
+        **_folder_options(args),
     )
     print(f"{len(rows)} points: wrote {args.out}/results.csv")
     return _failures([row.get("error") for row in rows], args)
@@ -385,7 +394,18 @@ def _executor_options(args: argparse.Namespace) -> dict:
     return {"workers": args.workers, "scheduler": args.scheduler, "robot_args": robot_args or None}
 
 
+def _folder_options(args: argparse.Namespace) -> dict:
+    """How a study treats its output folder (delta_pin.studies.manifest)."""
+    return {"overwrite": args.overwrite, "command_line": args.command_line}
+
+
 def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the outputs of a different study in --out (by default such a folder is refused; "
+        "its cache/ is kept either way)",
+    )
     _add_robot_arguments(parser, allow_urdf=False)
     parser.add_argument(
         "--workers",
@@ -400,18 +420,35 @@ def _add_executor_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _stop(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
 def _cmd_view(args: argparse.Namespace) -> int:
-    from delta_pin.viz.meshcat_export import view_live
+    """The live viewer until Ctrl-C or SIGTERM (or SIGHUP), either of which also ends its meshcat
+    server (a SIGTERM used to leave the server on port 7000)."""
+    import signal
+    import time
 
-    viewer = view_live(args.run, open_browser=args.open)
-    print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop")
+    from delta_pin.viz.meshcat_export import close_live, view_live
+
+    stops = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = {signum: signal.signal(signum, _stop) for signum in stops}
+    viewer = None
     try:
-        import time
-
+        viewer = view_live(args.run, open_browser=args.open)
+        print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
+        if viewer is None:
+            raise  # stopped while starting: interrupted
         return 0
+    finally:
+        if viewer is not None:
+            close_live(viewer)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 _DEBUG_HELP = "on an error, show Python's traceback instead of one line"
@@ -559,6 +596,7 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help
         return exc.code if isinstance(exc.code, int) else 0
     prefix = f"delta-pin {args.command}"
+    args.command_line = ["delta-pin", *(sys.argv[1:] if argv is None else argv)]
     try:
         return args.func(args)
     except KeyboardInterrupt:

@@ -270,6 +270,8 @@ def test_ctrl_c_of_a_real_reproduction(tmp_path):
     assert process.returncode == 130, err
     assert "Traceback" not in err
     assert err.strip().splitlines() == ["delta-pin reproduce: interrupted; rerun the same command to resume"]
+    manifest = json.loads((tmp_path / "manifest.json").read_text())  # the folder is marked unfinished
+    assert manifest["complete"] is False and manifest["options"]["quick"] is True
 
 
 @pytest.mark.parametrize("command", ["urdf", "validate", "run", "view", "compare", "sweep", "reproduce"])

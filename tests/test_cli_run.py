@@ -136,6 +136,24 @@ def test_run_on_a_digital_drive_reports_roughness_and_limit_hits(tmp_path):
     assert run.metadata["delay"] == 1 and run.metadata["controller"]["delay"] == 1
 
 
+def test_a_rough_sampled_run_on_the_pinocchio_plant_completes_and_counts_its_projections(tmp_path, capsys):
+    """TDC on 11-bit encoders drifts the loops by up to 1.7e-6 m in one 1 ms step: before issue 15
+    `run` stopped at t = 1.323 s ("the loop-closure gap exploded to 1.060e-06 m", exit 1); the
+    plant now projects such steps back, and summary.json says how many it projected."""
+    out = tmp_path / "rough"
+    code = main(
+        ["run", "--controller", "tdc", "--mode", "sampled", "--t-end", "3", "--encoder-bits", "11",
+         "--delay", "1", "--out", str(out)]
+    )  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    run = load_run(out / "run.npz")
+    assert summary["closure_projections"] == run.metadata["closure_projections"] > 1000
+    assert summary["closure_gap_projected_max"] > 1e-6  # [m] the old failure tolerance
+    assert summary["closure_residual_max"] <= 1e-10  # [m] after the projections
+    assert f"closure_projections          {summary['closure_projections']} " in capsys.readouterr().out
+
+
 def test_a_run_that_saturates_most_of_the_time_says_so(tmp_path, capsys):
     """digital-robust with a 5 N m limit (the paper's disturbance F̄ = [2, 4, 6] N m alone exceeds
     it on joint 3): the limit binds at most samples, and summary.json and the terminal both say so,

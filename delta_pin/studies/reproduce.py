@@ -25,7 +25,7 @@ import io
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +33,7 @@ import numpy as np
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import load_delta
 from delta_pin.sim.run import Run, load_run
+from delta_pin.studies import manifest
 from delta_pin.studies.digital import DigitalStudy, digital_report_lines, digital_rows, digital_specs
 from delta_pin.studies.experiments import RunSpec, check_specs
 from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
@@ -171,6 +172,8 @@ def reproduce(
     scheduler: str | None = None,
     progress: bool | None = None,
     robot_args: dict | None = None,
+    overwrite: bool = False,
+    command_line: list[str] | None = None,
 ) -> ReproductionResult:
     """Run the Section V study and write every output (see the module docstring).
 
@@ -180,10 +183,21 @@ def reproduce(
         settings: explicit settings instead (e.g. a tiny study for tests).
         workers, scheduler: local processes, or a Dask scheduler address (see :func:`run_sweep`).
         robot_args: xacro arguments of the robot (the Table 1 robot by default).
+        overwrite: replace the outputs of a different study in ``out`` instead of refusing it
+            (:func:`delta_pin.studies.manifest.begin`).
+        command_line: the command as typed, for ``manifest.json``.
     """
     start = time.perf_counter()
     settings = settings or (ReproduceSettings.quick() if quick else ReproduceSettings.full())
     out = Path(out)
+    folder = manifest.begin(
+        out,
+        "reproduce",
+        {"quick": quick, "settings": asdict(settings)},
+        robot_args=robot_args,
+        overwrite=overwrite,
+        command_line=command_line,
+    )
     figures = out / "figures"
     cache = out / "cache"
     plant = settings.plant
@@ -241,6 +255,7 @@ def reproduce(
     pages = _write_meshcat_pages(result)
     result.wall_time = time.perf_counter() - start
     _write_report(result, quick, plant, pages, robot_args)
+    folder.finish()  # the folder is whole: its manifest lists every output with its SHA-256
     print(
         f"wrote {out}/index.html, report.md, metrics.csv, metrics.md and {len(list(figures.glob('*.png')))} "
         f"figures in {result.wall_time:.0f} s",
@@ -586,13 +601,24 @@ def compare(
     scheduler: str | None = None,
     progress: bool | None = None,
     robot_args: dict | None = None,
+    overwrite: bool = False,
+    command_line: list[str] | None = None,
 ) -> list[dict]:
     """Run ``specs`` (controllers x paths), write their runs, ``metrics.csv``/``.md`` and figures;
-    ``robot_args`` are xacro arguments of the robot (Table 1 by default)."""
+    ``robot_args`` are xacro arguments of the robot (Table 1 by default); ``overwrite`` and
+    ``command_line`` as for :func:`reproduce`."""
     from delta_pin.viz import plots
 
     out = Path(out)
     check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
+    folder = manifest.begin(
+        out,
+        "compare",
+        {"specs": [spec.as_dict() for spec in specs]},
+        robot_args=robot_args,
+        overwrite=overwrite,
+        command_line=command_line,
+    )
     points = run_sweep(
         specs,
         out / "cache",
@@ -636,6 +662,7 @@ def compare(
             plots.plot_metric_bars(table, metric, log=metric != "control_effort"),
             out / "figures" / f"{metric}.png",
         )
+    folder.finish()
     return metrics
 
 
@@ -649,9 +676,12 @@ def sweep(
     scheduler: str | None = None,
     progress: bool | None = None,
     robot_args: dict | None = None,
+    overwrite: bool = False,
+    command_line: list[str] | None = None,
 ) -> list[dict]:
     """A grid over ``axes`` around ``base``: ``results.csv`` (one row per point) and, for two axes,
-    a surface of ``metric``; ``robot_args`` are xacro arguments of the robot."""
+    a surface of ``metric``; ``robot_args`` are xacro arguments of the robot; ``overwrite`` and
+    ``command_line`` as for :func:`reproduce`."""
     from delta_pin.viz import plots
 
     out = Path(out)
@@ -659,6 +689,14 @@ def sweep(
     if metric not in METRIC_NAMES:
         raise InvalidParameterError(f"metric={metric!r} must be one of {', '.join(METRIC_NAMES)}")
     check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
+    folder = manifest.begin(
+        out,
+        "sweep",
+        {"base": base.as_dict(), "axes": axes, "metric": metric},
+        robot_args=robot_args,
+        overwrite=overwrite,
+        command_line=command_line,
+    )
     points = run_sweep(
         specs, out / "cache", workers=workers, scheduler=scheduler, progress=progress, robot_args=robot_args
     )
@@ -680,4 +718,5 @@ def sweep(
             x, y, values, names[0], names[1], z_label=metric, title=f"{metric} over ({names[0]}, {names[1]})"
         )
         plots.save_figure(fig, out / f"{metric}_{names[0]}_{names[1]}.png")
+    folder.finish()
     return rows

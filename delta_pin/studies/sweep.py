@@ -448,7 +448,10 @@ def _backend(executor, workers: int | None, scheduler: str | None):
     if executor == "process":
         # Ctrl-C reaches the whole process group: the workers leave it to this process, which
         # stops the pool (instead of each printing its own KeyboardInterrupt traceback)
-        pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
+        # (and a worker ends when this process dies, even by SIGKILL: _init_worker)
+        pool = concurrent.futures.ProcessPoolExecutor(
+            max_workers=workers, initializer=_init_worker, initargs=(os.getpid(),)
+        )
         clean = False
         try:
             yield functools.partial(
@@ -495,11 +498,16 @@ def _terminate_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
         process.terminate()
 
 
-def _ignore_sigint() -> None:
-    """Initializer of the pool's workers: Ctrl-C is for the parent process to handle."""
+def _init_worker(parent: int) -> None:
+    """Initializer of the pool's workers: Ctrl-C is for the parent process to handle, and a worker
+    ends when the parent process ``parent`` dies (killed outright, its workers used to live on,
+    blocked on their pipe, ~220 MB each)."""
     import signal
 
+    from delta_pin.utils.processes import die_with_parent
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent)
 
 
 def _resolve_executor(executor, workers, scheduler):

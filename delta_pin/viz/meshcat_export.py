@@ -48,6 +48,7 @@ __all__ = [
     "RobotMismatchError",
     "RunFileNotFoundError",
     "VisualizationError",
+    "close_live",
     "export_html",
     "read_scene_commands",
     "scene_html",
@@ -709,3 +710,16 @@ def view_live(
         vis.open()
     _draw(vis, scene, fps, colors, repetitions=1)
     return vis
+
+
+def close_live(vis) -> None:
+    """Stop the meshcat server that :func:`view_live` started (nothing for one it connected to):
+    meshcat stops it only at a normal interpreter exit, not on SIGTERM."""
+    server = getattr(getattr(vis, "window", None), "server_proc", None)
+    if server is not None and server.poll() is None:
+        server.terminate()
+        try:
+            server.wait(timeout=5.0)
+        except Exception:  # pragma: no cover - a server that ignores SIGTERM
+            server.kill()
+            server.wait()

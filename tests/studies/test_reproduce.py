@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from delta_pin.cli import main
-from delta_pin.errors import SimulationError
+from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.sim.run import load_run
 from delta_pin.studies.digital import DIGITAL_CONTROLLERS, DigitalStudy, digital_specs
 from delta_pin.studies.experiments import run_spec
@@ -247,7 +247,9 @@ def test_reproduce_on_another_robot_in_the_same_folder(tiny, tmp_path):
     out = tmp_path / "reproduce"
     shutil.copytree(tiny[0], out)
     before = len(list((out / "cache").glob("*.json")))
-    result = reproduce(out, settings=TINY, workers=1, robot_args={"l_a": 0.22})
+    with pytest.raises(InvalidParameterError, match=r'robot_args.l_a: absent before, "0.22" now'):
+        reproduce(out, settings=TINY, workers=1, robot_args={"l_a": "0.22"})  # outputs never mix
+    result = reproduce(out, settings=TINY, workers=1, robot_args={"l_a": 0.22}, overwrite=True)
     assert len(list((out / "cache").glob("*.json"))) == 2 * before  # all computed again
     assert len(result.runs) == 10
     assert {run.metadata["robot"]["l_a"] for run in result.runs.values()} == {0.22}
