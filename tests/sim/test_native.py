@@ -49,11 +49,27 @@ def test_joints_beyond_the_axis_joints_are_refused():
 
 
 def test_a_missing_compiler_is_named(monkeypatch, tmp_path):
+    monkeypatch.setattr(native, "PREBUILT", tmp_path / "no-prebuilt")  # the build-on-first-use path
     monkeypatch.setenv("DELTA_PIN_CACHE", str(tmp_path))
     monkeypatch.setenv("CXX", "no-such-c++")
     with pytest.raises(native.NativeUnavailableError, match="no-such-c\\+\\+"):
         native.build()
     assert list(tmp_path.iterdir()) == []  # nothing half-written left behind
+
+
+def test_the_prebuilt_library_serves_only_the_pinocchio_and_source_it_was_built_from(monkeypatch, tmp_path):
+    """setup.py builds the library at install time with a stamp; a stamp that does not match (a
+    different ``pin``, an edited source) sends build() to the first-use path instead."""
+    (tmp_path / "prebuilt").mkdir()
+    (tmp_path / "prebuilt" / "tree_dynamics.so").write_bytes(b"not a library")
+    (tmp_path / "prebuilt" / "stamp.txt").write_text(native._stamp() + "\n")
+    monkeypatch.setattr(native, "PREBUILT", tmp_path / "prebuilt")
+    assert native.build() == tmp_path / "prebuilt" / "tree_dynamics.so"
+    (tmp_path / "prebuilt" / "stamp.txt").write_text("built against another Pinocchio\n")
+    monkeypatch.setenv("DELTA_PIN_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("CXX", "no-such-c++")  # the fallback is a build: here it fails at once, by name
+    with pytest.raises(native.NativeUnavailableError, match="no-such-c"):
+        native.build()
 
 
 def test_the_native_path_can_be_turned_off(monkeypatch):

@@ -6,11 +6,16 @@ compiled loops of :mod:`delta_pin.compiled.closed_loop` call Pinocchio's C++ dir
 ``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit
 (tests/sim/test_native.py).
 
-The library is built on first use (~20 s) with the system's C++ compiler (``$CXX`` or ``c++``)
-against the headers and libraries of the installed ``pin`` wheel and Eigen's headers (the
-``cmeel-eigen`` wheel), and cached in ``$DELTA_PIN_CACHE`` (default ``~/.cache/delta-pin``) under
-a name that hashes the source, the flags and the Pinocchio version; it is written atomically, so
-parallel processes may build it at once. Where it cannot be built (no compiler, no headers) or
+The library is built when the package is installed (``setup.py`` runs :func:`build_prebuilt`):
+``prebuilt/tree_dynamics.so`` beside this file, with a stamp of the source, the flags and the
+Pinocchio version it was compiled against. Where that stamp does not match the running Pinocchio
+(another ``pin`` installed later, the source edited), it is built on first use (~45 s) with the
+system's C++ compiler (``$CXX`` or ``c++``) against the headers and libraries of the installed
+``pin`` wheel and Eigen's headers (the ``cmeel-eigen`` wheel), and cached in ``$DELTA_PIN_CACHE``
+(default ``~/.cache/delta-pin``) under a name that hashes the same things; it is written
+atomically, so parallel processes may build it at once. The library needs no run-time path to
+Pinocchio's: ``import pinocchio`` has loaded ``libpinocchio_default`` into the process already.
+Where it cannot be built (no compiler, no headers) or
 ``DELTA_PIN_NATIVE=0``, :func:`load` returns ``None`` after one warning and callers keep the
 Python path (the same results, slower).
 
@@ -35,9 +40,10 @@ import numpy as np
 
 from delta_pin.errors import NativeUnavailableError
 
-__all__ = ["JOINT_TYPES", "NativeUnavailableError", "TreeDynamics", "build", "load"]
+__all__ = ["JOINT_TYPES", "NativeUnavailableError", "TreeDynamics", "build", "build_prebuilt", "load"]
 
 SOURCE = Path(__file__).with_name("tree_dynamics.cpp")
+PREBUILT = Path(__file__).with_name("prebuilt")  # the library built at install time, and its stamp
 # what pinocchio's CMake targets define for their users (lib/cmake/pinocchio/pinocchioTargets.cmake)
 DEFINES = (
     "PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",
@@ -105,12 +111,51 @@ def _library_path(prefix: Path) -> Path:
     return _cache_dir() / f"tree_dynamics-{key}.so"
 
 
+def _stamp() -> str:
+    """What a prebuilt library must have been compiled from: the source, the flags, the Pinocchio
+    version (its C++ ABI)."""
+    import pinocchio
+
+    return hashlib.sha256(
+        SOURCE.read_bytes() + repr((FLAGS, DEFINES, pinocchio.__version__)).encode()
+    ).hexdigest()
+
+
+def _prebuilt() -> Path | None:
+    """The library built at install time, where its stamp matches this Pinocchio and source."""
+    library, stamp = PREBUILT / "tree_dynamics.so", PREBUILT / "stamp.txt"
+    if library.exists() and stamp.exists() and stamp.read_text().strip() == _stamp():
+        return library
+    return None
+
+
+def build_prebuilt(directory: Path = PREBUILT) -> Path:
+    """Compile the library into ``directory`` with its stamp (what ``setup.py`` runs at install
+    time; the build environment's ``pin`` must be the one installed with the package).
+
+    Raises:
+        NativeUnavailableError: no compiler or headers, or the compiler failed.
+    """
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "tree_dynamics.so"
+    command = [part for part in _command(_prefix(), path) if not part.startswith("-Wl,-rpath")]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise NativeUnavailableError(f"compiling {SOURCE.name} failed:\n{done.stderr[-4000:]}")
+    (directory / "stamp.txt").write_text(_stamp() + "\n")
+    return path
+
+
 def build(verbose: bool = False) -> Path:
-    """Build the library into the cache (if not there yet) and return its path.
+    """The prebuilt library where it matches, else build it into the cache (if not there yet); its
+    path.
 
     Raises:
         NativeUnavailableError: no compiler or headers, or the compiler failed (its output included).
     """
+    prebuilt = _prebuilt()
+    if prebuilt is not None:
+        return prebuilt
     prefix = _prefix()
     path = _library_path(prefix)
     if path.exists():
