@@ -23,7 +23,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from setuptools import setup
+from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
 
 ROOT = Path(__file__).resolve().parent
@@ -58,4 +58,11 @@ class BuildPyCompiled(build_py):
                 print("delta-pin: the kernels will compile at first use instead", flush=True)
 
 
-setup(cmdclass={"build_py": BuildPyCompiled})
+class BinaryDistribution(Distribution):
+    """A wheel that carries a compiled library is tagged for its platform, not ``py3-none-any``."""
+
+    def has_ext_modules(self):
+        return True
+
+
+setup(cmdclass={"build_py": BuildPyCompiled}, distclass=BinaryDistribution)
