@@ -1,4 +1,5 @@
-"""Compiled digital loop: a discrete-time law on a digital drive, on either plant, sampled RK4.
+"""Compiled digital loop: a law on a digital drive (the discrete-time laws, or designs I/II with
+their state advanced once per sample), on either plant, sampled RK4.
 
 The arithmetic of :func:`delta_pin.sim.loop.run_python_loop` in sampled mode with an encoder, a
 computation delay and a torque limit (:mod:`delta_pin.sim.drive`), for the laws of
@@ -22,10 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
 from delta_pin.compiled.closed_loop import _held_derivative
 from delta_pin.compiled.delta_kernels import delta_kinematics_into
 from delta_pin.compiled.digital_laws import digital_law_step
 from delta_pin.compiled.jit import njit
+from delta_pin.compiled.layouts import ADAPTIVE_ROBUST
 from delta_pin.compiled.native.calls import call_closure_gap
 from delta_pin.compiled.rk4 import all_finite, combine, stage_point, within_limits
 from delta_pin.compiled.tree_loop import _held_step
@@ -91,14 +94,39 @@ def _apply(drive, state, command):
 
 
 @njit(cache=True)
-def _control(law, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot, state, dt, sample, info):
+def _law_step(
+    law, design, cos_phi, sin_phi, z, measured, velocity, row, dt, command, z_next, info, design_info
+):
+    """The law's command and next state: a digital law's step, or designs I/II's compiled step with
+    their continuous state advanced over the period, z + dt z_dot (Controller.advance)."""
+    if law.kind != ADAPTIVE_ROBUST:
+        return digital_law_step(
+            law, cos_phi, sin_phi, z, measured, velocity, row.alpha, row.alpha_dot, row.alpha_ddot, command,
+            z_next, info,
+        )  # fmt: skip
+    rate = np.empty(z.shape[0])
+    if not adaptive_robust_kernel(
+        design, cos_phi, sin_phi, measured, velocity, row.alpha, row.alpha_dot, row.alpha_ddot, z, command,
+        rate, design_info,
+    ):  # fmt: skip
+        return False
+    for i in range(z.shape[0]):
+        z_next[i] = z[i] + dt * rate[i]
+    return True
+
+
+@njit(cache=True)
+def _control(law, design, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot, state, dt, sample,
+             info, design_info):  # fmt: skip
     """Steps 1-3 at sample k; records the sample; returns a status (OK, NO_FK, NONFINITE_TORQUE)."""
     measured, velocity, command = np.empty(3), np.empty(3), np.empty(3)
     _read(drive, noise, k, alpha, alpha_dot, state, dt, measured, velocity)
-    row = reference[k]
-    if not digital_law_step(
-        law, cos_phi, sin_phi, state.z, measured, velocity, row.alpha, row.alpha_dot, row.alpha_ddot,
-        command, state.z_next, info,
+    if law.kind == ADAPTIVE_ROBUST:
+        for i in range(state.z.shape[0]):
+            sample.rho_hat[i] = state.z[i]
+    if not _law_step(
+        law, design, cos_phi, sin_phi, state.z, measured, velocity, reference[k], dt, command, state.z_next,
+        info, design_info,
     ):  # fmt: skip
         return NO_FK
     if not all_finite(command):
@@ -114,20 +142,22 @@ def _control(law, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot
 
 @njit(cache=True)
 def run_digital_analytic(
-    law, cos_phi, sin_phi, drive, noise, plant, truth, reference, timing, state, workspace, out, info_out,
-    counters,
+    law, design, cos_phi, sin_phi, drive, noise, plant, truth, reference, timing, state, workspace, out,
+    info_out, design_info_out, counters,
 ):  # fmt: skip
     """One run on the analytic plant (x = [alpha, alpha_dot]).
 
     Args:
-        law: a DIGITAL_LAW record; ``cos_phi``, ``sin_phi``: the chain azimuths' cosines and sines.
+        law: a DIGITAL_LAW record; ``design``: designs I/II's CONTROLLER record where ``law.kind``
+            is ADAPTIVE_ROBUST (any CONTROLLER record otherwise); ``cos_phi``, ``sin_phi``: the
+            chain azimuths' cosines and sines.
         drive: a DRIVE record; ``noise``: the encoder's noise per sample (steps + 1, 3), or (0, 3).
         plant: a PLANT record; ``truth``: TRUTH records on the h / 2 grid, h = dt / substeps.
         reference: REFERENCE records at the samples (steps + 1,).
         timing: a TIMING record; ``state``: the digital_loop_state record (in/out); ``workspace``:
             a WORKSPACE record.
-        out, info_out: DIGITAL_SAMPLE and DIGITAL_INFO records per sample; ``counters``:
-            [plant evaluations].
+        out, info_out, design_info_out: DIGITAL_SAMPLE, DIGITAL_INFO and (designs I/II) INFO
+            records per sample; ``counters``: [plant evaluations].
 
     Returns:
         (status, time [s]).
@@ -139,8 +169,9 @@ def run_digital_analytic(
     ws = workspace
     for k in range(steps + 1):
         status = _control(
-            law, cos_phi, sin_phi, drive, noise, reference, k, x[0:3], x[3:6], state, dt, out[k], info_out[k]
-        )
+            law, design, cos_phi, sin_phi, drive, noise, reference, k, x[0:3], x[3:6], state, dt, out[k],
+            info_out[k], design_info_out[k],
+        )  # fmt: skip
         if status != OK:
             state.x[:] = x
             return status, k * dt
@@ -179,8 +210,8 @@ def run_digital_analytic(
 
 @njit(cache=True)
 def run_digital_tree(
-    law, cos_phi, sin_phi, drive, noise, tree, active, platform, truth, rotational, friction, reference,
-    timing, limits, state, out, info_out, counters,
+    law, design, cos_phi, sin_phi, drive, noise, tree, active, platform, truth, rotational, friction,
+    reference, timing, limits, state, out, info_out, design_info_out, counters,
 ):  # fmt: skip
     """Run (or resume) one run on the Pinocchio tree in full coordinates: the arguments of
     :func:`run_digital_analytic` less the plant, plus those of
@@ -213,8 +244,8 @@ def run_digital_tree(
                 alpha[i] = x[active[i]]
                 alpha_dot[i] = x[nq + active[i]]
             status = _control(
-                law, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot, state, dt, out[k],
-                info_out[k],
+                law, design, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot, state, dt,
+                out[k], info_out[k], design_info_out[k],
             )  # fmt: skip
             if status != OK:
                 when = k * dt

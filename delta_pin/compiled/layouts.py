@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "ADAPTIVE_ROBUST",
     "CONTROLLER",
     "DIGITAL_INFO",
     "DIGITAL_LAW",
@@ -96,13 +97,16 @@ CONTROLLER = np.dtype(
 )
 
 OBSERVER_MAX = 6  # states per joint of the largest extended-state observer (order 4)
-TDC, DIGITAL_ROBUST = 1, 2  # DIGITAL_LAW.kind
+ADAPTIVE_ROBUST, TDC, DIGITAL_ROBUST = 0, 1, 2  # DIGITAL_LAW.kind (0: designs I/II, their CONTROLLER)
 
 #: A discrete-time law on the Delta's analytic nominal model: time-delay control
 #: (delta_pin.control.digital) or the sampled-data adaptive robust law (delta_pin.control.digital_robust).
 DIGITAL_LAW = np.dtype(
     [
-        ("kind", I8),  # TDC or DIGITAL_ROBUST
+        (
+            "kind",
+            I8,
+        ),  # ADAPTIVE_ROBUST (designs I/II: the loop reads their CONTROLLER), TDC or DIGITAL_ROBUST
         ("dt", F8),  # sample period T [s]
         ("delay", I8),  # samples of computation delay d
         ("K_p", F8),  # omega^2 [1/s^2]
@@ -161,6 +165,7 @@ DIGITAL_SAMPLE = np.dtype(
         ("alpha_dot", F8, (3,)),
         ("tau", F8, (3,)),  # the torque that acted [N m]
         ("tau_command", F8, (3,)),  # the law's output [N m]
+        ("rho_hat", F8, (3,)),  # designs I/II: their bound estimate at the sample (1 or 3 entries)
         ("xyz", F8, (3,)),
         ("closure_gap", F8),  # [m]; 0 on the analytic plant
     ]

@@ -17,10 +17,14 @@ import numpy as np
 
 from delta_pin.compiled import digital_loop
 from delta_pin.compiled.layouts import (
+    ADAPTIVE_ROBUST,
+    CONTROLLER,
     DIGITAL_INFO,
+    DIGITAL_LAW,
     DIGITAL_ROBUST,
     DIGITAL_SAMPLE,
     DRIVE,
+    INFO,
     NATIVE_TREE,
     PLANT,
     TIMING,
@@ -30,6 +34,7 @@ from delta_pin.compiled.layouts import (
     record,
     records,
 )
+from delta_pin.control.adaptive_robust import AdaptiveRobustController
 from delta_pin.control.digital import TimeDelayControl
 from delta_pin.control.digital_robust import DigitalRobustController
 from delta_pin.errors import SimulationError
@@ -55,11 +60,14 @@ _FAILURES = {
 }
 
 
-def digital_compilable(controller, plant) -> bool:
+def digital_compilable(controller, plant, drive_effects: bool = True) -> bool:
     """Whether the compiled digital loop runs ``controller`` on ``plant``: TDC or digital-robust
-    with its compiled step, on the analytic plant, or on the Pinocchio plant in full coordinates
-    where the native library is available."""
-    if not (isinstance(controller, TimeDelayControl | DigitalRobustController) and controller.compiled):
+    with its compiled step, or designs I/II with theirs on a drive (``drive_effects``: without
+    one, their own compiled loops run them), on the analytic plant, or on the Pinocchio plant in
+    full coordinates where the native library is available."""
+    digital = isinstance(controller, TimeDelayControl | DigitalRobustController)
+    design = isinstance(controller, AdaptiveRobustController) and drive_effects
+    if not ((digital or design) and controller.compiled):
         return False
     if plant == "analytic" or isinstance(plant, AnalyticPlant):
         return True
@@ -131,20 +139,25 @@ def simulate_digital(
     noise = _noise(sensor, steps + 1)
     out, info = records(DIGITAL_SAMPLE, steps + 1), records(DIGITAL_INFO, steps + 1)
     counters = np.zeros(1, dtype=np.int64)
-    law = controller.kernel_parameters
+    if isinstance(controller, AdaptiveRobustController):  # the loop reads its CONTROLLER record
+        law, design = record(DIGITAL_LAW, kind=ADAPTIVE_ROBUST, dt=dt), controller.kernel_parameters
+    else:
+        law, design = controller.kernel_parameters, record(CONTROLLER)
+    design_info = records(INFO, steps + 1)
     wall = time.perf_counter()
     if tree:
         failure = _run_on_tree(
-            law, drive, noise, run_plant, truth, reference, timing, state, out, info, counters
-        )
+            law, design, drive, noise, run_plant, truth, reference, timing, state, out, info, design_info,
+            counters,
+        )  # fmt: skip
     else:
         plant_record = record(
             PLANT, geometry=kernel_geometry(robot.params), forearm_mass=1.5 * robot.params.m_b,
             friction=run_plant.friction_parameters,
         )  # fmt: skip
         status, when = digital_loop.run_digital_analytic(
-            law, *chain_trigonometry(), drive, noise, plant_record, truth, reference, timing, state,
-            record(WORKSPACE), out, info, counters,
+            law, design, *chain_trigonometry(), drive, noise, plant_record, truth, reference, timing, state,
+            record(WORKSPACE), out, info, design_info, counters,
         )  # fmt: skip
         failure = (
             None if status == digital_loop.OK else SimulationError(f"rk4: {_FAILURES[int(status)]}", when)
@@ -177,14 +190,23 @@ def simulate_digital(
         xyz_d=np.array(sample_xyz),
         tau=out["tau"].copy(),
         closure_residual=out["closure_gap"].copy(),
-        internals=_internals(law, out, info),
+        internals=_internals(law, out, info, design_info, len(z0)),
         metadata=metadata,
     )
 
 
-def _internals(law, out, info) -> dict[str, np.ndarray]:
+def _internals(law, out, info, design_info, nz: int) -> dict[str, np.ndarray]:
     """The internals the Python loop records for the law (``tau_command`` with a drive)."""
-    if law["kind"] == DIGITAL_ROBUST:
+    if law["kind"] == ADAPTIVE_ROBUST:
+        internals = {
+            "rho_hat": out["rho_hat"][:, :nz].copy(),
+            "Lambda": design_info["Lambda"].copy(),
+            "robust_gain": design_info["robust_gain"].copy(),
+            "omega_norm": design_info["omega_norm"].copy(),
+            "robust_torque": design_info["robust_torque"].copy(),
+            "adaptation_active": design_info["adaptation_active"].copy(),
+        }
+    elif law["kind"] == DIGITAL_ROBUST:
         internals = {
             "rho_hat": info["rho_hat"][:, None].copy(),
             "robust_torque": info["robust_torque"].copy(),
@@ -199,8 +221,9 @@ def _internals(law, out, info) -> dict[str, np.ndarray]:
 
 
 def _run_on_tree(
-    law, drive, noise, plant: PinocchioPlant, truth, reference, timing, state, out, info, counters
-):
+    law, design, drive, noise, plant: PinocchioPlant, truth, reference, timing, state, out, info, design_info,
+    counters,
+):  # fmt: skip
     """The tree loop with projections by the plant's own routine; returns the failure or ``None``."""
     source = plant.robot.pinocchio
     native = plant.native_tree()
@@ -216,8 +239,8 @@ def _run_on_tree(
     platform = source.platform_indices.astype(np.int64)
     while True:
         status, when = digital_loop.run_digital_tree(
-            law, *chain_trigonometry(), drive, noise, tree, active, platform, truth, rotational,
-            plant.friction_parameters, reference, timing, limits, state, out, info, counters,
+            law, design, *chain_trigonometry(), drive, noise, tree, active, platform, truth, rotational,
+            plant.friction_parameters, reference, timing, limits, state, out, info, design_info, counters,
         )  # fmt: skip
         if status == digital_loop.PROJECT:  # project with the plant's routine, then resume
             try:

@@ -85,9 +85,9 @@ def _runs_compiled(
     if drive_effects:
         if compiled:
             raise InvalidParameterError(
-                "compiled=True: the compiled loops model a sensor, a delay or a torque limit only for the "
-                "digital laws (tdc, digital_robust) on the Delta's analytic nominal model; use compiled=None "
-                "or False"
+                "compiled=True: the compiled loops model a sensor, a delay or a torque limit for designs "
+                "I/II and the digital laws (tdc, digital_robust) with their compiled steps on the Delta's "
+                "analytic nominal model; use compiled=None or False"
             )
         return False
     if mode != "sampled" or compiled is False:
@@ -200,7 +200,7 @@ def simulate(
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
     _check_digital(as_controller(controller), mode, dt, drive_effects)
-    if mode == "sampled" and compiled is not False and digital_compilable(controller, plant):
+    if mode == "sampled" and compiled is not False and digital_compilable(controller, plant, drive_effects):
         return simulate_digital(
             robot, controller, trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps, alpha0=alpha0,
             alpha_dot0=alpha_dot0, friction=friction, uncertainty=uncertainty, sensor=sensor, delay=delay,

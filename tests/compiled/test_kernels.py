@@ -130,3 +130,23 @@ def test_smallest_eigenvalue_in_closed_form_is_lapacks():
     for matrix in matrices:
         values = np.linalg.eigvalsh(matrix)
         assert abs(smallest_eigenvalue(matrix) - values[0]) <= 1e-13 * abs(values[-1])
+
+
+def test_numba_caches_are_dropped_when_any_source_of_the_package_changes(tmp_path):
+    """numba checks a cached function against its own file only; a changed callee or record layout
+    in another file must drop every cache (a stale caller crashed the digital loop once)."""
+    from delta_pin.compiled.jit import invalidate_stale_caches
+
+    (tmp_path / "kernels.py").write_text("def f():\n    return 1\n")
+    (tmp_path / "layouts.py").write_text("A = 1\n")
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    (cache / "kernels.f-1.py311.nbi").write_bytes(b"index")
+    assert invalidate_stale_caches(tmp_path)  # no stamp yet: the caches' sources are unknown
+    assert not (cache / "kernels.f-1.py311.nbi").exists()
+    (cache / "kernels.f-1.py311.nbc").write_bytes(b"code")  # compiled against these sources
+    assert not invalidate_stale_caches(tmp_path)
+    assert (cache / "kernels.f-1.py311.nbc").exists()
+    (tmp_path / "layouts.py").write_text("A = 2\n")  # another file than the cached function's
+    assert invalidate_stale_caches(tmp_path)
+    assert not (cache / "kernels.f-1.py311.nbc").exists()

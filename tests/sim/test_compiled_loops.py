@@ -88,12 +88,13 @@ def test_compiled_sampled_run_equals_the_python_loop(robot, plant, design, subst
 
 
 @pytest.mark.parametrize("substeps", [1, 2])
-@pytest.mark.parametrize("law", ["tdc", "digital-robust"])
+@pytest.mark.parametrize("law", ["tdc", "digital-robust", "design1"])
 @pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
 def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, substeps):
-    """The digital laws on a digital drive (17-bit encoders with seeded noise, one sample of delay,
-    a torque limit that binds): the compiled digital loop against the Python loop, on the tree bit
-    for bit (with projections at almost every step, as above)."""
+    """The digital laws, and design I (sampling-aware, its rho_hat advanced once per sample), on a
+    digital drive (17-bit encoders with seeded noise, one sample of delay, a torque limit that
+    binds): the compiled digital loop against the Python loop, on the tree bit for bit (with
+    projections at almost every step, as above)."""
     from delta_pin.sim.drive import Encoder
 
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
@@ -103,11 +104,11 @@ def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, su
             made = PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
         else:
             made = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
-        controller = (
-            dp.tdc(nominal, 1e-3, delay=1, pairing="mean")
-            if law == "tdc"
-            else dp.digital_robust(nominal, 1e-3, delay=1, torque_limit=4.0)
-        )
+        controller = {
+            "tdc": lambda: dp.tdc(nominal, 1e-3, delay=1, pairing="mean"),
+            "digital-robust": lambda: dp.digital_robust(nominal, 1e-3, delay=1, torque_limit=4.0),
+            "design1": lambda: dp.design1(nominal, sampling_period=1e-3),
+        }[law]()
         runs.append(
             dp.simulate(
                 robot,

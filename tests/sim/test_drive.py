@@ -84,7 +84,6 @@ def test_drive_delays_then_saturates():
         ({"torque_limit": 0.0}, "torque_limit=0.0"),
         ({"torque_limit": (1.0, -1.0, 1.0)}, "torque_limit"),
         ({"mode": "continuous", "delay": 1}, "only in mode='sampled'"),
-        ({"sensor": Encoder(), "compiled": True}, "compiled=True"),
         ({"sensor": "encoder"}, "sensor='encoder'"),
     ],
 )
@@ -93,6 +92,17 @@ def test_bad_drive_arguments_are_refused(robot, options, match):
     options = {"mode": "sampled", **options}
     with pytest.raises(InvalidParameterError, match=match):
         dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, **options)
+
+
+def test_compiled_true_on_a_drive_needs_a_law_with_a_compiled_step(robot):
+    """Designs I/II and the digital laws run compiled on a drive; a plain function cannot."""
+    with pytest.raises(InvalidParameterError, match="compiled=True"):
+        dp.simulate(robot, lambda t, a, v: np.zeros(3), dp.PathI(), plant="analytic", t_end=0.01,
+                    mode="sampled", sensor=Encoder(), compiled=True)  # fmt: skip
+    nominal = dp.DeltaNominalModel(robot)
+    run = dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, mode="sampled",
+                      sensor=Encoder(), compiled=True)  # fmt: skip
+    assert run.metadata["compiled"] and run.metadata["sensor"]["bits"] == 17
 
 
 def test_the_controller_sees_encoder_readings_and_its_torque_acts_later(robot):
