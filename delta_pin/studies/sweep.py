@@ -62,6 +62,7 @@ __all__ = [
     "OptionalDependencyError",
     "SweepPoint",
     "SweepResult",
+    "estimated_cost",
     "evaluate_batch",
     "evaluate_spec",
     "grid_specs",
@@ -319,9 +320,23 @@ def evaluate_batch(
     return records
 
 
+def estimated_cost(spec: RunSpec) -> float:
+    """A run's cost in units of one compiled 1 ms sample, to start the longest runs first: the
+    samples of a sampled run (one compiled step each), a tenth of that for the compiled continuous
+    integrators of designs I/II (Radau takes ~2 000 steps for 15 s), fifteen times that for LSODA
+    (15 s of LQR on the Pinocchio plant: 7.7 s, against 5 s for 150 000 compiled samples)."""
+    samples = spec.duration / spec.dt
+    if spec.mode == "sampled":
+        return samples
+    compiled = spec.controller in ("design1", "design2") and spec.integrator in ("auto", "radau", "bdf2")
+    return samples * (0.1 if compiled else 15.0)
+
+
 def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None) -> list[list[str]]:
     """The todo keys in tasks: points of one batch group in chunks (at most BATCH_SIZE, and at
-    least two chunks per worker when the group is large enough), every other point alone."""
+    least two chunks per worker when the group is large enough), every other point alone, the
+    single points longest first (:func:`estimated_cost`) and the batch chunks after them, so that
+    the workers end together rather than one of them finishing a long run alone."""
     groups: dict = {}
     tasks = []
     for key in todo:
@@ -330,6 +345,7 @@ def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None)
             tasks.append([key])
         else:
             groups.setdefault(group, []).append(key)
+    tasks.sort(key=lambda task: -estimated_cost(unique[task[0]]))  # stable: equal costs keep their order
     lanes = 2 * (workers or os.cpu_count() or 1)
     for keys in groups.values():
         size = max(1, min(BATCH_SIZE, math.ceil(len(keys) / lanes)))

@@ -427,3 +427,27 @@ def test_a_sweep_whose_runs_fail_says_so_and_exits_1(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "2 of 2 runs failed; the first:" in err and "diverged" in err
     assert main([*command, "--allow-failures", "--out", str(tmp_path / "b")]) == 0
+
+
+def test_single_runs_start_longest_first_and_batches_follow():
+    """LSODA runs and high-rate sampled runs are dispatched before short ones, so that two
+    workers end together (reproduce --full left one worker alone on a 10 kHz run)."""
+    from delta_pin.studies.sweep import _chunks, estimated_cost
+
+    specs = {
+        "sampled_1k": RunSpec(controller="tdc", mode="sampled", dt=1e-3),
+        "lqr_lsoda": RunSpec(controller="lqr"),
+        "sampled_10k": RunSpec(controller="tdc", mode="sampled", dt=1e-4),
+        "radau": RunSpec(controller="design1"),
+        "bdf2_a": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.1),
+        "bdf2_b": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.2),
+    }
+    assert (
+        estimated_cost(specs["lqr_lsoda"])
+        > estimated_cost(specs["sampled_10k"])
+        > estimated_cost(specs["sampled_1k"])
+        > estimated_cost(specs["radau"])
+    )
+    tasks = _chunks(list(specs), specs, workers=2)
+    assert tasks[:4] == [["lqr_lsoda"], ["sampled_10k"], ["sampled_1k"], ["radau"]]
+    assert sorted(key for task in tasks[4:] for key in task) == ["bdf2_a", "bdf2_b"]  # one batch group
