@@ -18,6 +18,7 @@ from delta_pin.errors import (
     DeltaPinError,
     ForwardKinematicsError,
     InvalidParameterError,
+    MeshFileError,
     NativeUnavailableError,
     NonFiniteError,
     OptionalDependencyError,

@@ -11,6 +11,7 @@ __all__ = [
     "DeltaPinError",
     "ForwardKinematicsError",
     "InvalidParameterError",
+    "MeshFileError",
     "NativeUnavailableError",
     "NonFiniteError",
     "OptionalDependencyError",
@@ -40,6 +41,10 @@ class NonFiniteError(DeltaPinError, ValueError):
 
 class URDFConventionError(DeltaPinError):
     """The URDF does not follow delta-pin's Delta convention (docs/architecture.md section 3)."""
+
+
+class MeshFileError(URDFConventionError):
+    """A mesh visual whose file cannot be found or read (the message names the file)."""
 
 
 class AssemblyError(DeltaPinError):

@@ -42,6 +42,7 @@ __all__ = [
 GRAVITY = 9.8  # [m/s^2] the paper's value (Table 1); Pinocchio's default is 9.81
 N_CHAINS = 3
 FOREARM_INERTIA_MODELS = ("lumped", "rod")
+VISUAL_STYLES = ("primitive", "mesh")  # xacro argument visuals: URDF shapes or the packaged meshes
 # xacro arguments that are physical quantities and must be strictly positive
 _POSITIVE_ARGUMENTS = ("R", "r", "l_a", "l_b", "m_a", "m_b", "m_o", "r_a", "v_s")
 # friction coefficients may be zero (no friction of that kind) but not negative
@@ -142,6 +143,7 @@ class DeltaDescription:
     active_joints: tuple[str, ...] = ("active_1", "active_2", "active_3")
     platform_joints: tuple[str, ...] = ("platform_x", "platform_y", "platform_z")
     platform_link: str = "platform"
+    base_dir: str | None = None  # the URDF's folder: relative mesh filenames are resolved from it
 
 
 def default_xacro_path() -> Path:
@@ -177,6 +179,22 @@ def _check_xacro_arguments(args: dict[str, object]) -> dict[str, str]:
                     f"{', '.join(FOREARM_INERTIA_MODELS)}"
                 )
             checked[name] = str(value)
+            continue
+        if name == "visuals":
+            if value not in VISUAL_STYLES:
+                raise XacroArgumentError(
+                    f"xacro argument visuals={value!r} must be one of {', '.join(VISUAL_STYLES)}"
+                )
+            checked[name] = str(value)
+            continue
+        if name == "mesh_uri":
+            text = str(value)
+            if not text or any(c.isspace() or c in "<>&\"'" for c in text):
+                raise XacroArgumentError(
+                    f"xacro argument mesh_uri={value!r} must be a folder or package:// URI "
+                    "without spaces or XML characters, e.g. package://delta_pin/urdf/meshes"
+                )
+            checked[name] = text.rstrip("/")
             continue
         try:
             number = float(value)  # type: ignore[arg-type]
@@ -275,7 +293,7 @@ def _same_for_all_chains(name: str, values: list[float]) -> float:
     return values[0]
 
 
-def read_description(urdf: str, g: float = GRAVITY) -> DeltaDescription:
+def read_description(urdf: str, g: float = GRAVITY, base_dir: str | Path | None = None) -> DeltaDescription:
     """Read a Delta's parameters and loop closures from URDF text.
 
     Geometry comes from joint placements (A_i from ``active_i``, l_a from ``elbow_i_pitch``),
@@ -284,6 +302,7 @@ def read_description(urdf: str, g: float = GRAVITY) -> DeltaDescription:
     Args:
         urdf: URDF text following docs/architecture.md section 3.
         g: gravity acceleration [m/s^2] (the URDF does not carry it).
+        base_dir: the URDF's folder, from which relative mesh filenames are resolved (drawing only).
 
     Raises:
         URDFConventionError: a missing joint or link, a closure naming a missing link, or a
@@ -374,4 +393,6 @@ def read_description(urdf: str, g: float = GRAVITY) -> DeltaDescription:
         upper_arm_inertia=_same_for_all_chains("upper arm inertia", arm_inertia),
         friction=_parse_friction(root),
     )
-    return DeltaDescription(urdf=urdf, params=params, closures=closures)
+    return DeltaDescription(
+        urdf=urdf, params=params, closures=closures, base_dir=None if base_dir is None else str(base_dir)
+    )

@@ -10,10 +10,17 @@ import numpy as np
 
 from delta_pin.errors import AssemblyError, DeltaPinError, ForwardKinematicsError, URDFConventionError
 from delta_pin.model import kinematics
-from delta_pin.model.description import GRAVITY, DeltaDescription, compile_urdf, read_description
+from delta_pin.model.description import (
+    GRAVITY,
+    DeltaDescription,
+    compile_urdf,
+    default_xacro_path,
+    read_description,
+)
 from delta_pin.model.dynamics import ReducedDynamics, analytic_dynamics
 from delta_pin.model.friction import stribeck_torque
 from delta_pin.model.pinocchio_model import DeltaPinocchioModel
+from delta_pin.model.visuals import check_mesh_files
 
 __all__ = ["Delta", "load_delta"]
 
@@ -130,9 +137,11 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
         XacroArgumentError: unknown argument or invalid value.
         URDFConventionError: the URDF does not follow the convention.
         AssemblyError: the geometry cannot close its loops.
+        MeshFileError: a mesh visual's file does not exist (named in the message).
     """
     if urdf is None:
         text = compile_urdf(**xacro_args)
+        base_dir = default_xacro_path().parent
     else:
         if xacro_args:
             raise URDFConventionError(
@@ -151,8 +160,11 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
             from xacrodoc import XacroDoc
 
             text = XacroDoc.from_file(str(path)).to_urdf_string()
+        base_dir = path.resolve().parent
+        check_mesh_files(text, base_dir)  # MeshFileError names the mesh and its full path
         try:
-            return Delta(read_description(text, g=g), xacro_args)
+            return Delta(read_description(text, g=g, base_dir=base_dir), xacro_args)
         except URDFConventionError as exc:  # name the file
             raise URDFConventionError(f"URDF file {str(path)!r}: {exc}") from None
-    return Delta(read_description(text, g=g), xacro_args)
+    check_mesh_files(text, base_dir)
+    return Delta(read_description(text, g=g, base_dir=base_dir), xacro_args)

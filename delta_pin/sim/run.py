@@ -143,6 +143,7 @@ def run_metadata(robot: Delta, controller: Controller, trajectory, plant: Plant,
     return {
         "robot": robot.metadata(),
         "urdf": robot.urdf,
+        "urdf_dir": robot.description.base_dir,  # where its relative mesh filenames point
         "controller": controller.metadata(),
         "trajectory": None if trajectory is None else trajectory.metadata(),
         **plant.metadata(),

@@ -1,7 +1,9 @@
 """Headless meshcat export of a :class:`~delta_pin.sim.runner.Run` to ONE standalone HTML file.
 
 The robot is drawn from the visual geometry of the URDF the run came from, read by Pinocchio's
-geometry model (``pin.buildGeomFromUrdfString(..., pin.GeometryType.VISUAL)``) and posed at every
+geometry model (``pin.buildGeomFromUrdfString(..., pin.GeometryType.VISUAL)``); mesh visuals (STL,
+OBJ, DAE) are read with yourdfpy and trimesh (:mod:`delta_pin.model.visuals`, imported only when the
+URDF has one) and drawn as triangle meshes where Pinocchio places a stand-in. It is posed at every
 animation frame by the closure-consistent configuration q(alpha)
 (:meth:`~delta_pin.model.pinocchio_model.DeltaPinocchioModel.configuration`). The desired (``xyz_d``)
 and actual (``xyz``) platform paths are drawn as two lines of different colours; a translucent
@@ -361,7 +363,7 @@ def _resolve_robot(run: Run, robot):
     if robot is None:
         if not run_urdf:
             raise VisualizationError("the run carries no URDF (metadata['urdf']): pass robot= to draw it")
-        return Delta(read_description(run_urdf))
+        return Delta(read_description(run_urdf, base_dir=run.metadata.get("urdf_dir")))
     if run_urdf and robot.urdf != run_urdf:
         raise RobotMismatchError(
             "the run was simulated on another robot than the one given ("
@@ -387,19 +389,68 @@ def _rgba_color(rgba) -> tuple[int, float]:
     return (round(r * 255) << 16) | (round(g * 255) << 8) | round(b * 255), a
 
 
+class _TriangleMesh:
+    """A meshcat geometry: triangles with flat normals (meshcat's ``TriangularMeshGeometry`` has no
+    normals, so three.js's Phong shading would draw it black). Not indexed: each triangle has its
+    own three vertices, hence a sharp edge between faces."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        self.uuid = str(uuid.uuid1())
+        corners = vertices[faces]  # (m, 3, 3)
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0.0)
+        self.positions = corners.reshape(-1, 3).astype(np.float32)
+        self.normals = np.repeat(normals, 3, axis=0).astype(np.float32)
+
+    # the duck-typed part of meshcat's Geometry (meshcat is imported lazily, so no subclass)
+    field = "geometries"
+
+    def intrinsic_transform(self) -> np.ndarray:
+        return np.eye(4)
+
+    def lower_in_object(self, object_data: dict) -> str:
+        object_data.setdefault(self.field, []).append(self.lower(object_data))
+        return self.uuid
+
+    def lower(self, object_data) -> dict:
+        pack = _meshcat().geometry.pack_numpy_array
+        return {
+            "uuid": self.uuid,
+            "type": "BufferGeometry",
+            "data": {"attributes": {"position": pack(self.positions.T), "normal": pack(self.normals.T)}},
+        }
+
+
 def _visuals(robot) -> tuple[pin.GeometryModel, list[_Visual]]:
+    from delta_pin.model.visuals import has_mesh_visuals, load_visual_meshes, primitive_stand_in
+
     mg = _meshcat().geometry
     model = robot.pinocchio.model
+    urdf = robot.urdf
+    meshes = {}
+    if has_mesh_visuals(urdf):  # Pinocchio places a small sphere for each; the meshes come from trimesh
+        meshes = load_visual_meshes(urdf, robot.description.base_dir)
+        urdf = primitive_stand_in(urdf)
     try:
-        geometry_model = pin.buildGeomFromUrdfString(model, robot.urdf, pin.GeometryType.VISUAL)
+        geometry_model = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.VISUAL)
     except (RuntimeError, ValueError) as exc:
         raise VisualizationError(f"Pinocchio could not read the URDF's visual geometry: {exc}") from None
     visuals = []
+    rank: dict[str, int] = {}  # visuals seen so far per link: (link, rank) names a mesh visual
     for obj in geometry_model.geometryObjects:
         shape = obj.geometry
         kind = type(shape).__name__
         correction = np.eye(4)
-        if kind == "Cylinder":  # URDF cylinders lie along z, three.js ones along y
+        link = model.frames[obj.parentFrame].name
+        index = rank[link] = rank.get(link, -1) + 1
+        mesh = meshes.get((link, index))
+        if mesh is not None:
+            geometry = _TriangleMesh(mesh.vertices, mesh.faces)
+            correction[:3, :3] = np.diag(mesh.scale)
+            step = max(1, len(mesh.vertices) // 200)  # at most ~200 hull points for the camera framing
+            outline = mesh.vertices[::step] * mesh.scale
+        elif kind == "Cylinder":  # URDF cylinders lie along z, three.js ones along y
             geometry = mg.Cylinder(2.0 * shape.halfLength, shape.radius)
             correction[:3, :3] = pin.utils.rotate("x", math.pi / 2)
             ring = shape.radius * np.column_stack([np.cos(_RING), np.sin(_RING), np.zeros_like(_RING)])
@@ -412,11 +463,6 @@ def _visuals(robot) -> tuple[pin.GeometryModel, list[_Visual]]:
             outline = np.array(list(itertools.product([-1.0, 1.0], repeat=3))) * shape.halfSide
         elif kind == "Ellipsoid":
             geometry, outline = mg.Ellipsoid(np.asarray(shape.radii)), _AXES * np.asarray(shape.radii)
-        elif obj.meshPath and Path(obj.meshPath).suffix.lower() in (".stl", ".obj", ".dae"):
-            loader = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry, ".dae": mg.DaeMeshGeometry}
-            geometry = loader[Path(obj.meshPath).suffix.lower()].from_file(obj.meshPath)
-            correction[:3, :3] = np.diag(obj.meshScale)
-            outline = np.zeros((1, 3))  # the mesh's origin only
         else:
             raise VisualizationError(
                 f"visual {obj.name!r}: geometry {kind} is not supported "

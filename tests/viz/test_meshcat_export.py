@@ -453,3 +453,82 @@ def test_live_viewer_smoke(short_run, tmp_path):
         return command["type"], command["path"], command.get("property")
 
     assert sorted(map(key, live)) == sorted(map(key, recorded))
+
+
+# ---------------------------------------------------------------------------------- mesh visuals
+MESH_URDF = dp.model.description.default_xacro_path().parent / "delta_mesh.urdf"
+
+
+@pytest.fixture(scope="module")
+def mesh_robot():
+    return dp.load_delta(MESH_URDF)  # meshes/base.stl ... relative to the URDF's folder
+
+
+@pytest.fixture(scope="module")
+def mesh_page(mesh_robot, tmp_path_factory) -> Path:
+    """2 s of path II on the mesh Delta, saved and exported from the run FILE (its URDF's folder
+    travels in the run's metadata, so the relative mesh filenames still resolve)."""
+    run = simulate(mesh_robot, PDGravity(mesh_robot), dp.PathII(), plant="analytic", t_end=2.0, dt=2e-3)
+    folder = tmp_path_factory.mktemp("mesh")
+    return export_html(run.save(folder / "run.npz"), folder / "mesh.html")
+
+
+def test_export_draws_the_mesh_visuals(mesh_page, mesh_robot, page15):
+    import trimesh
+
+    commands = commands_of(mesh_page)
+    objects = {c["path"]: c["object"] for c in commands if c["type"] == "set_object"}
+    transforms = {c["path"]: c["matrix"] for c in commands if c["type"] == "set_transform"}
+    shapes = {
+        "base_link_0": "base.stl", "upper_arm_2_0": "upper_arm.obj", "forearm_3_0": "forearm.stl",
+        "platform_0": "platform.dae",
+    }  # fmt: skip
+    for name, filename in shapes.items():
+        geometry = objects[f"/meshcat/delta_pin/robot/{name}/shape"]["geometries"][0]
+        assert geometry["type"] == "BufferGeometry"
+        # the triangles of the file, vertex by vertex (float32), with a unit normal each
+        mesh = trimesh.load(MESH_URDF.parent / "meshes" / filename, force="mesh")
+        positions = np.asarray(geometry["data"]["attributes"]["position"]["array"]).reshape(-1, 3)
+        np.testing.assert_allclose(positions, mesh.vertices[mesh.faces].reshape(-1, 3), atol=1e-6)
+        normals = np.asarray(geometry["data"]["attributes"]["normal"]["array"]).reshape(-1, 3)
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
+    # the URDF's scale is the shape's transform: the forearm's unit cylinder is l_b long
+    matrix = np.asarray(transforms["/meshcat/delta_pin/robot/forearm_3_0/shape"]).reshape(4, 4).T
+    p = mesh_robot.params
+    np.testing.assert_allclose(np.diag(matrix)[:3], [0.02 * p.l_b, 0.02 * p.l_b, p.l_b], rtol=1e-6)
+    # primitives of the same URDF stay primitives (the elbow spheres, the arm hubs)
+    elbow = objects["/meshcat/delta_pin/robot/forearm_3_1/shape"]["geometries"][0]
+    assert elbow["type"] == "SphereGeometry"
+    # the same visuals, in the same places, as the primitive Delta's page
+    primitive = {
+        c["path"] for c in commands_of(page15) if c["type"] == "set_object" and "/robot/" in c["path"]
+    }
+    assert {path for path in objects if "/robot/" in path} == primitive
+
+
+def test_export_of_a_mesh_run_whose_mesh_is_gone_names_the_file(mesh_robot, tmp_path):
+    folder = tmp_path / "robot"
+    (folder / "meshes").mkdir(parents=True)
+    for mesh in (MESH_URDF.parent / "meshes").iterdir():
+        (folder / "meshes" / mesh.name).write_bytes(mesh.read_bytes())
+    (folder / "delta.urdf").write_text(MESH_URDF.read_text())
+    moved = dp.load_delta(folder / "delta.urdf")
+    run = simulate(moved, PDGravity(moved), dp.PathII(), plant="analytic", t_end=0.01)
+    (folder / "meshes" / "platform.dae").unlink()
+    with pytest.raises(
+        dp.MeshFileError,
+        match=r"mesh 'meshes/platform\.dae' \(visual 0 of link 'platform'\): "
+        r"file '.*platform\.dae' does not exist",
+    ):
+        export_html(run, tmp_path / "x.html")
+    assert not (tmp_path / "x.html").exists()
+
+
+@needs_chromium
+def test_browser_renders_the_mesh_robot(mesh_page, tmp_path):
+    rgb = screenshot(tmp_path, mesh_page, 1500)
+    stats = robot_statistics(rgb)
+    # measured: sky 0.0, robot ~0.16, platform (the orange DAE hexagon) ~9000 px
+    assert stats["sky"] < 0.02, stats
+    assert 0.06 < stats["robot"] < 0.6, stats
+    assert stats["platform"] > 2000, stats
