@@ -161,10 +161,11 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
 
             text = XacroDoc.from_file(str(path)).to_urdf_string()
         base_dir = path.resolve().parent
-        check_mesh_files(text, base_dir)  # MeshFileError names the mesh and its full path
         try:
-            return Delta(read_description(text, g=g, base_dir=base_dir), xacro_args)
+            description = read_description(text, g=g, base_dir=base_dir)
         except URDFConventionError as exc:  # name the file
             raise URDFConventionError(f"URDF file {str(path)!r}: {exc}") from None
+        check_mesh_files(text, base_dir)  # MeshFileError names the mesh and its full path
+        return Delta(description, xacro_args)
     check_mesh_files(text, base_dir)
     return Delta(read_description(text, g=g, base_dir=base_dir), xacro_args)

@@ -143,7 +143,8 @@ def run_metadata(robot: Delta, controller: Controller, trajectory, plant: Plant,
     return {
         "robot": robot.metadata(),
         "urdf": robot.urdf,
-        "urdf_dir": robot.description.base_dir,  # where its relative mesh filenames point
+        # where its relative mesh filenames point (a serial robot from example-robot-data has none)
+        "urdf_dir": getattr(getattr(robot, "description", None), "base_dir", None),
         "controller": controller.metadata(),
         "trajectory": None if trajectory is None else trajectory.metadata(),
         **plant.metadata(),
