@@ -240,3 +240,15 @@ def test_path_i_keeps_the_documented_lsoda_tolerance():
         table, _, _ = tabulate_reference(robot, trajectory, None, 3, round(spec.duration / 1e-3), 1e-3, 4)
         rtol = _layer_resolving_rtol(build_controller(spec, robot, trajectory), table, 1e-6)
         assert rtol == pytest.approx(expected, rel=1e-2), path
+
+
+def test_bdf2_on_the_adept_cycle_fails_in_one_line_naming_what_can_run_it(tmp_path, capsys):
+    """Issue 15: the Adept cycle's reaching phase (Lambda ~240, a damper gain ~5e7 N m s/rad) defeats
+    the fixed-step BDF2's Newton iteration even on 1024 sub-steps; the run fails with one line and
+    exit 1 naming the integrators that run it, and the default (Radau) does run it."""
+    argv = ["run", "--path", "adept", "--plant", "analytic", "--t-end", "0.3"]
+    assert main([*argv, "--integrator", "bdf2", "--out", str(tmp_path / "bdf2")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "integrator='radau' (the default)" in err[0] and "t=0.003 s" in err[0]
+    assert main([*argv, "--out", str(tmp_path / "radau")]) == 0
+    assert load_run(tmp_path / "radau" / "run.npz").metadata["integrator"] == "radau"

@@ -67,7 +67,11 @@ RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
 _FAILURES = {
     closed_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",
-    closed_loop.NO_CONVERGENCE: "Newton's method did not converge even on 1024 sub-steps",
+    closed_loop.NO_CONVERGENCE: (
+        "Newton's method did not converge even on 1024 sub-steps: the fixed-step BDF2 cannot follow this "
+        "run's robust term (on the Adept cycle its damper gain reaches ~5e7 N m s/rad); "
+        "integrator='radau' (the default) or 'lsoda' can"
+    ),
     closed_loop.DIVERGED: "the run diverged (|alpha_dot| > 1000 rad/s or a non-finite state)",
 }
 
