@@ -118,9 +118,14 @@ def _record_at(pc, cos_phi, sin_phi, plant, truth, reference, jerk, grid_step, t
 
 
 @njit(cache=True)
-def _jacobian_at(pc, cos_phi, sin_phi, plant, truth, reference, jerk, grid_step, t, y, f, nr, J, ws):
-    """Forward-difference df/dy at (t, y) into J; ``f`` = f(t, y). Returns ``ok``."""
+def _jacobian_at(
+    pc, cos_phi, sin_phi, plant, truth, reference, jerk, grid_step, t, y, f, nr, J, ws, counters
+):
+    """Forward-difference df/dy at (t, y) into J; ``f`` = f(t, y). Returns ``ok``; counts its
+    evaluations and itself in ``counters`` [0] and [3]."""
     n = y.shape[0]
+    counters[0] += n
+    counters[3] += 1
     shifted = y.copy()
     shifted_dot = np.empty(n)
     for i in range(n):
@@ -259,11 +264,9 @@ def run_radau(
     next_sample = 1
     J = np.empty((n, n))
     if not _jacobian_at(
-        pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J, ws
+        pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J, ws, counters
     ):
         return NO_FK, 0.0
-    counters[0] += n
-    counters[3] += 1
     current_jacobian = True
     h = min(control.first_step, control.max_step, t_end)
     full_lu, full_pivots, real_lu, real_pivots = _factor(J, h)
@@ -303,11 +306,10 @@ def run_radau(
         if not converged:
             if not current_jacobian:
                 if not _jacobian_at(
-                    pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J, ws
-                ):
+                    pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J,
+                    ws, counters,
+                ):  # fmt: skip
                     return NO_FK, t
-                counters[0] += n
-                counters[3] += 1
                 current_jacobian = True
             else:
                 h *= 0.5
@@ -412,11 +414,10 @@ def run_radau(
         factor = min(MAX_FACTOR, safety * norm**-0.25) if norm > 0.0 else MAX_FACTOR
         if iterations > 2 and rate > 1e-3:  # Newton contracted slowly: a fresh Jacobian
             if not _jacobian_at(
-                pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J, ws
-            ):
+                pc, cos_phi, sin_phi, plant, truth, reference, jerk, control.grid_step, t, y, f, nr, J, ws,
+                counters,
+            ):  # fmt: skip
                 return NO_FK, t
-            counters[0] += n
-            counters[3] += 1
             current_jacobian = True
             factored_h = -1.0
         else:

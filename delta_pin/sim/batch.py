@@ -60,7 +60,7 @@ from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant, make_plan
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
-__all__ = ["batchable", "native_available", "simulate_batch"]
+__all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
 
 RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
 RADAU_MAX_STEP = 1e-2  # [s]
@@ -351,17 +351,11 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
     return _Outcome(samples, info, counters, failure)
 
 
-def _run_on_tree(controller, plant: PinocchioPlant, truth, reference, y0, timing) -> _Outcome:
-    """One sampled run on the Pinocchio tree in full coordinates
-    (:func:`~delta_pin.compiled.tree_loop.run_tree_sampled`), reading the truth on the half-step
-    grid (as :meth:`~delta_pin.sim.plants.Plant.precompute_truth` tabulates it for ``simulate``)
-    and the platform inertia at each of its masses. Where the loop stops for a projection, the
-    plant's own :meth:`~delta_pin.sim.plants.PinocchioPlant.finish_step_residual` projects the
-    state and the loop resumes; where it stops on a failure, the failing step is re-evaluated by
-    the Python loop's checks, so that the error is the one ``simulate`` raises."""
+def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
+    """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
+    the active and platform indices in q, the platform's rotational inertia at each truth row,
+    the TREE_LOOP_LIMITS record)."""
     source = plant.robot.pinocchio
-    active = source.active_indices.astype(np.int64)
-    platform = source.platform_indices.astype(np.int64)
     tree = plant.native_tree()
     native_tree = record(
         NATIVE_TREE, dynamics=tree.address_dynamics, closure_gap=tree.address_gap, handle=tree.handle
@@ -371,6 +365,20 @@ def _run_on_tree(controller, plant: PinocchioPlant, truth, reference, y0, timing
         TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
         failure_tolerance=plant.failure_tolerance,
     )  # fmt: skip
+    active = source.active_indices.astype(np.int64)
+    platform = source.platform_indices.astype(np.int64)
+    return native_tree, active, platform, rotational, limits
+
+
+def _run_on_tree(controller, plant: PinocchioPlant, truth, reference, y0, timing) -> _Outcome:
+    """One sampled run on the Pinocchio tree in full coordinates
+    (:func:`~delta_pin.compiled.tree_loop.run_tree_sampled`), reading the truth on the half-step
+    grid (as :meth:`~delta_pin.sim.plants.Plant.precompute_truth` tabulates it for ``simulate``)
+    and the platform inertia at each of its masses. Where the loop stops for a projection, the
+    plant's own :meth:`~delta_pin.sim.plants.PinocchioPlant.finish_step_residual` projects the
+    state and the loop resumes; where it stops on a failure, the failing step is re-evaluated by
+    the Python loop's checks, so that the error is the one ``simulate`` raises."""
+    native_tree, active, platform, rotational, limits = tree_loop_inputs(plant, truth)
     x0 = plant.initial_state(y0[:3], y0[3:6])
     nr = len(y0) - 6
     state = record(tree_loop_state(len(x0)), x=x0)

@@ -25,10 +25,8 @@ from delta_pin.compiled.layouts import (
     DIGITAL_SAMPLE,
     DRIVE,
     INFO,
-    NATIVE_TREE,
     PLANT,
     TIMING,
-    TREE_LOOP_LIMITS,
     WORKSPACE,
     digital_loop_state,
     record,
@@ -42,7 +40,7 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_substeps, check_timing, joint_vector
-from delta_pin.sim.batch import native_available
+from delta_pin.sim.batch import native_available, tree_loop_inputs
 from delta_pin.sim.drive import Encoder, check_delay, check_torque_limit
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
 from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant, make_plant, truth_records
@@ -225,18 +223,7 @@ def _run_on_tree(
     counters,
 ):  # fmt: skip
     """The tree loop with projections by the plant's own routine; returns the failure or ``None``."""
-    source = plant.robot.pinocchio
-    native = plant.native_tree()
-    tree = record(
-        NATIVE_TREE, dynamics=native.address_dynamics, closure_gap=native.address_gap, handle=native.handle
-    )
-    rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
-    limits = record(
-        TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
-        failure_tolerance=plant.failure_tolerance,
-    )  # fmt: skip
-    active = source.active_indices.astype(np.int64)
-    platform = source.platform_indices.astype(np.int64)
+    tree, active, platform, rotational, limits = tree_loop_inputs(plant, truth)
     while True:
         status, when = digital_loop.run_digital_tree(
             law, design, *chain_trigonometry(), drive, noise, tree, active, platform, truth, rotational,
