@@ -64,6 +64,7 @@ SURFACE_PLANES = (("delta_m", "delta_f"), ("delta_f", "delta_fc"), ("delta_m", "
 SURFACE_T_END = 3.0  # [s]
 SURFACE_RHO0 = 0.02
 SYMBOLS = {"delta_m": "Δ_m", "delta_f": "Δ_f", "delta_fc": "Δ_fc"}
+TIMING_NOISE = 0.3  # relative: two wall times closer than this are equal on this VM (README, benchmarks)
 SETTLING_BAND = 1e-3  # [rad] path I
 SETTLING_BAND_PATH_II = 5e-3  # [rad] path II: faster (pi rad/s), the designs hold ~3e-3 rad there
 NAMES = {"design1": "design I", "design2": "design II", "lqr": "LQR"}
@@ -325,10 +326,11 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
     claim(
         "design I runs faster than design II",
         "12.87 s vs 13.80 s (MATLAB)",
-        f"{w1:.1f} s vs {w2:.1f} s",
-        w1 < w2,
-        "wall times of runs made side by side (noisy); a run's time is set by the integrator's step "
-        "count, not by the robust gain's arithmetic: one compiled step costs the same for both designs "
+        f"{w1:.2g} s vs {w2:.2g} s",
+        None if abs(w1 - w2) <= TIMING_NOISE * max(w1, w2) else w1 < w2,
+        "wall times of runs made side by side: a difference within this machine's timing noise "
+        f"({TIMING_NOISE:.0%}) decides nothing; a run's time is set by the integrator's step count, not by "
+        "the robust gain's arithmetic: one compiled step costs the same for both designs "
         "(benchmarks/bench_controllers.py)",
     )
     for path in ("I", "II"):
