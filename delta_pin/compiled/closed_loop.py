@@ -181,6 +181,25 @@ def _held_derivative(cos_phi, sin_phi, plant, truth, x, tau, ws, x_dot):
 
 
 @njit(cache=True)
+def held_rk4_step(cos_phi, sin_phi, plant, truth, row, x, tau, h, ws, stages):
+    """One RK4 step of length h [s] of the analytic plant (or the tree in active coordinates) x
+    under the held torque tau, in place, its stages on TRUTH rows row, row+1, row+1, row+2 (the
+    half-step grid; the order of operations of rk4_step); ``stages`` (5, 6) scratch. Returns ``ok``
+    (False: no forward kinematics at a stage; x is then unchanged)."""
+    k1, k2, k3, k4, stage = stages[0], stages[1], stages[2], stages[3], stages[4]
+    ok = _held_derivative(cos_phi, sin_phi, plant, truth[row], x, tau, ws, k1)
+    stage_point(stage, x, k1, 0.5 * h)
+    ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k2)
+    stage_point(stage, x, k2, 0.5 * h)
+    ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k3)
+    stage_point(stage, x, k3, h)
+    ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 2], stage, tau, ws, k4)
+    if ok:
+        combine(x, k1, k2, k3, k4, h / 6.0, x)
+    return ok
+
+
+@njit(cache=True)
 def record_sample(sample, info, y, ws):
     """One SAMPLE record from the state y and the outputs the last evaluation left in ``ws``
     (the closure gap is the tree's, 0 on the analytic plant), and the controller's INFO."""
@@ -207,7 +226,7 @@ def _run_sampled(pc, cos_phi, sin_phi, plant, truth, ref, y0, timing, ws, out, i
     h = dt / substeps
     tau = np.empty(3)
     rho_dot = np.empty(nr)
-    k1, k2, k3, k4, stage = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    stages = np.empty((5, 6))  # k1..k4 and a stage point
     for k in range(steps + 1):
         if not control_into(pc, cos_phi, sin_phi, plant, ref[k], y, nr, ws):
             return NO_FK, k * dt
@@ -219,18 +238,10 @@ def _run_sampled(pc, cos_phi, sin_phi, plant, truth, ref, y0, timing, ws, out, i
         rho_dot[:] = ws.rho_dot[0:nr]
         x = y[0:6].copy()
         for j in range(substeps):
-            row = 2 * (k * substeps + j)  # the stages of rk4_step: rows row, row+1, row+1, row+2
-            ok = _held_derivative(cos_phi, sin_phi, plant, truth[row], x, tau, ws, k1)
-            stage_point(stage, x, k1, 0.5 * h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k2)
-            stage_point(stage, x, k2, 0.5 * h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k3)
-            stage_point(stage, x, k3, h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 2], stage, tau, ws, k4)
+            ok = held_rk4_step(cos_phi, sin_phi, plant, truth, 2 * (k * substeps + j), x, tau, h, ws, stages)
             counters[0] += 4
             if not ok:
                 return NO_FK, (k * substeps + j) * h
-            combine(x, k1, k2, k3, k4, h / 6.0, x)
         for i in range(6):
             y[i] = x[i]
         for i in range(nr):

@@ -24,13 +24,13 @@ from __future__ import annotations
 import numpy as np
 
 from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
-from delta_pin.compiled.closed_loop import _held_derivative
+from delta_pin.compiled.closed_loop import held_rk4_step
 from delta_pin.compiled.delta_kernels import delta_kinematics_into
 from delta_pin.compiled.digital_laws import digital_law_step
 from delta_pin.compiled.jit import njit
 from delta_pin.compiled.layouts import ADAPTIVE_ROBUST
 from delta_pin.compiled.native.calls import call_closure_gap
-from delta_pin.compiled.rk4 import all_finite, combine, stage_point, within_limits
+from delta_pin.compiled.rk4 import all_finite, within_limits
 from delta_pin.compiled.tree_loop import _held_step
 
 __all__ = [
@@ -165,7 +165,7 @@ def run_digital_analytic(
     dt, substeps, steps = timing.step, timing.substeps, timing.samples
     h = dt / substeps
     x = state.x.copy()
-    k1, k2, k3, k4, stage = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    stages = np.empty((5, 6))  # k1..k4 and a stage point of held_rk4_step
     ws = workspace
     for k in range(steps + 1):
         status = _control(
@@ -187,19 +187,11 @@ def run_digital_analytic(
             break
         tau = state.tau
         for j in range(substeps):
-            row = 2 * (k * substeps + j)  # the stages of rk4_step: rows row, row+1, row+1, row+2
-            ok = _held_derivative(cos_phi, sin_phi, plant, truth[row], x, tau, ws, k1)
-            stage_point(stage, x, k1, 0.5 * h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k2)
-            stage_point(stage, x, k2, 0.5 * h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 1], stage, tau, ws, k3)
-            stage_point(stage, x, k3, h)
-            ok = ok and _held_derivative(cos_phi, sin_phi, plant, truth[row + 2], stage, tau, ws, k4)
+            ok = held_rk4_step(cos_phi, sin_phi, plant, truth, 2 * (k * substeps + j), x, tau, h, ws, stages)
             counters[0] += 4
             if not ok:
                 state.x[:] = x
                 return NO_FK, (k * substeps + j) * h
-            combine(x, k1, k2, k3, k4, h / 6.0, x)
         state.z[:] = state.z_next
         if not within_limits(x, state.z, x[3:6], timing.max_speed):
             state.x[:] = x
