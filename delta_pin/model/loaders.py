@@ -1,0 +1,238 @@
+"""``load_robot``: a closed-chain robot from any of the three file shapes people keep them in.
+
+* ``.urdf`` / ``.urdf.xacro`` with ``<constraint>`` elements (delta-pin's shape, the one proposed
+  to urdfdom)::
+
+      <constraint name="loop" type="point">          <!-- or type="weld": the frames coincide -->
+        <parent link="link_a"/> <parent_origin xyz="0 0 -0.4" rpy="0 0 0"/>
+        <child link="link_b"/>  <child_origin xyz="0.07 0.04 0"/>
+      </constraint>
+
+  the actuated joints from ``actuated=``, else from the URDF's ``<transmission>`` elements;
+* ``.urdf`` with a ``robot.yaml`` beside it (Gepetto's convention: ``closed_loop`` frame-name
+  pairs, ``type`` ``3D``/``6D`` per pair, ``name_mot`` motor joints;
+  :mod:`delta_pin.model.gepetto_loader`);
+* ``.xml`` MJCF (``<equality>`` ``connect``/``weld``, ``<actuator>`` ``motor``; compiled by MuJoCo
+  itself so that defaults, inferred inertias and reference-pose anchors mean what they mean in
+  MuJoCo; :mod:`delta_pin.model.mjcf_loader`).
+
+A Delta in any shape is recognised (:func:`delta_pin.model.delta_recognition.recognise_delta`)
+and then also carries the paper's analytic model (``robot.delta``). Nothing is dropped
+silently: an element the loader does not support is an error naming it (and its line).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+from lxml import etree
+
+from delta_pin.errors import DeltaPinError, InvalidParameterError, URDFConventionError
+from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.closures import Closure
+
+__all__ = ["ROBOT_FILE_SHAPES", "load_robot", "read_urdf_constraints"]
+
+ROBOT_FILE_SHAPES = (
+    ".urdf or .urdf.xacro with <constraint> elements, .urdf with a robot.yaml beside it, or .xml (MJCF)"
+)
+_POINT_TYPES = {"point": "3d", "3d": "3d"}
+_WELD_TYPES = {"weld": "6d", "fixed": "6d", "6d": "6d"}
+
+
+def _numbers(element, attribute: str, where: str, default: str = "0 0 0") -> np.ndarray:
+    text = default if element is None else element.get(attribute, default)
+    try:
+        values = np.array([float(v) for v in text.split()])
+    except ValueError:
+        raise URDFConventionError(f"{where}: {attribute}={text!r} is not a list of numbers") from None
+    if values.shape != (3,) or not np.isfinite(values).all():
+        raise URDFConventionError(f"{where}: {attribute}={text!r} must be 3 finite numbers")
+    return values
+
+
+def _origin(element, where: str) -> pin.SE3:
+    xyz = _numbers(element, "xyz", where)
+    rpy = _numbers(element, "rpy", where)
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
+
+
+def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> list[Closure]:
+    """The ``<constraint>`` elements of URDF text as :class:`Closure` on ``model`` (built from
+    the same text by Pinocchio).
+
+    Raises:
+        URDFConventionError: a constraint with an unsupported type, a missing link, or bad
+            numbers; the message names the constraint and its line.
+    """
+    root = etree.fromstring(urdf.encode())
+    closures = []
+    for number, element in enumerate(root.iter("constraint"), 1):
+        name = element.get("name") or f"constraint_{number}"
+        where = f"{source} line {element.sourceline}"
+        kind_name = (element.get("type") or "").lower()
+        kind = _POINT_TYPES.get(kind_name) or _WELD_TYPES.get(kind_name)
+        if kind is None:
+            raise URDFConventionError(
+                f"constraint {name!r} ({where}) has type {element.get('type')!r}; supported: 'point' (3D, the "
+                "frames' origins coincide) and 'weld' (6D, the frames coincide)"
+            )
+        anchors = []
+        for tag in ("parent", "child"):
+            link_element = element.find(tag)
+            link = None if link_element is None else link_element.get("link")
+            if link is None:
+                raise URDFConventionError(f"constraint {name!r} ({where}) has no <{tag} link='...'/>")
+            if not model.existFrame(link, pin.FrameType.BODY):
+                raise URDFConventionError(
+                    f"constraint {name!r} ({where}) names link {link!r}, which the URDF does not have"
+                )
+            body = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+            anchors.append((body.parentJoint, body.placement * _origin(element.find(f"{tag}_origin"), where)))
+        (j1, placement1), (j2, placement2) = anchors
+        if j1 == j2:
+            raise URDFConventionError(
+                f"constraint {name!r} ({where}) joins two links that move together (the same joint): it closes no loop"
+            )
+        closures.append(Closure(name, kind, j1, placement1, j2, placement2, source=where))
+    return closures
+
+
+def _urdf_transmissions(urdf: str) -> list[str]:
+    root = etree.fromstring(urdf.encode())
+    return [
+        joint.get("name") for t in root.iter("transmission") for joint in t.iter("joint") if joint.get("name")
+    ]
+
+
+def _read_text(path: Path) -> str:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise URDFConventionError(f"{str(path)!r} is not text (a binary file?)") from None
+    if path.name.endswith(".xacro"):
+        from xacrodoc import XacroDoc  # imported lazily: only needed to compile
+
+        return XacroDoc.from_file(str(path)).to_urdf_string()
+    return text
+
+
+def _load_urdf(
+    path: Path, text: str, actuated, g: float | None, end_effector: str | None
+) -> ClosedChainRobot:
+    source = path.name
+    try:
+        etree.fromstring(text.encode())
+    except etree.XMLSyntaxError as exc:
+        raise URDFConventionError(f"{source}: not valid XML: {exc}") from None
+    try:
+        model = pin.buildModelFromXML(text)
+    except (RuntimeError, ValueError) as exc:
+        raise URDFConventionError(f"{source}: Pinocchio could not read the URDF: {exc}") from None
+    if g is not None:
+        model.gravity.linear = np.array([0.0, 0.0, -float(g)])
+    closures = read_urdf_constraints(text, model, source)
+    if not closures:
+        raise URDFConventionError(
+            f"{source} has no <constraint> element and no robot.yaml beside it: a closed-chain robot needs its loop "
+            "closures (see docs/architecture.md section 13)"
+        )
+    reference = None
+    if actuated is None:
+        actuated = _urdf_transmissions(text)
+    if not actuated:  # a URDF that follows the Delta convention names its actuators by it
+        delta = _as_delta(text, model, path)
+        if delta is not None:
+            actuated = list(delta.description.active_joints)
+            reference = delta.pinocchio.configuration(np.zeros(3))
+    if not actuated:
+        raise URDFConventionError(
+            f"{source} names no actuated joint: pass actuated=[...] (CLI: --actuated a,b,c) or add <transmission> "
+            "elements"
+        )
+    return ClosedChainRobot(
+        model, closures, actuated, name=model.name, source=source, urdf=text, base_dir=str(path.resolve().parent),
+        end_effector=end_effector, reference_configuration=reference,
+    )  # fmt: skip
+
+
+def _as_delta(text: str, model: pin.Model, path: Path):
+    """The :class:`~delta_pin.model.robot.Delta` of URDF text that follows the Delta convention
+    (docs/architecture.md section 3), else ``None``."""
+    from delta_pin.model.description import read_description
+    from delta_pin.model.robot import Delta
+
+    try:
+        g = -float(model.gravity.linear[2])
+        return Delta(read_description(text, g=g if g > 0 else 9.81, base_dir=path.resolve().parent))
+    except DeltaPinError:  # not a Delta
+        return None
+
+
+def load_robot(
+    path: str | Path,
+    *,
+    actuated: list[str] | None = None,
+    end_effector: str | None = None,
+    g: float | None = None,
+    recognise: bool = True,
+    **xacro_args: float | str,
+) -> ClosedChainRobot:
+    """A closed-chain robot from a URDF (with ``<constraint>`` elements, or with a Gepetto
+    ``robot.yaml`` beside it) or an MJCF file (module docstring).
+
+    Args:
+        path: the file (``.urdf``, ``.urdf.xacro``, ``.xacro`` or ``.xml``).
+        actuated: the actuated joints, in the order of alpha (default: from the file: URDF
+            ``<transmission>``, ``robot.yaml`` ``name_mot``, MJCF ``<motor>``).
+        end_effector: the frame the runs record and task-space paths move (default: the first
+            closure's first frame).
+        g: gravity [m/s^2] along -z (default: the file's; URDF has none: 9.81).
+        recognise: look for a Delta (then ``robot.delta`` is its analytic model).
+        **xacro_args: arguments of a ``.xacro`` file.
+
+    Raises:
+        URDFConventionError: the file is missing, unreadable, or holds an element the loader
+            does not support (named, with its line).
+        InvalidParameterError, AssemblyError: bad actuated joints, or loops that do not close.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise URDFConventionError(f"robot file {str(path)!r} does not exist; give {ROBOT_FILE_SHAPES}")
+    if g is not None and not (math.isfinite(float(g)) and float(g) >= 0.0):
+        raise InvalidParameterError(f"g={g!r} must be a finite number >= 0 [m/s^2]")
+    name = path.name.lower()
+    if xacro_args and not name.endswith(".xacro"):
+        raise InvalidParameterError(
+            f"xacro arguments {sorted(xacro_args)} apply to .xacro files only, not to {path.name}"
+        )
+    if name.endswith(".xml") or name.endswith(".mjcf"):
+        from delta_pin.model.mjcf_loader import read_mjcf
+
+        robot = read_mjcf(path, actuated=actuated, end_effector=end_effector, g=g)
+    elif name.endswith(".urdf") or name.endswith(".xacro"):
+        if xacro_args:
+            from xacrodoc import XacroDoc
+
+            text = XacroDoc.from_file(
+                str(path), subargs={k: str(v) for k, v in xacro_args.items()}
+            ).to_urdf_string()
+        else:
+            text = _read_text(path)
+        sidecar = path.with_name("robot.yaml")
+        if "<constraint" not in text and sidecar.is_file():
+            from delta_pin.model.gepetto_loader import read_gepetto
+
+            robot = read_gepetto(path, sidecar, urdf=text, actuated=actuated, end_effector=end_effector, g=g)
+        else:
+            robot = _load_urdf(path, text, actuated, g, end_effector)
+    else:
+        raise URDFConventionError(f"{path.name}: unknown robot file type; give {ROBOT_FILE_SHAPES}")
+    if recognise:
+        from delta_pin.model.delta_recognition import recognise_delta
+
+        robot.delta = recognise_delta(robot)
+    return robot
