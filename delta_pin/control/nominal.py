@@ -5,7 +5,11 @@
   (eq. 12 with F̄_n; sgn smoothed like the plant's, so that the compensation does not chatter);
 * :class:`PinocchioNominalModel` -- any serial (tree) Pinocchio model: M̄ by CRBA, C̄ by
   ``computeCoriolisMatrix`` and Ḡ by ``computeGeneralizedGravity``, so the controllers run on
-  robots from example-robot-data too.
+  robots from example-robot-data too;
+* :class:`ClosedChainNominalModel` -- any closed-chain robot
+  (:class:`~delta_pin.model.closed_chain.ClosedChainRobot`): M̄, C̄ (the matrix) and Ḡ of its
+  actuated joints by projection of the tree's dynamics onto the closures' null space, with a
+  nominal payload and nominal friction (docs/architecture.md section 13).
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
 from delta_pin.model.kinematics import chain_trigonometry
 
-__all__ = ["DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
+__all__ = ["ClosedChainNominalModel", "DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
 
 
 class NominalModel(ABC):
@@ -170,3 +174,75 @@ class PinocchioNominalModel(NominalModel):
 
     def metadata(self):
         return {"kind": "pinocchio_serial", "name": self.model.name, "nv": self.dof}
+
+
+class ClosedChainNominalModel(NominalModel):
+    """A closed-chain robot's projected dynamics as a controller's nominal model.
+
+    Args:
+        robot: the robot (:func:`~delta_pin.model.loaders.load_robot`).
+        payload_mass: nominal payload m̄ [kg] at ``payload_frame`` (the end effector by default).
+        payload_frame: where the payload rides.
+        nominal_disturbance: F̄ (dof,) [N m], zero by default.
+        friction: nominal friction on the actuated joints (a
+            :class:`~delta_pin.model.friction.Friction` with its ``stribeck``; ``True`` takes a
+            recognised Delta's), or ``None``.
+    """
+
+    def __init__(
+        self,
+        robot,
+        payload_mass: float = 0.0,
+        payload_frame: str | None = None,
+        nominal_disturbance=None,
+        friction: Friction | bool | None = None,
+    ) -> None:
+        mass = float(payload_mass)
+        if not (np.isfinite(mass) and mass >= 0.0):
+            raise InvalidParameterError(f"payload_mass={payload_mass!r} must be a finite mass >= 0 [kg]")
+        self.robot = robot.with_payload(mass, payload_frame) if mass > 0.0 else robot
+        self.payload_mass = mass
+        self.dof = robot.dof
+        self._disturbance = (
+            np.zeros(self.dof)
+            if nominal_disturbance is None
+            else np.asarray(nominal_disturbance, dtype=float).reshape(self.dof)
+        )
+        if friction is True:
+            if robot.delta is None:
+                raise InvalidParameterError(
+                    "friction=True needs a recognised Delta; give a Friction with its stribeck"
+                )
+            friction = Friction()
+        self.friction_model = friction or None
+        self._friction_table = as_table(kernel_friction(None))
+        self.normal_force = np.zeros(self.dof)
+        if self.friction_model is not None:
+            stribeck = self.friction_model.stribeck_for(
+                None if robot.delta is None else robot.delta.params.friction
+            )
+            self._friction_table = as_table(
+                kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
+            )
+            self.normal_force = np.full(self.dof, float(self.friction_model.normal_force))
+
+    def terms(self, q, q_dot):
+        M, C, G, _ = self.robot.reduced_terms(q, q_dot)
+        return M, C, G
+
+    def disturbance(self):
+        return self._disturbance
+
+    def friction(self, q_dot):
+        if self.friction_model is None:
+            return np.zeros(self.dof)
+        return friction_torque(self._friction_table, np.asarray(q_dot, dtype=float), self.normal_force)
+
+    def metadata(self):
+        return {
+            "kind": "closed_chain_projected",
+            "robot": self.robot.name,
+            "payload_mass": self.payload_mass,
+            "nominal_disturbance": self._disturbance.tolist(),
+            "nominal_normal_force": None if self.friction_model is None else self.friction_model.normal_force,
+        }

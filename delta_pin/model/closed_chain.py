@@ -40,7 +40,7 @@ from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePo
 from delta_pin.model.closures import Closure
 from delta_pin.model.dynamics import ReducedDynamics
 
-__all__ = ["ClosedChainRobot"]
+__all__ = ["ClosedChainRobot", "closure_rank"]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _RANK_TOLERANCE = 1e-9  # singular values below this fraction of the largest count as zero
@@ -51,6 +51,11 @@ def _rank(matrix: np.ndarray) -> int:
         return 0
     singular = np.linalg.svd(matrix, compute_uv=False)
     return int((singular > _RANK_TOLERANCE * max(singular[0], 1.0)).sum())
+
+
+def closure_rank(robot: ClosedChainRobot, q: np.ndarray) -> int:
+    """Number of independent closure equations at q (``robot.closure_size`` when none is redundant)."""
+    return _rank(robot.closure_jacobian(q))
 
 
 class ClosedChainRobot:
@@ -93,6 +98,7 @@ class ClosedChainRobot:
         base_dir: str | None = None,
         visual_model: pin.GeometryModel | None = None,
     ) -> None:
+        self.tree = pin.Model(model)  # as given, without the closure frames (for variants)
         self.model = pin.Model(model)
         self.data = self.model.createData()
         self.name = name or model.name or "robot"
@@ -117,7 +123,8 @@ class ClosedChainRobot:
             jid = self.model.getJointId(joint)
             if self.model.nqs[jid] != 1 or self.model.nvs[jid] != 1:
                 raise InvalidParameterError(
-                    f"{self._label}actuated joint {joint!r} has {self.model.nvs[jid]} degrees of freedom; an actuator "
+                    f"{self._label}actuated joint {joint!r} has {self.model.nvs[jid]} degrees of freedom; "
+                    "an actuator "
                     "drives one revolute or prismatic joint"
                 )
             ids.append(jid)
@@ -164,6 +171,9 @@ class ClosedChainRobot:
         self.reference_configuration = self.configuration(self.home, initial_guess=q0)
         self._check_mobility(self.reference_configuration)
         self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
+        self._options = {
+            "name": name, "source": source, "urdf": urdf, "base_dir": base_dir, "visual_model": visual_model,
+        }  # fmt: skip
 
     # ------------------------------------------------------------------------------ naming
     @property
@@ -184,9 +194,27 @@ class ClosedChainRobot:
             raise InvalidParameterError(f"{self._label}has no frame {frame!r} (frames: {shown})")
         return self.model.getFrameId(frame)
 
+    def _frame(self, frame: str | int | None) -> int:
+        """A frame id from a name, an id, or ``None`` (the end effector)."""
+        if frame is None:
+            return self.end_effector
+        if isinstance(frame, (int, np.integer)) and 0 <= frame < len(self.model.frames):
+            return int(frame)
+        return self.frame_id(frame)
+
     def set_end_effector(self, frame: str) -> None:
         """Make ``frame`` the one :meth:`forward_kinematics` and the runs report."""
         self.end_effector = self.frame_id(frame)
+
+    @property
+    def params(self):
+        """A recognised Delta's parameters (so the Delta's task-space paths apply), else ``None``."""
+        return None if self.delta is None else self.delta.params
+
+    @property
+    def closure_frames(self) -> list[tuple[int, int, int]]:
+        """(frame id 1, frame id 2, equations) of each closure, in order."""
+        return list(self._frames)
 
     @property
     def end_effector_name(self) -> str:
@@ -316,13 +344,15 @@ class ClosedChainRobot:
         mobility = self.model.nv - rank
         if mobility != self.dof:
             raise AssemblyError(
-                f"{self._label}the mechanism has {mobility} degree(s) of freedom at its reference configuration "
+                f"{self._label}the mechanism has {mobility} degree(s) of freedom at its reference "
+                f"configuration "
                 f"({self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
                 f"actuator(s) ({', '.join(self.actuated_joints)}): name one actuator per degree of freedom"
             )
         if _rank(J[:, self.passive_indices]) != len(self.passive_indices):
             raise AssemblyError(
-                f"{self._label}the actuated joints ({', '.join(self.actuated_joints)}) do not determine the passive "
+                f"{self._label}the actuated joints ({', '.join(self.actuated_joints)}) do not determine "
+                "the passive "
                 "joints at the reference configuration (a singular or redundant actuation)"
             )
 
@@ -348,7 +378,8 @@ class ClosedChainRobot:
         vector = np.asarray(value, dtype=float).reshape(-1)
         if vector.shape != (self.dof,) or not np.isfinite(vector).all():
             raise InvalidParameterError(
-                f"{name}={np.asarray(value).tolist()} must be {self.dof} finite numbers (one per actuated joint: "
+                f"{name}={np.asarray(value).tolist()} must be {self.dof} finite numbers "
+                f"(one per actuated joint: "
                 f"{', '.join(self.actuated_joints)})"
             )
         return vector
@@ -356,11 +387,7 @@ class ClosedChainRobot:
     # ------------------------------------------------------------------------------ frames
     def frame_placement(self, q: np.ndarray, frame: str | int | None = None) -> pin.SE3:
         """World placement of a frame (name or id; the end effector by default) at configuration q."""
-        fid = (
-            self.end_effector
-            if frame is None
-            else (frame if isinstance(frame, int) else self.frame_id(frame))
-        )
+        fid = self._frame(frame)
         pin.framesForwardKinematics(self.model, self.data, q)
         return pin.SE3(self.data.oMf[fid])
 
@@ -375,11 +402,7 @@ class ClosedChainRobot:
     def frame_jacobian(self, q: np.ndarray, frame: str | int | None = None) -> np.ndarray:
         """Closed-loop Jacobian (6, dof) of a frame: its [linear; angular] velocity
         (LOCAL_WORLD_ALIGNED) per actuated velocity, J_frame S."""
-        fid = (
-            self.end_effector
-            if frame is None
-            else (frame if isinstance(frame, int) else self.frame_id(frame))
-        )
+        fid = self._frame(frame)
         S = self.velocity_map(q)  # leaves the joint Jacobians computed at q
         return pin.getFrameJacobian(self.model, self.data, fid, _WORLD) @ S
 
@@ -388,11 +411,7 @@ class ClosedChainRobot:
     ) -> np.ndarray:
         """The frame's classical linear acceleration (3,) [m/s^2] at zero actuated acceleration:
         x_ddot = J_x alpha_ddot + this (the J_dot alpha_dot of a task-space reference)."""
-        fid = (
-            self.end_effector
-            if frame is None
-            else (frame if isinstance(frame, int) else self.frame_id(frame))
-        )
+        fid = self._frame(frame)
         J = self.closure_jacobian(q)
         v = self._velocity_map(J) @ alpha_dot
         rate = np.zeros(self.model.nv)  # S_dot alpha_dot
@@ -430,7 +449,7 @@ class ClosedChainRobot:
         if rows is None or len(set(rows)) != len(rows):
             raise InvalidParameterError(f"axes={axes!r} must be distinct letters of 'xyz'")
         target = np.asarray(position, dtype=float).reshape(3)
-        fid = self.end_effector if frame is None else self.frame_id(frame)
+        fid = self._frame(frame)
         q = self._last_q.copy()
         alpha = (
             q[self.actuated_q_indices]
@@ -451,7 +470,8 @@ class ClosedChainRobot:
                 step *= 0.2 / largest
             alpha = alpha - step
         raise UnreachablePoseError(
-            f"{self._label}frame {self.model.frames[fid].name!r} cannot reach {target.tolist()} m along {axes!r}: "
+            f"{self._label}frame {self.model.frames[fid].name!r} cannot reach {target.tolist()} m "
+            f"along {axes!r}: "
             f"{np.abs(error).max():.3e} m off after {max_iterations} Newton steps"
         )
 
@@ -503,20 +523,21 @@ class ClosedChainRobot:
         return ReducedDynamics(M=M, G=G, coriolis=coriolis)
 
     # ------------------------------------------------------------------------------ payload
-    def with_payload(self, mass: float, frame: str | int | None = None) -> pin.Model:
-        """A copy of the tree with a point mass [kg] at a frame's origin (the end effector by default)."""
-        fid = (
-            self.end_effector
-            if frame is None
-            else (frame if isinstance(frame, int) else self.frame_id(frame))
-        )
-        model = pin.Model(self.model)
-        placement = model.frames[fid].placement
-        joint = model.frames[fid].parentJoint
-        model.inertias[joint] = model.inertias[joint] + pin.Inertia(
+    def with_payload(self, mass: float, frame: str | int | None = None) -> ClosedChainRobot:
+        """The same robot carrying a point mass [kg] at a frame's origin (the end effector by
+        default): e.g. a controller's nominal model with a nominal payload."""
+        fid = self._frame(frame)
+        tree = pin.Model(self.tree)
+        placement, joint = self.model.frames[fid].placement, self.model.frames[fid].parentJoint
+        tree.inertias[joint] = tree.inertias[joint] + pin.Inertia(
             float(mass), placement.translation, np.zeros((3, 3))
         )
-        return model
+        robot = ClosedChainRobot(
+            tree, self.closures, self.actuated_joints, reference_configuration=self.reference_configuration,
+            end_effector=self.model.frames[self.end_effector].name, **self._options,
+        )  # fmt: skip
+        robot.delta = self.delta
+        return robot
 
     def metadata(self) -> dict:
         return {

@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from delta_pin.errors import DeltaPinError
 
-__all__ = ["recognise_delta", "same_reduced_dynamics"]
+__all__ = ["delta_platform_joint", "recognise_delta", "same_reduced_dynamics"]
 
 _STATES = (  # (alpha [rad], alpha_dot [rad/s]) inside the Table 1 workspace
     (np.array([0.3, 0.45, 0.6]), np.array([0.7, -1.1, 0.4])),
@@ -64,7 +64,7 @@ def _measure(robot) -> dict | None:
         elbow = children[0]
         chain = _subtree_joints(model, joint)
         anchors = []
-        for closure, (f1, f2, _size) in zip(robot.closures, robot._frames):
+        for f1, f2, _size in robot.closure_frames:
             for mine, other in ((f1, f2), (f2, f1)):
                 if model.frames[mine].parentJoint in chain and model.frames[other].parentJoint not in chain:
                     anchors.append((mine, other))
@@ -86,11 +86,12 @@ def _measure(robot) -> dict | None:
         name: float(np.mean(v))
         for name, v in (("R", R), ("r", r), ("l_a", l_a), ("l_b", l_b), ("m_a", m_a), ("m_b", m_b))
     }
+    values["platform_joint"] = platform_joints.pop()
     for v in (R, r, l_a, l_b, m_a, m_b):
         if np.ptp(v) > 1e-9 * max(abs(np.mean(v)), 1.0):
             return None  # the three chains differ: not the symmetric Delta of the paper
     values["m_o"] = float(total - 3.0 * values["m_a"] - 3.0 * values["m_b"])
-    if min(values.values()) <= 0.0:
+    if min(v for k, v in values.items() if k != "platform_joint") <= 0.0:
         return None
     return values
 
@@ -112,6 +113,7 @@ def recognise_delta(robot):
     measured = _measure(robot)
     if measured is None:
         return None
+    measured.pop("platform_joint")
     for forearm in ("lumped", "rod"):
         try:
             delta = load_delta(g=g, forearm_inertia=forearm, **{k: repr(v) for k, v in measured.items()})
@@ -120,3 +122,12 @@ def recognise_delta(robot):
         if same_reduced_dynamics(robot, delta) is not None:
             return delta
     return None
+
+
+def delta_platform_joint(robot) -> str | None:
+    """Name of the joint that carries a recognised Delta's platform (its frame is the platform
+    position of the paper's kinematics), or ``None``."""
+    if robot.delta is None:
+        return None
+    measured = _measure(robot)
+    return None if measured is None else robot.model.names[measured["platform_joint"]]

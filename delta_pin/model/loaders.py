@@ -77,7 +77,8 @@ def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> 
         kind = _POINT_TYPES.get(kind_name) or _WELD_TYPES.get(kind_name)
         if kind is None:
             raise URDFConventionError(
-                f"constraint {name!r} ({where}) has type {element.get('type')!r}; supported: 'point' (3D, the "
+                f"constraint {name!r} ({where}) has type {element.get('type')!r}; "
+                "supported: 'point' (3D, the "
                 "frames' origins coincide) and 'weld' (6D, the frames coincide)"
             )
         anchors = []
@@ -95,7 +96,8 @@ def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> 
         (j1, placement1), (j2, placement2) = anchors
         if j1 == j2:
             raise URDFConventionError(
-                f"constraint {name!r} ({where}) joins two links that move together (the same joint): it closes no loop"
+                f"constraint {name!r} ({where}) joins two links that move together (the "
+                "same joint): it closes no loop"
             )
         closures.append(Closure(name, kind, j1, placement1, j2, placement2, source=where))
     return closures
@@ -137,7 +139,8 @@ def _load_urdf(
     closures = read_urdf_constraints(text, model, source)
     if not closures:
         raise URDFConventionError(
-            f"{source} has no <constraint> element and no robot.yaml beside it: a closed-chain robot needs its loop "
+            f"{source} has no <constraint> element and no robot.yaml beside it: a closed-chain robot "
+            "needs its loop "
             "closures (see docs/architecture.md section 13)"
         )
     reference = None
@@ -150,11 +153,13 @@ def _load_urdf(
             reference = delta.pinocchio.configuration(np.zeros(3))
     if not actuated:
         raise URDFConventionError(
-            f"{source} names no actuated joint: pass actuated=[...] (CLI: --actuated a,b,c) or add <transmission> "
+            f"{source} names no actuated joint: pass actuated=[...] (CLI: --actuated a,b,c) or add "
+            "<transmission> "
             "elements"
         )
     return ClosedChainRobot(
-        model, closures, actuated, name=model.name, source=source, urdf=text, base_dir=str(path.resolve().parent),
+        model, closures, actuated, name=model.name, source=source, urdf=text,
+        base_dir=str(path.resolve().parent),
         end_effector=end_effector, reference_configuration=reference,
     )  # fmt: skip
 
@@ -232,7 +237,9 @@ def load_robot(
     else:
         raise URDFConventionError(f"{path.name}: unknown robot file type; give {ROBOT_FILE_SHAPES}")
     if recognise:
-        from delta_pin.model.delta_recognition import recognise_delta
+        from delta_pin.model.delta_recognition import delta_platform_joint, recognise_delta
 
         robot.delta = recognise_delta(robot)
+        if robot.delta is not None and end_effector is None:  # the paper's xyz: the platform's
+            robot.set_end_effector(delta_platform_joint(robot))
     return robot

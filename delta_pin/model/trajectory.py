@@ -82,7 +82,13 @@ class JointReference:
 
 def _params_of(robot_or_params: Any) -> DeltaParameters:
     """The DeltaParameters of a :class:`~delta_pin.model.robot.Delta` (or the parameters themselves)."""
-    return getattr(robot_or_params, "params", robot_or_params)
+    params = getattr(robot_or_params, "params", robot_or_params)
+    if not isinstance(params, DeltaParameters):
+        raise InvalidParameterError(
+            f"this path is written for a Delta's platform (analytic IK, eq. 5) and {robot_or_params!r} is not a "
+            "recognised Delta: move a frame of it with FramePath(path, frame=...)"
+        )
+    return params
 
 
 def _vectorised(method: Callable[[Any, np.ndarray], np.ndarray]) -> Callable[[Any, Times], np.ndarray]:

@@ -1,0 +1,254 @@
+"""The Pinocchio plant of any closed-chain robot: ``pin.constraintDynamics`` on its tree.
+
+The same physics as the Delta's :class:`~delta_pin.sim.plants.PinocchioPlant`, for a
+:class:`~delta_pin.model.closed_chain.ClosedChainRobot` from any file shape:
+
+* ``coordinates="full"`` -- x = [q, v]: the whole tree is integrated with Baumgarte
+  stabilisation (omega = 20 rad/s), and a step whose closure gap exceeds
+  ``projection_tolerance`` is projected back onto the loops (Newton from the actuated
+  coordinates, velocities through the null space). Needs nq == nv (1-DOF joints);
+* ``coordinates="active"`` -- x = [alpha, alpha_dot]: every evaluation assembles q(alpha)
+  (warm-started) and v = S alpha_dot, then reads alpha_ddot from ``constraintDynamics``; the
+  loops are closed by construction, and any joint type works (what LSODA needs).
+
+Torques act on the actuated joints, minus the joint friction (eq. 12's Stribeck form with sgn
+smoothed by tanh, :class:`~delta_pin.model.friction.Friction`) and a time-varying payload m(t) [kg]
+rides as a point mass at a named frame (docs/architecture.md section 13).
+
+Closures with redundant equations (a planar loop closed by a 3D point or a 6D weld) make the
+KKT system singular; for them the proximal solver runs with mu = 1e-9 until the constraint
+accelerations agree to 1e-13 (Pinocchio's ``ProximalSettings``), which converges to the exact
+accelerations (tested against the projected dynamics).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict
+
+import numpy as np
+import pinocchio as pin
+
+from delta_pin.compiled.delta_kernels import friction_torque
+from delta_pin.compiled.layouts import as_table
+from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
+from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
+from delta_pin.model.friction import Friction, kernel_friction
+from delta_pin.sim.plants import Plant
+
+__all__ = ["ClosedChainPlant"]
+
+
+class ClosedChainPlant(Plant):
+    """Constrained forward dynamics of a closed-chain robot (module docstring).
+
+    Args:
+        robot: the robot.
+        friction: joint friction on the actuated joints: a :class:`Friction` with its
+            ``stribeck`` parameters (or, for a recognised Delta, the URDF's), ``True`` for a
+            recognised Delta's defaults, or ``None``.
+        payload_mass: m(t) [kg] as a function of time, a constant, or ``None``.
+        payload_frame: the frame the payload rides at (default: the end effector).
+        coordinates: ``"full"`` or ``"active"`` (default: full where nq == nv).
+        baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
+        projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
+    """
+
+    name = "pinocchio_closed_chain"
+
+    def __init__(
+        self,
+        robot: ClosedChainRobot,
+        friction: Friction | bool | None = None,
+        *,
+        payload_mass: Callable[[float], float] | float | None = None,
+        payload_frame: str | None = None,
+        coordinates: str | None = None,
+        baumgarte_frequency: float = 20.0,
+        projection_tolerance: float = 1e-10,
+        uncertainty=None,
+    ) -> None:
+        if uncertainty is not None:
+            raise InvalidParameterError(
+                "uncertainty profiles are the Delta's (platform mass, normal force, disturbance); a closed-chain "
+                "robot takes payload_mass=m(t) [kg] at payload_frame= instead"
+            )
+        self.robot = robot
+        self.dof = robot.dof
+        self.uncertainty = None
+        full_possible = robot.model.nq == robot.model.nv
+        if coordinates is None:
+            coordinates = "full" if full_possible else "active"
+        if coordinates not in ("full", "active"):
+            raise InvalidParameterError(f"coordinates={coordinates!r} must be 'full' or 'active'")
+        if coordinates == "full" and not full_possible:
+            raise InvalidParameterError(
+                f"coordinates='full' needs 1-DOF joints (nq == nv); {robot.name!r} has nq={robot.model.nq}, "
+                f"nv={robot.model.nv}: use coordinates='active'"
+            )
+        self.coordinates = coordinates
+        self._set_friction(friction)
+        self.model = pin.Model(robot.model)  # own copy: the payload changes the inertias
+        self.data = self.model.createData()
+        self.baumgarte_gains = (baumgarte_frequency**2, 2.0 * baumgarte_frequency)
+        gains = pin.BaumgarteCorrectorParameters(*self.baumgarte_gains)
+        self.constraint_models = pin.StdVec_RigidConstraintModel()
+        self.constraint_datas = pin.StdVec_RigidConstraintData()
+        for cm in robot.constraint_models:
+            copy = pin.RigidConstraintModel(cm)
+            copy.setBaumgarteCorrectorParameters(gains)
+            self.constraint_models.append(copy)
+            self.constraint_datas.append(copy.createData())
+        pin.initConstraintDynamics(self.model, self.data, self.constraint_models, self.constraint_datas)
+        redundant = closure_rank(robot, robot.reference_configuration) < robot.closure_size
+        # mu = 0: the exact KKT solve; redundant equations need the proximal iterations
+        self.settings = (
+            pin.ProximalSettings(1e-13, 1e-9, 200) if redundant else pin.ProximalSettings(1e-12, 0.0, 1)
+        )
+        self.redundant = redundant
+        self.payload_frame = robot.end_effector if payload_frame is None else robot.frame_id(payload_frame)
+        frame = self.model.frames[self.payload_frame]
+        self._payload_joint = frame.parentJoint
+        self._payload_point = frame.placement.translation.copy()
+        self._base_inertia = pin.Inertia(self.model.inertias[self._payload_joint])
+        if payload_mass is not None and not callable(payload_mass):
+            constant = float(payload_mass)
+            if not (math.isfinite(constant) and constant >= 0.0):
+                raise InvalidParameterError(f"payload_mass={payload_mass!r} must be a finite mass >= 0 [kg]")
+
+            def payload_mass(t, mass=constant):
+                return mass
+
+        self.payload_mass = payload_mass
+        self._mass = 0.0
+        self._tau = np.zeros(self.model.nv)
+        self.nq = self.model.nq
+        self.active = robot.actuated_indices
+        self.projection_tolerance = projection_tolerance
+        self.projections = 0
+        self._last_q = robot.reference_configuration.copy()
+
+    def _set_friction(self, friction) -> None:
+        delta = getattr(self.robot, "delta", None)
+        if friction is True:
+            if delta is None:
+                raise InvalidParameterError(
+                    "friction=True takes a recognised Delta's Stribeck data; for this robot give "
+                    "Friction(stribeck=StribeckParameters(...))"
+                )
+            friction = Friction()
+        self.friction = friction or None
+        self.stribeck = None
+        self.friction_parameters = kernel_friction(None)
+        if self.friction is not None:
+            self.stribeck = self.friction.stribeck_for(None if delta is None else delta.params.friction)
+            self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
+        self._friction_table = as_table(self.friction_parameters)
+        self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
+
+    # ------------------------------------------------------------------ truth
+    def precompute_truth(self, step: float, count: int) -> None:
+        """Nothing to tabulate: the payload function is called at each evaluation."""
+
+    def joint_friction(self, alpha_dot: np.ndarray) -> np.ndarray:
+        """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints (0 without friction)."""
+        if self.friction is None:
+            return np.zeros(self.dof)
+        return friction_torque(self._friction_table, np.asarray(alpha_dot, dtype=float), self._normal_force)
+
+    def _set_payload(self, t: float) -> None:
+        mass = 0.0 if self.payload_mass is None else float(self.payload_mass(t))
+        if mass != self._mass:
+            if not (math.isfinite(mass) and mass >= 0.0):
+                raise SimulationError(f"payload_mass(t) returned {mass!r} kg", t)
+            payload = pin.Inertia(mass, self._payload_point, np.zeros((3, 3)))
+            self.model.inertias[self._payload_joint] = self._base_inertia + payload
+            self._mass = mass
+
+    def accelerations(self, t: float, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """ddq of the constrained tree at (q, v) under actuated torques tau (dof,) at time t."""
+        self._set_payload(t)
+        self._tau[:] = 0.0
+        self._tau[self.active] = tau - self.joint_friction(v[self.active])
+        return pin.constraintDynamics(
+            self.model,
+            self.data,
+            q,
+            v,
+            self._tau,
+            self.constraint_models,
+            self.constraint_datas,
+            self.settings,
+        )
+
+    # ------------------------------------------------------------------ state interface
+    def _complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        try:
+            q = self.robot.configuration(alpha, initial_guess=self._last_q)
+        except AssemblyError as exc:
+            raise SimulationError(f"cannot close the loops: {exc}", t) from None
+        self._last_q = q
+        return q, self.robot.velocity_map(q) @ alpha_dot
+
+    def initial_state(self, alpha, alpha_dot):
+        alpha = np.asarray(alpha, dtype=float)
+        alpha_dot = np.asarray(alpha_dot, dtype=float)
+        if self.coordinates == "active":
+            return np.concatenate([alpha, alpha_dot])
+        q, v = self._complete(alpha, alpha_dot, 0.0)
+        return np.concatenate([q, v])
+
+    def derivative(self, t, x, tau):
+        if self.coordinates == "active":
+            q, v = self._complete(x[: self.dof], x[self.dof :], t)
+            return np.concatenate([x[self.dof :], self.accelerations(t, q, v, tau)[self.active]])
+        q, v = x[: self.nq], x[self.nq :]
+        return np.concatenate([v, self.accelerations(t, q, v, tau)])
+
+    def joint_state(self, x):
+        if self.coordinates == "active":
+            return x[: self.dof], x[self.dof :]
+        return x[self.robot.actuated_q_indices], x[self.nq + self.active]
+
+    def _configuration(self, x: np.ndarray) -> np.ndarray:
+        if self.coordinates == "active":
+            return self._complete(x[: self.dof], x[self.dof :], math.nan)[0]
+        return x[: self.nq]
+
+    def platform_position(self, x):
+        """Position [m] of the robot's end-effector frame."""
+        return self.robot.frame_placement(self._configuration(x)).translation.copy()
+
+    def closure_residual(self, x):
+        return self.robot.closure_gap(self._configuration(x))
+
+    def finish_step(self, x, t):
+        return self.finish_step_residual(x, t)[0]
+
+    def finish_step_residual(self, x, t):
+        if self.coordinates == "active":
+            return x, self.closure_residual(x)
+        gap = self.robot.closure_gap(x[: self.nq])
+        if gap <= self.projection_tolerance:
+            return x, gap
+        if not (math.isfinite(gap) and np.isfinite(x).all()):
+            raise SimulationError(f"the loop-closure gap is {gap:.3e}: the state is no longer finite", t)
+        self._last_q = x[: self.nq].copy()
+        x = self.initial_state(*self.joint_state(x))
+        self.projections += 1
+        return x, self.closure_residual(x)
+
+    def metadata(self):
+        return {
+            "plant": self.name,
+            "coordinates": self.coordinates,
+            "friction": None
+            if self.friction is None
+            else {**asdict(self.friction), "stribeck": asdict(self.stribeck)},
+            "payload_frame": self.model.frames[self.payload_frame].name,
+            "payload": getattr(self.payload_mass, "__name__", None),
+            "redundant_closure_equations": self.redundant,
+            "closure_projections": self.projections,
+            "uncertainty": None,
+        }

@@ -1,0 +1,78 @@
+"""A planar five-bar linkage in the vertical xz plane, written as URDF text with a
+``<constraint type="point">`` (the closed-chain tests' own robot, independent of the shipped files).
+
+The joint frames are rotated so that the zero configuration is assembled with the tip at
+``tip``: chain 1 from A1 = (-base/2, 0, 0), chain 2 from A2 = (base/2, 0, 0), elbows outward.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+PROXIMAL, DISTAL, BASE = 0.25, 0.3, 0.2  # [m]
+MASSES = (0.3, 0.2)  # proximal, distal [kg]
+
+
+def _pitch(v: np.ndarray) -> float:
+    """Rotation about y that turns the x axis along v (in the xz plane)."""
+    return math.atan2(-v[2], v[0])
+
+
+def five_bar_urdf(tip=(0.0, 0.0, -0.4), closure_type: str = "point", transmissions: bool = True) -> str:
+    tip = np.asarray(tip, dtype=float)
+    chains = []
+    for i, (x, side) in enumerate(((-BASE / 2, -1.0), (BASE / 2, 1.0)), 1):
+        A = np.array([x, 0.0, 0.0])
+        d = tip - A
+        n = np.linalg.norm(d)
+        u = d / n
+        a = (PROXIMAL**2 - DISTAL**2 + n**2) / (2 * n)
+        h = math.sqrt(PROXIMAL**2 - a**2)
+        elbow = A + a * u + side * h * np.array([-u[2], 0.0, u[0]])
+        first = _pitch(elbow - A)
+        second = _pitch(tip - elbow) - first
+        chains.append((i, x, first, second))
+    links, joints = ['<link name="base"/>'], []
+    for i, x, first, second in chains:
+        for part, length, mass in (("proximal", PROXIMAL, MASSES[0]), ("distal", DISTAL, MASSES[1])):
+            across = mass * length**2 / 12.0
+            links.append(
+                f'<link name="{part}_{i}"><inertial><origin xyz="{length / 2!r} 0 0"/><mass value="{mass!r}"/>'
+                f'<inertia ixx="1e-6" iyy="{across!r}" izz="{across!r}" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+            )
+        joints.append(
+            f'<joint name="motor_{i}" type="revolute"><parent link="base"/><child link="proximal_{i}"/>'
+            f'<origin xyz="{x!r} 0 0" rpy="0 {first!r} 0"/><axis xyz="0 1 0"/>'
+            '<limit effort="50" lower="-6.3" upper="6.3" velocity="50"/></joint>'
+        )
+        joints.append(
+            f'<joint name="elbow_{i}" type="revolute"><parent link="proximal_{i}"/><child link="distal_{i}"/>'
+            f'<origin xyz="{PROXIMAL!r} 0 0" rpy="0 {second!r} 0"/><axis xyz="0 1 0"/>'
+            '<limit effort="50" lower="-6.3" upper="6.3" velocity="50"/></joint>'
+        )
+    links.append('<link name="tip"/>')
+    joints.append(
+        f'<joint name="tip_joint" type="fixed"><parent link="distal_1"/><child link="tip"/>'
+        f'<origin xyz="{DISTAL!r} 0 0"/></joint>'
+    )
+    constraint = (
+        f'<constraint name="loop" type="{closure_type}"><parent link="distal_1"/>'
+        f'<parent_origin xyz="{DISTAL!r} 0 0"/><child link="distal_2"/><child_origin xyz="{DISTAL!r} 0 0"/>'
+        "</constraint>"
+    )
+    transmission = (
+        "".join(f'<transmission name="t{i}"><joint name="motor_{i}"/></transmission>' for i in (1, 2))
+        if transmissions
+        else ""
+    )
+    return (
+        '<?xml version="1.0"?>\n<robot name="five_bar">\n'
+        + "\n".join(links + joints)
+        + "\n"
+        + constraint
+        + "\n"
+        + transmission
+        + "\n</robot>\n"
+    )
