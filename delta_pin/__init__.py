@@ -34,6 +34,7 @@ if TYPE_CHECKING:
         LQR,
         AdaptiveRobustController,
         AdaptiveRobustGains,
+        ClosedChainNominalModel,
         ComputedTorque,
         Controller,
         DeltaNominalModel,
@@ -47,9 +48,13 @@ if TYPE_CHECKING:
         digital_robust,
         tdc,
     )
+    from delta_pin.model.closed_chain import ClosedChainRobot
+    from delta_pin.model.closures import Closure
     from delta_pin.model.description import DeltaParameters, StribeckParameters, compile_urdf
     from delta_pin.model.dynamics import ReducedDynamics
+    from delta_pin.model.frame_path import Circle, FramePath
     from delta_pin.model.friction import Friction
+    from delta_pin.model.loaders import load_robot
     from delta_pin.model.robot import Delta, load_delta
     from delta_pin.model.trajectory import (
         AdeptCycle,
@@ -61,6 +66,7 @@ if TYPE_CHECKING:
         check_workspace,
     )
     from delta_pin.sim.batch import simulate_batch
+    from delta_pin.sim.closed_chain_plant import ClosedChainPlant
     from delta_pin.sim.drive import Encoder
     from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant
     from delta_pin.sim.run import Run, load_run
@@ -77,6 +83,10 @@ __version__ = "0.1.0"
 
 # module -> the public names it defines, loaded on first use
 _PUBLIC = {
+    "delta_pin.model.closed_chain": ("ClosedChainRobot",),
+    "delta_pin.model.closures": ("Closure",),
+    "delta_pin.model.frame_path": ("Circle", "FramePath"),
+    "delta_pin.model.loaders": ("load_robot",),
     "delta_pin.model.description": ("DeltaParameters", "StribeckParameters", "compile_urdf"),
     "delta_pin.model.dynamics": ("ReducedDynamics",),
     "delta_pin.model.friction": ("Friction",),
@@ -94,6 +104,7 @@ _PUBLIC = {
         "LQR",
         "AdaptiveRobustController",
         "AdaptiveRobustGains",
+        "ClosedChainNominalModel",
         "ComputedTorque",
         "Controller",
         "DeltaNominalModel",
@@ -119,6 +130,7 @@ _PUBLIC = {
     "delta_pin.sim.run": ("Run", "load_run"),
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),
+    "delta_pin.sim.closed_chain_plant": ("ClosedChainPlant",),
 }
 _LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
 _LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use

@@ -5,13 +5,19 @@ from delta_pin.control.base import CallableController, Controller, ControlOutput
 from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
 from delta_pin.control.digital import TimeDelayControl, tdc
 from delta_pin.control.digital_robust import DigitalRobustController, digital_robust
-from delta_pin.control.nominal import DeltaNominalModel, NominalModel, PinocchioNominalModel
+from delta_pin.control.nominal import (
+    ClosedChainNominalModel,
+    DeltaNominalModel,
+    NominalModel,
+    PinocchioNominalModel,
+)
 
 __all__ = [
     "LQR",
     "AdaptiveRobustController",
     "AdaptiveRobustGains",
     "CallableController",
+    "ClosedChainNominalModel",
     "ComputedTorque",
     "ControlOutput",
     "Controller",

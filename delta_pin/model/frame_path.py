@@ -113,7 +113,8 @@ class FramePath:
             axes = "z"
         if len(axes) != robot.dof:
             raise InvalidParameterError(
-                f"axes={axes!r} controls {len(axes)} coordinate(s) of the frame but the robot has {robot.dof} "
+                f"axes={axes!r} controls {len(axes)} coordinate(s) of the frame but the robot has "
+                f"{robot.dof} "
                 "actuators: give as many task coordinates as actuators"
             )
         return axes

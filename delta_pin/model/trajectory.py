@@ -85,7 +85,8 @@ def _params_of(robot_or_params: Any) -> DeltaParameters:
     params = getattr(robot_or_params, "params", robot_or_params)
     if not isinstance(params, DeltaParameters):
         raise InvalidParameterError(
-            f"this path is written for a Delta's platform (analytic IK, eq. 5) and {robot_or_params!r} is not a "
+            f"this path is written for a Delta's platform (analytic IK, eq. 5) and {robot_or_params!r} "
+            "is not a "
             "recognised Delta: move a frame of it with FramePath(path, frame=...)"
         )
     return params

@@ -37,7 +37,7 @@ from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
 from delta_pin.model.friction import Friction, kernel_friction
 from delta_pin.sim.plants import Plant
 
-__all__ = ["ClosedChainPlant"]
+__all__ = ["ClosedChainPlant", "closed_chain_plant"]
 
 
 class ClosedChainPlant(Plant):
@@ -71,7 +71,8 @@ class ClosedChainPlant(Plant):
     ) -> None:
         if uncertainty is not None:
             raise InvalidParameterError(
-                "uncertainty profiles are the Delta's (platform mass, normal force, disturbance); a closed-chain "
+                "uncertainty profiles are the Delta's (platform mass, normal force, disturbance); a "
+                "closed-chain "
                 "robot takes payload_mass=m(t) [kg] at payload_frame= instead"
             )
         self.robot = robot
@@ -252,3 +253,23 @@ class ClosedChainPlant(Plant):
             "closure_projections": self.projections,
             "uncertainty": None,
         }
+
+
+def closed_chain_plant(
+    plant: str, robot: ClosedChainRobot, friction=None, uncertainty=None, **options
+) -> Plant:
+    """A plant by name for a closed-chain robot: ``"pinocchio"`` (:class:`ClosedChainPlant`) or,
+    for a recognised Delta, ``"analytic"`` (the paper's reduced ODE)."""
+    if plant == "pinocchio":
+        return ClosedChainPlant(robot, friction, uncertainty=uncertainty, **options)
+    if plant == "analytic":
+        if robot.delta is None:
+            raise InvalidParameterError(
+                f"plant='analytic' is the Delta's reduced ODE and {robot.name!r} is not a recognised "
+                "Delta: use "
+                "plant='pinocchio'"
+            )
+        from delta_pin.sim.plants import AnalyticPlant
+
+        return AnalyticPlant(robot.delta, friction, uncertainty)
+    raise InvalidParameterError(f"plant={plant!r} must be 'pinocchio' or 'analytic' (or a Plant)")

@@ -24,9 +24,11 @@ import numpy as np
 from delta_pin.choices import INTEGRATOR_CHOICES
 from delta_pin.control.base import as_controller
 from delta_pin.errors import InvalidParameterError
+from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
+from delta_pin.sim.closed_chain_plant import closed_chain_plant
 from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
@@ -95,6 +97,28 @@ def _runs_compiled(
     return bool(compiled) or batchable(controller, plant, mode)
 
 
+def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode):
+    """(compiled, plant) for a closed-chain robot: the Python loop (the compiled loops are the
+    Delta's) on its constrained Pinocchio plant, or the Delta's analytic plant where it is a
+    recognised Delta."""
+    if compiled:
+        raise InvalidParameterError(
+            f"compiled=True: the compiled loops are written for the Delta; {robot.name!r} runs the "
+            "Python loop "
+            "(compiled=None or False)"
+        )
+    if integrator in ("bdf2", "radau"):
+        raise InvalidParameterError(
+            f"integrator={integrator!r} exists in the Delta's compiled loops only; a closed-chain robot "
+            "takes "
+            "'rk4' (sampled) or 'lsoda' (continuous)"
+        )
+    if isinstance(plant, str):
+        coordinates = "active" if mode == "continuous" else None  # LSODA's small state
+        plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
+    return False, plant
+
+
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> None:
     """A discrete-time controller runs only in sampled mode at its own period; an encoder, a
     delay or a torque limit exist only in sampled mode."""
@@ -114,7 +138,7 @@ def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> Non
 
 
 def simulate(
-    robot: Delta,
+    robot: Delta | ClosedChainRobot,
     controller,
     trajectory=None,
     *,
@@ -139,7 +163,10 @@ def simulate(
     """Simulate ``controller`` driving ``robot`` along ``trajectory``.
 
     Args:
-        robot: the robot (:func:`delta_pin.load_delta`).
+        robot: the robot (:func:`delta_pin.load_delta`), or any closed-chain robot
+            (:func:`delta_pin.load_robot`; then the Python loop on its
+            :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`, ``friction`` and a
+            ``payload_mass`` given to that plant).
         controller: a :class:`~delta_pin.control.Controller` or any ``f(t, alpha, alpha_dot) -> tau``.
         trajectory: a task-space :class:`~delta_pin.model.trajectory.Trajectory`, or ``None`` to
             hold ``alpha0`` (then required).
@@ -195,6 +222,11 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
+    if isinstance(robot, ClosedChainRobot):
+        compiled, plant = _closed_chain_options(
+            robot, plant, integrator, compiled, friction, uncertainty, mode
+        )
+        friction = uncertainty = None  # now the plant's
     integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):

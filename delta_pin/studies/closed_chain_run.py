@@ -1,0 +1,122 @@
+"""One controller on any closed-chain robot (``delta-pin run --robot PATH [--frame NAME]``).
+
+The controller's nominal model is the robot's projected dynamics
+(:class:`~delta_pin.control.nominal.ClosedChainNominalModel`, no friction, no payload); the plant
+is its constrained Pinocchio tree (:class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`).
+The reference is either a circle drawn by a frame (task space, :class:`~delta_pin.model.frame_path.FramePath`)
+or a sinusoid of every actuated joint about home (joint space). Both start at the robot's home
+configuration, so the run starts on its reference (docs/architecture.md section 13).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from delta_pin.control import LQR, ComputedTorque, PDGravity, design1, design2, digital_robust, tdc
+from delta_pin.control.nominal import ClosedChainNominalModel
+from delta_pin.errors import InvalidParameterError
+from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.frame_path import Circle, FramePath
+from delta_pin.sim.run import Run
+from delta_pin.sim.runner import simulate
+from delta_pin.sim.serial import JointSinusoid
+
+__all__ = [
+    "JOINT_AMPLITUDE",
+    "circle_plane",
+    "closed_chain_controller",
+    "closed_chain_reference",
+    "run_closed_chain",
+]
+
+JOINT_AMPLITUDE = 0.05  # [rad or m] the joint-space sinusoid's amplitude about home
+
+
+def circle_plane(robot: ClosedChainRobot, frame: str | None = None) -> str:
+    """The coordinate plane a frame moves in most freely at home: for a 2-actuator robot, the two
+    world axes along which the closed-loop Jacobian's rows are largest; ``"xy"`` otherwise."""
+    if robot.dof != 2:
+        return "xy"
+    J = robot.frame_jacobian(robot.reference_configuration, frame)[:3]
+    first, second = sorted(np.argsort(-np.linalg.norm(J, axis=1))[:2])
+    return "xyz"[first] + "xyz"[second]
+
+
+def closed_chain_reference(
+    robot: ClosedChainRobot, frame: str | None, radius: float, period: float
+) -> tuple[object, dict]:
+    """(the reference, its description): a circle of ``frame`` through its home position, or a
+    joint-space sinusoid about home when ``frame`` is ``None``."""
+    if not (math.isfinite(period) and period > 0.0):
+        raise InvalidParameterError(f"--period {period!r} must be > 0 [s]")
+    if frame is None:
+        reference = JointSinusoid(center=robot.home, amplitude=JOINT_AMPLITUDE, frequency=1.0 / period)
+        return reference, {"reference": "joint sinusoid", "amplitude": JOINT_AMPLITUDE, "period": period}
+    if robot.dof > 3:
+        raise InvalidParameterError(
+            f"--frame moves a frame's position (3 coordinates) and {robot.name!r} has {robot.dof} actuators: "
+            "omit --frame for a joint-space reference"
+        )
+    robot.frame_id(frame)  # names the frames that exist
+    plane = circle_plane(robot, frame)
+    home = robot.frame_placement(robot.reference_configuration, frame).translation
+    center = home.copy()
+    center["xyz".index(plane[0])] -= radius  # the circle starts at home
+    path = FramePath(Circle(center, radius, period, plane), frame=frame)
+    return path, {"reference": "circle", "frame": frame, "plane": plane, "radius": radius, "period": period}
+
+
+def closed_chain_controller(name: str, robot: ClosedChainRobot, dt: float, sampling_aware: bool = False):
+    """A controller by its CLI name on the robot's projected nominal model (the designs' and
+    baselines' default gains)."""
+    nominal = ClosedChainNominalModel(robot)
+    if name in ("design1", "design2"):
+        make = design1 if name == "design1" else design2
+        return make(nominal, sampling_period=dt if sampling_aware else None)
+    makers: dict[str, Callable] = {
+        "ctc": lambda: ComputedTorque(nominal),
+        "pd": lambda: PDGravity(nominal),
+        "lqr": lambda: LQR(nominal, robot.home),
+        "tdc": lambda: tdc(nominal, dt),
+        "digital-robust": lambda: digital_robust(nominal, dt),
+    }
+    if name not in makers:
+        raise InvalidParameterError(
+            f"controller {name!r} must be one of design1, design2, {', '.join(makers)}"
+        )
+    return makers[name]()
+
+
+def run_closed_chain(
+    robot: ClosedChainRobot,
+    *,
+    controller: str = "design1",
+    frame: str | None = None,
+    mode: str = "continuous",
+    dt: float = 1e-3,
+    t_end: float | None = None,
+    radius: float = 0.02,
+    period: float = 2.0,
+    sampling_aware: bool = False,
+    announce: Callable[[str], None] | None = None,
+) -> tuple[Run, dict]:
+    """Simulate ``controller`` on ``robot`` (module docstring); ``t_end`` defaults to two periods.
+
+    Returns:
+        (the run, a description of what ran, for summary.json).
+    """
+    reference, description = closed_chain_reference(robot, frame, radius, period)
+    t_end = 2.0 * period if t_end is None else t_end
+    law = closed_chain_controller(controller, robot, dt, sampling_aware)
+    if announce is not None:
+        what = f"a circle of {frame}" if frame else "a joint-space sinusoid"
+        announce(
+            f"delta-pin run: {controller} on {robot.name!r} ({robot.dof} actuators, {len(robot.closures)} "
+            f"closure(s)), {what}, Pinocchio plant, {mode} mode, {t_end:g} s ..."
+        )
+    run = simulate(robot, law, reference, t_end=t_end, dt=dt, mode=mode, alpha0=robot.home, progress=None)
+    description.update(controller=controller, mode=mode, dt=dt, t_end=t_end)
+    return run, description
