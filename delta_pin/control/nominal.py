@@ -23,7 +23,7 @@ from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
 from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.dynamics import kernel_geometry
-from delta_pin.model.friction import Friction, kernel_friction
+from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["ClosedChainNominalModel", "DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
@@ -236,7 +236,9 @@ class ClosedChainNominalModel(NominalModel):
     def friction(self, q_dot):
         if self.friction_model is None:
             return np.zeros(self.dof)
-        return friction_torque(self._friction_table, np.asarray(q_dot, dtype=float), self.normal_force)
+        return stribeck_torque(
+            self.stribeck, q_dot, self.normal_force, self.friction_model.sign_velocity_scale
+        )
 
     def metadata(self):
         return {

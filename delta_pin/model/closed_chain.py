@@ -450,7 +450,7 @@ class ClosedChainRobot:
             raise InvalidParameterError(f"axes={axes!r} must be distinct letters of 'xyz'")
         target = np.asarray(position, dtype=float).reshape(3)
         fid = self._frame(frame)
-        q = self._last_q.copy()
+        q = start = self._last_q.copy()
         alpha = (
             q[self.actuated_q_indices]
             if initial_guess is None
@@ -469,6 +469,7 @@ class ClosedChainRobot:
             if largest > 0.2:
                 step *= 0.2 / largest
             alpha = alpha - step
+        self._last_q = start  # a failed search leaves the assembly mode where it was
         raise UnreachablePoseError(
             f"{self._label}frame {self.model.frames[fid].name!r} cannot reach {target.tolist()} m "
             f"along {axes!r}: "

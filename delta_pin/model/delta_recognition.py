@@ -110,6 +110,16 @@ def recognise_delta(robot):
     g = -float(robot.model.gravity.linear[2])
     if not g > 0.0 or np.abs(robot.model.gravity.linear[:2]).max() > 0.0:
         return None
+    if robot.urdf and "<constraint" in robot.urdf:  # a URDF that follows the convention: read as such
+        from delta_pin.model.description import read_description
+        from delta_pin.model.robot import Delta
+
+        try:
+            delta = Delta(read_description(robot.urdf, g=g, base_dir=robot.base_dir))
+        except DeltaPinError:
+            delta = None
+        if delta is not None and same_reduced_dynamics(robot, delta) is not None:
+            return delta
     measured = _measure(robot)
     if measured is None:
         return None

@@ -30,11 +30,9 @@ from dataclasses import asdict
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.compiled.delta_kernels import friction_torque
-from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
-from delta_pin.model.friction import Friction, kernel_friction
+from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import Plant
 
 __all__ = ["ClosedChainPlant", "closed_chain_plant"]
@@ -141,11 +139,8 @@ class ClosedChainPlant(Plant):
             friction = Friction()
         self.friction = friction or None
         self.stribeck = None
-        self.friction_parameters = kernel_friction(None)
         if self.friction is not None:
             self.stribeck = self.friction.stribeck_for(None if delta is None else delta.params.friction)
-            self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
-        self._friction_table = as_table(self.friction_parameters)
         self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
 
     # ------------------------------------------------------------------ truth
@@ -156,7 +151,9 @@ class ClosedChainPlant(Plant):
         """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints (0 without friction)."""
         if self.friction is None:
             return np.zeros(self.dof)
-        return friction_torque(self._friction_table, np.asarray(alpha_dot, dtype=float), self._normal_force)
+        return stribeck_torque(
+            self.stribeck, alpha_dot, self._normal_force, self.friction.sign_velocity_scale
+        )
 
     def _set_payload(self, t: float) -> None:
         mass = 0.0 if self.payload_mass is None else float(self.payload_mass(t))

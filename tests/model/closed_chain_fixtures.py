@@ -39,8 +39,9 @@ def five_bar_urdf(tip=(0.0, 0.0, -0.4), closure_type: str = "point", transmissio
         for part, length, mass in (("proximal", PROXIMAL, MASSES[0]), ("distal", DISTAL, MASSES[1])):
             across = mass * length**2 / 12.0
             links.append(
-                f'<link name="{part}_{i}"><inertial><origin xyz="{length / 2!r} 0 0"/><mass value="{mass!r}"/>'
-                f'<inertia ixx="1e-6" iyy="{across!r}" izz="{across!r}" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+                f'<link name="{part}_{i}"><inertial><origin xyz="{length / 2!r} 0 0"/>'
+                f'<mass value="{mass!r}"/><inertia ixx="1e-6" iyy="{across!r}" izz="{across!r}" '
+                'ixy="0" ixz="0" iyz="0"/></inertial></link>'
             )
         joints.append(
             f'<joint name="motor_{i}" type="revolute"><parent link="base"/><child link="proximal_{i}"/>'
