@@ -9,7 +9,7 @@
 * :class:`ClosedChainNominalModel` -- any closed-chain robot
   (:class:`~delta_pin.model.closed_chain.ClosedChainRobot`): M̄, C̄ (the matrix) and Ḡ of its
   actuated joints by projection of the tree's dynamics onto the closures' null space, with a
-  nominal payload and nominal friction (docs/architecture.md section 13).
+  nominal payload and nominal friction (docs/architecture.md section 10).
 """
 
 from __future__ import annotations

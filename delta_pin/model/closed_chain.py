@@ -3,7 +3,7 @@
 :class:`ClosedChainRobot` is what :func:`~delta_pin.model.loaders.load_robot` returns for a URDF
 with ``<constraint>`` elements, a URDF with a Gepetto ``robot.yaml`` sidecar, or an MJCF file. It
 knows nothing of the Delta; the Delta's own class (:class:`~delta_pin.model.robot.Delta`) adds the
-paper's analytic model on top of the same ideas (docs/architecture.md section 13).
+paper's analytic model on top of the same ideas (docs/architecture.md section 10).
 
 Coordinates: alpha (``dof``,) are the actuated joints (1-DOF joints, one per actuator); q (nq,)
 and v (nv,) the whole tree. Every closure k gives residual rows r_k(q):

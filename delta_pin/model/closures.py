@@ -10,7 +10,7 @@ The three file shapes (URDF ``<constraint>``, URDF + Gepetto ``robot.yaml``, MJC
 each produce a list of :class:`Closure` (:mod:`delta_pin.model.loaders`); the
 :class:`~delta_pin.model.closed_chain.ClosedChainRobot` turns them into Pinocchio
 ``RigidConstraintModel`` objects for ``constraintDynamics`` and into its own residuals and
-Jacobians (docs/architecture.md section 13).
+Jacobians (docs/architecture.md section 10).
 """
 
 from __future__ import annotations

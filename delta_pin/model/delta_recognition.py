@@ -7,7 +7,7 @@ each chain, l_b and r from the closure anchors, the masses from the bodies), the
 compiled with them, and the robot is a Delta if the projected M, C alpha_dot and G of the two
 agree to 1e-9 (relative) at a few states. A different inertia model, axis convention or any
 other difference fails the test and leaves ``robot.delta`` as ``None``
-(docs/architecture.md section 13).
+(docs/architecture.md section 10).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ actuated joints by numeric closed-loop inverse kinematics.
   with J_x the frame's closed-loop Jacobian (rows of the controlled ``axes``) and J_x_dot
   alpha_dot its classical acceleration at zero actuated acceleration
   (:meth:`~delta_pin.model.closed_chain.ClosedChainRobot.frame_acceleration_drift`); each
-  sample's IK starts from the previous one's (docs/architecture.md section 13).
+  sample's IK starts from the previous one's (docs/architecture.md section 10).
 """
 
 from __future__ import annotations

@@ -141,7 +141,7 @@ def _load_urdf(
         raise URDFConventionError(
             f"{source} has no <constraint> element and no robot.yaml beside it: a closed-chain robot "
             "needs its loop "
-            "closures (see docs/architecture.md section 13)"
+            "closures (see docs/architecture.md section 10)"
         )
     reference = None
     if actuated is None:

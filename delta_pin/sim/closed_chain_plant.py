@@ -13,7 +13,7 @@ The same physics as the Delta's :class:`~delta_pin.sim.plants.PinocchioPlant`, f
 
 Torques act on the actuated joints, minus the joint friction (eq. 12's Stribeck form with sgn
 smoothed by tanh, :class:`~delta_pin.model.friction.Friction`) and a time-varying payload m(t) [kg]
-rides as a point mass at a named frame (docs/architecture.md section 13).
+rides as a point mass at a named frame (docs/architecture.md section 10).
 
 Closures with redundant equations (a planar loop closed by a 3D point or a 6D weld) make the
 KKT system singular; for them the proximal solver runs with mu = 1e-9 until the constraint

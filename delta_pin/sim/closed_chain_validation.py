@@ -1,7 +1,7 @@
 """``delta-pin validate --robot PATH``: check a closed-chain robot's projected model where no
 analytic model exists to compare with.
 
-Five checks, each against an independent reference (docs/architecture.md section 13):
+Five checks, each against an independent reference (docs/architecture.md section 10):
 
 1. **closure** -- the largest closure residual of the assembled random states [m or rad];
 2. **plant** -- the projected alpha_ddot = M^-1 (tau - C alpha_dot - G) against the plant's

@@ -5,7 +5,7 @@ The controller's nominal model is the robot's projected dynamics
 is its constrained Pinocchio tree (:class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`).
 The reference is either a circle drawn by a frame (task space, :class:`~delta_pin.model.frame_path.FramePath`)
 or a sinusoid of every actuated joint about home (joint space). Both start at the robot's home
-configuration, so the run starts on its reference (docs/architecture.md section 13).
+configuration, so the run starts on its reference (docs/architecture.md section 10).
 """
 
 from __future__ import annotations
