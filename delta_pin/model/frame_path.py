@@ -137,6 +137,9 @@ class FramePath:
         actual = np.empty((n, 3))
         guess = None
         for k in range(n):
+            if k > 0:  # second-order prediction from the previous sample: IK then needs ~1 step
+                step = times[k] - times[k - 1]
+                guess = alpha[k - 1] + step * alpha_dot[k - 1] + 0.5 * step * step * alpha_ddot[k - 1]
             try:
                 guess = robot.inverse_kinematics(xyz[k], fid, axes=axes, initial_guess=guess)
             except InvalidParameterError:
