@@ -34,11 +34,19 @@ from delta_pin.errors import DeltaPinError, InvalidParameterError, URDFConventio
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.closures import Closure
 
-__all__ = ["ROBOT_FILE_SHAPES", "load_robot", "read_urdf_constraints"]
+__all__ = ["ROBOT_FILE_SHAPES", "SHIPPED_ROBOTS", "load_robot", "read_urdf_constraints", "shipped_robot"]
 
 ROBOT_FILE_SHAPES = (
     ".urdf or .urdf.xacro with <constraint> elements, .urdf with a robot.yaml beside it, or .xml (MJCF)"
 )
+# name -> file in delta_pin/robots (scripts/make_example_robots.py writes them)
+SHIPPED_ROBOTS = {
+    "five_bar": "five_bar.urdf",  # planar five-bar, URDF with a <constraint type="point">
+    "three_rrr": "three_rrr.urdf",  # planar 3-RRR, URDF with a point and a weld closure
+    "three_rrr_mjcf": "three_rrr.xml",  # the same robot in MJCF (connect + weld)
+    "delta_mjcf": "delta.xml",  # the Table 1 Delta in MJCF (connects, motors)
+    "delta_gepetto": "delta_gepetto/robot.urdf",  # the Table 1 Delta as URDF + robot.yaml
+}
 _POINT_TYPES = {"point": "3d", "3d": "3d"}
 _WELD_TYPES = {"weld": "6d", "fixed": "6d", "6d": "6d"}
 
@@ -177,6 +185,15 @@ def _as_delta(text: str, model: pin.Model, path: Path):
         return None
 
 
+def shipped_robot(name: str) -> Path:
+    """Path of a robot file shipped with delta-pin (:data:`SHIPPED_ROBOTS`)."""
+    if name not in SHIPPED_ROBOTS:
+        raise URDFConventionError(f"no shipped robot {name!r}; shipped: {', '.join(SHIPPED_ROBOTS)}")
+    from importlib import resources
+
+    return Path(str(resources.files("delta_pin") / "robots" / SHIPPED_ROBOTS[name]))
+
+
 def load_robot(
     path: str | Path,
     *,
@@ -190,7 +207,8 @@ def load_robot(
     ``robot.yaml`` beside it) or an MJCF file (module docstring).
 
     Args:
-        path: the file (``.urdf``, ``.urdf.xacro``, ``.xacro`` or ``.xml``).
+        path: the file (``.urdf``, ``.urdf.xacro``, ``.xacro`` or ``.xml``), or the name of a
+            shipped robot (:data:`SHIPPED_ROBOTS`, e.g. ``"five_bar"``).
         actuated: the actuated joints, in the order of alpha (default: from the file: URDF
             ``<transmission>``, ``robot.yaml`` ``name_mot``, MJCF ``<motor>``).
         end_effector: the frame the runs record and task-space paths move (default: the first
@@ -204,9 +222,14 @@ def load_robot(
             does not support (named, with its line).
         InvalidParameterError, AssemblyError: bad actuated joints, or loops that do not close.
     """
+    if isinstance(path, str) and path in SHIPPED_ROBOTS:
+        path = shipped_robot(path)
     path = Path(path)
     if not path.is_file():
-        raise URDFConventionError(f"robot file {str(path)!r} does not exist; give {ROBOT_FILE_SHAPES}")
+        raise URDFConventionError(
+            f"robot file {str(path)!r} does not exist; give {ROBOT_FILE_SHAPES}, "
+            f"or a shipped robot's name ({', '.join(SHIPPED_ROBOTS)})"
+        )
     if g is not None and not (math.isfinite(float(g)) and float(g) >= 0.0):
         raise InvalidParameterError(f"g={g!r} must be a finite number >= 0 [m/s^2]")
     name = path.name.lower()
