@@ -4,7 +4,15 @@ numba or Pinocchio. The modules that implement each choice import their tuple fr
 
 from __future__ import annotations
 
-__all__ = ["CONTROLLERS", "INTEGRATORS", "INTEGRATOR_CHOICES", "MODES", "PATHS", "VELOCITIES"]
+__all__ = [
+    "CONTROLLERS",
+    "INTEGRATORS",
+    "INTEGRATOR_CHOICES",
+    "MODES",
+    "PATHS",
+    "SHIPPED_ROBOT_NAMES",
+    "VELOCITIES",
+]
 
 CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")  # studies.experiments
 PATHS = ("I", "II", "adept")  # path I (eq. 66), path II (eq. 69), the Adept pick-and-place cycle
@@ -12,3 +20,10 @@ MODES = ("sampled", "continuous")  # sim.arguments
 INTEGRATORS = ("rk4", "lsoda", "bdf2", "radau")  # sim.integrators; bdf2 and radau are compiled
 INTEGRATOR_CHOICES = ("auto", *INTEGRATORS)  # what RunSpec and the CLI accept
 VELOCITIES = ("difference", "none", "exact")  # what an encoder gives as velocity (sim.drive)
+SHIPPED_ROBOT_NAMES = (
+    "five_bar",
+    "three_rrr",
+    "three_rrr_mjcf",
+    "delta_mjcf",
+    "delta_gepetto",
+)  # model.loaders

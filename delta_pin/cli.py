@@ -9,7 +9,7 @@ import os
 import sys
 from pathlib import Path
 
-from delta_pin.choices import CONTROLLERS, INTEGRATOR_CHOICES, MODES, PATHS, VELOCITIES
+from delta_pin.choices import CONTROLLERS, INTEGRATOR_CHOICES, MODES, PATHS, SHIPPED_ROBOT_NAMES, VELOCITIES
 from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError, XacroArgumentError
 from delta_pin.utils.atomic import write_text_atomically
 
@@ -164,10 +164,10 @@ def _robot_file_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("any closed-chain robot (instead of the packaged Delta)")
     group.add_argument(
         "--robot",
-        type=Path,
+        type=str,
         default=None,
         help="a robot file: .urdf/.xacro with <constraint> elements, .urdf with robot.yaml beside it, or "
-        "MJCF .xml",
+        f"MJCF .xml; or a shipped robot: {', '.join(SHIPPED_ROBOT_NAMES)}",
     )
     group.add_argument(
         "--actuated", default=None, metavar="A,B,...", help="the actuated joints (default: from the file)"

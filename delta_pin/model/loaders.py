@@ -39,7 +39,8 @@ __all__ = ["ROBOT_FILE_SHAPES", "SHIPPED_ROBOTS", "load_robot", "read_urdf_const
 ROBOT_FILE_SHAPES = (
     ".urdf or .urdf.xacro with <constraint> elements, .urdf with a robot.yaml beside it, or .xml (MJCF)"
 )
-# name -> file in delta_pin/robots (scripts/make_example_robots.py writes them)
+# name (delta_pin.choices.SHIPPED_ROBOT_NAMES) -> file in delta_pin/robots
+# (scripts/make_example_robots.py writes them)
 SHIPPED_ROBOTS = {
     "five_bar": "five_bar.urdf",  # planar five-bar, URDF with a <constraint type="point">
     "three_rrr": "three_rrr.urdf",  # planar 3-RRR, URDF with a point and a weld closure

@@ -187,3 +187,10 @@ def test_with_payload_adds_the_mass_at_the_frame(five_bar):
     J_z = five_bar.frame_jacobian(q, "tip")[2]
     g = -five_bar.model.gravity.linear[2]
     np.testing.assert_allclose(G1 - G0, J_z * 0.5 * g, rtol=0, atol=1e-12)
+
+
+def test_shipped_robot_names_are_one_list():
+    from delta_pin.choices import SHIPPED_ROBOT_NAMES
+    from delta_pin.model.loaders import SHIPPED_ROBOTS
+
+    assert tuple(SHIPPED_ROBOTS) == SHIPPED_ROBOT_NAMES
