@@ -17,6 +17,9 @@ FAST = {
     "serial_robot_design1.py": ["--t-end", "1.2"],
     "export_run_html.py": ["--t-end", "0.3", "--out", "{tmp}/run.html"],
     "mujoco_digital_robust.py": ["--t-end", "1"],
+    "five_bar_circle.py": ["--t-end", "0.5"],
+    "delta_from_three_files.py": ["--t-end", "0.2"],
+    "three_rrr_joint_space.py": ["--t-end", "0.3"],
 }
 
 
@@ -30,7 +33,7 @@ def test_example_runs_headless(name, tmp_path):
         pytest.importorskip("dask.distributed")
     if name == "serial_robot_design1.py":
         pytest.importorskip("cmeel")
-    if name == "mujoco_digital_robust.py":
+    if name in ("mujoco_digital_robust.py", "delta_from_three_files.py", "three_rrr_joint_space.py"):
         pytest.importorskip("mujoco")
     args = [a.format(tmp=tmp_path) for a in FAST[name]]
     result = subprocess.run(
