@@ -21,23 +21,12 @@ def main() -> None:
     for name in ("delta_mjcf", "delta_gepetto"):
         robot = dp.load_robot(name, g=9.8)
         difference = same_reduced_dynamics(robot, xacro, tolerance=np.inf)
-        print(
-            f"{name}: {robot}; recognised: {robot.delta}; M, C a_dot, G vs eqs. 7-9: {difference:.1e} relative"
-        )
+        print(f"{name}: {robot}")
+        print(f"  recognised: {robot.delta}; M, C a_dot, G vs eqs. 7-9: {difference:.1e} relative")
     robot = dp.load_robot("delta_mjcf", g=9.8)
     nominal = dp.DeltaNominalModel(robot.delta, nominal_disturbance=(2, 4, 6))  # the paper's controller
-    runs = [
-        dp.simulate(
-            plant_robot,
-            dp.design1(nominal),
-            dp.PathI(),
-            t_end=args.t_end,
-            mode="continuous",
-            integrator="lsoda",
-            alpha0=np.full(3, 0.3322),
-        )  # fmt: skip
-        for plant_robot in (robot, xacro)
-    ]
+    options = dict(t_end=args.t_end, mode="continuous", integrator="lsoda", alpha0=np.full(3, 0.3322))
+    runs = [dp.simulate(plant, dp.design1(nominal), dp.PathI(), **options) for plant in (robot, xacro)]
     gap = np.abs(runs[0].alpha - runs[1].alpha).max()
     error = np.abs(runs[0].alpha - runs[0].alpha_d).max(axis=1)
     print(
