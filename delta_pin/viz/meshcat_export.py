@@ -381,9 +381,11 @@ def _rebuild_closed_chain(run: Run) -> ClosedChainRobot:
     """
     import tempfile
 
+    from lxml import etree
+
     from delta_pin.errors import MeshFileError
     from delta_pin.model.loaders import load_robot
-    from delta_pin.model.visuals import check_mesh_files
+    from delta_pin.model.visuals import resolve_mesh_path
 
     meta = run.metadata.get("robot") or {}
     urdf = run.metadata.get("urdf")
@@ -398,8 +400,13 @@ def _rebuild_closed_chain(run: Run) -> ClosedChainRobot:
             f"{label} cannot be rebuilt from the run: its URDF has no <constraint> (the loops came from "
             f"another file); {hint}"
         )
+    # the run records no folder for a closed-chain robot's URDF: relative mesh filenames need robot=
     try:
-        check_mesh_files(urdf, base_dir)
+        for link in etree.fromstring(urdf.encode()).findall("link"):
+            for index, visual in enumerate(link.findall("visual")):
+                for mesh in visual.iter("mesh"):
+                    where = f"visual {index} of link {link.get('name')!r}"
+                    resolve_mesh_path(mesh.get("filename", ""), base_dir, where)
     except MeshFileError as exc:
         raise VisualizationError(f"{label} cannot be drawn from the run: {exc}; {hint}") from None
     actuated = list(meta.get("actuated_joints") or [])

@@ -61,10 +61,13 @@ VISUALS = [
 ]  # fmt: skip
 
 
-def five_bar_with_visuals() -> str:
+def five_bar_with_visuals(distal_mesh: str | None = None) -> str:
+    """The five-bar with VISUALS; ``distal_mesh``: the first distal box becomes that mesh file."""
     root = etree.fromstring(five_bar_urdf().encode())
     links = {link.get("name"): link for link in root.findall("link")}
     for number, (link, tag, attributes, xyz, rpy, rgba) in enumerate(VISUALS):
+        if distal_mesh and link == "distal_1" and tag == "box":
+            tag, attributes = "mesh", {"filename": distal_mesh}
         visual = etree.SubElement(links[link], "visual")
         etree.SubElement(visual, "origin", xyz=xyz, rpy=rpy)
         etree.SubElement(etree.SubElement(visual, "geometry"), tag, **attributes)
@@ -329,6 +332,45 @@ def test_robot_without_visuals_draws_its_skeleton(bare_page, bare_robot, bare_ru
             if name in segments:  # the cylinder's z axis along the segment
                 axis = (end - start) / np.linalg.norm(end - start)
                 np.testing.assert_allclose(placement.rotation[:, 2], axis, atol=PLACEMENT_TOL)
+
+
+def test_mesh_visual_is_read_from_the_robots_folder(tmp_path):
+    """A mesh visual at a path relative to the URDF: drawn from robot.base_dir with trimesh, placed
+    where Pinocchio (which reads the same file itself) places it; a run alone cannot locate it."""
+    import trimesh
+
+    (tmp_path / "meshes").mkdir()
+    trimesh.creation.box(extents=[DISTAL, 0.02, 0.02]).export(tmp_path / "meshes" / "distal.stl")
+    robot = write_robot(tmp_path, five_bar_with_visuals(distal_mesh="meshes/distal.stl"))
+    run = simulate_circle(robot)
+    with pytest.raises(
+        VisualizationError,
+        match=r"mesh 'meshes/distal\.stl' \(visual 0 of link 'distal_1'\) is relative.*; "
+        r"pass robot=load_robot\(path\)",
+    ):
+        export_html(run, tmp_path / "x.html")
+
+    commands = commands_of(export_html(run, tmp_path / "mesh.html", robot=robot, fps=FPS))
+    geometry = robot_objects(commands)["distal_1_0"]["geometries"][0]
+    assert geometry["type"] == "BufferGeometry"
+    mesh = trimesh.load(tmp_path / "meshes" / "distal.stl", force="mesh")
+    positions = np.asarray(geometry["data"]["attributes"]["position"]["array"]).reshape(-1, 3)
+    np.testing.assert_allclose(positions, mesh.vertices[mesh.faces].reshape(-1, 3), atol=1e-7)
+
+    reference = pin.buildGeomFromUrdfString(
+        robot.model, robot.urdf, pin.GeometryType.VISUAL, package_dirs=[str(tmp_path)]
+    )
+    names = [g.name for g in reference.geometryObjects]
+    assert type(reference.geometryObjects[names.index("distal_1_0")].geometry).__name__ == "BVHModelOBBRSS"
+    count = frame_count(commands)
+    data, geometry_data = robot.model.createData(), pin.GeometryData(reference)
+    expected = np.empty((count, len(names), 7))
+    for k, alpha in enumerate(frame_alphas(run, count)):
+        pin.updateGeometryPlacements(
+            robot.model, data, reference, geometry_data, closed_form_configuration(robot, alpha)[0]
+        )
+        expected[k] = [pin.SE3ToXYZQUAT(placement) for placement in geometry_data.oMg]
+    assert_same_poses(drawn_poses(commands, names, count), expected)
 
 
 # ----------------------------------------------------------------------- a robot's visual_model
