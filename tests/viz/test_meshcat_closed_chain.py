@@ -272,6 +272,9 @@ def test_drawn_placements_equal_pinocchio_at_the_assembled_configuration(page, r
 def test_rebuilt_robot_draws_the_same_page_as_the_robot_given(page, run, robot, folder):
     given = export_html(run, folder / "given.html", robot=robot, fps=FPS)
     assert given.read_text(encoding="utf-8") == page.read_text(encoding="utf-8")
+    # and from the saved run file (its metadata carries the URDF and the actuated joints)
+    saved = export_html(run.save(folder / "run.npz"), folder / "saved.html", fps=FPS)
+    assert saved.read_text(encoding="utf-8") == page.read_text(encoding="utf-8")
 
 
 def test_desired_ghost_follows_the_reference(run, robot, folder):
