@@ -646,7 +646,12 @@ def _collision_mesh(shape) -> tuple[np.ndarray, np.ndarray] | None:
         from scipy.spatial import ConvexHull
 
         vertices = np.array(shape.points(), dtype=float).reshape(-1, 3)
-        return vertices, ConvexHull(vertices).simplices
+        faces = ConvexHull(vertices).simplices.copy()
+        corners = vertices[faces]  # qhull's triangles are not oriented: turn each one outwards
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        inward = np.einsum("ij,ij->i", normals, corners.mean(axis=1) - vertices.mean(axis=0)) < 0.0
+        faces[inward] = faces[inward][:, ::-1]
+        return vertices, faces
     return None
 
 

@@ -8,6 +8,7 @@ from the motor angles, the tip where the two distal circles meet), then Pinocchi
 """
 
 import base64
+import itertools
 import math
 import os
 import re
@@ -378,8 +379,8 @@ def test_mesh_visual_is_read_from_the_robots_folder(tmp_path):
 
 # ----------------------------------------------------------------------- a robot's visual_model
 def test_visual_model_is_drawn_instead_of_the_urdf_visuals(robot, run, folder):
-    """A robot carrying a pin.GeometryModel (as an MJCF robot may): its capsule and its
-    triangle mesh are drawn, placed where Pinocchio places them; the URDF's visuals are not."""
+    """A robot carrying a pin.GeometryModel (as an MJCF robot may): its capsule, triangle mesh
+    and convex are drawn, placed where Pinocchio places them; the URDF's visuals are not."""
     import coal
 
     other = write_robot(folder, five_bar_with_visuals(), name="with_visual_model.urdf")
@@ -402,29 +403,55 @@ def test_visual_model_is_drawn_instead_of_the_urdf_visuals(robot, run, folder):
         "", model.getJointId("elbow_2"), model.getFrameId("distal_2"),
         pin.SE3(np.eye(3), np.array([DISTAL, 0.0, 0.0])), tetra,
     )  # fmt: skip
+    corners = 0.01 * np.array(list(itertools.product([-1.0, 1.0], repeat=3)))
+    points = coal.StdVec_Vec3s()
+    for corner in corners:
+        points.append(corner)
+    cube = pin.GeometryObject(
+        "cube", model.getJointId("elbow_1"), model.getFrameId("distal_1"),
+        pin.SE3(np.eye(3), np.array([DISTAL / 2, 0.0, 0.0])), coal.ConvexBase.convexHull(points, False, ""),
+    )  # fmt: skip
     visual_model.addGeometryObject(capsule)
     visual_model.addGeometryObject(mesh)
+    visual_model.addGeometryObject(cube)
     other.visual_model = visual_model
 
     commands = commands_of(export_html(run, folder / "visual_model.html", robot=other, fps=FPS))
     objects = robot_objects(commands)
-    names = ["arm", "visual_1"]  # an unnamed object gets its index
-    assert sorted(objects) == names
+    names = ["arm", "visual_1", "cube"]  # an unnamed object gets its index
+    assert sorted(objects) == sorted(names)
     arm = objects["arm"]["geometries"][0]
     assert arm["type"] == "BufferGeometry"
     points = np.asarray(arm["data"]["attributes"]["position"]["array"]).reshape(-1, 3)
     np.testing.assert_allclose(points[:, 2].max(), PROXIMAL / 2 + 0.012, atol=1e-6)
     np.testing.assert_allclose(points[:, 2].min(), -PROXIMAL / 2 - 0.012, atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(points[:, :2], axis=1).max(), 0.012, atol=1e-6)
+    # every (non-degenerate) triangle faces away from the capsule's axis segment
+    triangles = points.reshape(-1, 3, 3).astype(float)
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    centres = triangles.mean(axis=1)
+    axis_points = np.column_stack([0 * centres[:, :2], np.clip(centres[:, 2], -PROXIMAL / 2, PROXIMAL / 2)])
+    area = np.linalg.norm(normals, axis=1) > 1e-12
+    assert (np.einsum("ij,ij->i", normals, centres - axis_points)[area] > 0.0).all()
     assert objects["arm"]["materials"][0]["color"] == round(0.2 * 255) << 16 | round(0.3 * 255) << 8 | round(
         0.9 * 255
     )
     mesh_points = np.asarray(objects["visual_1"]["geometries"][0]["data"]["attributes"]["position"]["array"])
     np.testing.assert_allclose(mesh_points.reshape(-1, 3), vertices[faces].reshape(-1, 3), atol=1e-7)
 
+    # the convex cube: its hull's 12 triangles on its 8 corners, each turned outwards
+    cube_points = np.asarray(objects["cube"]["geometries"][0]["data"]["attributes"]["position"]["array"])
+    triangles = cube_points.reshape(-1, 3, 3)
+    assert len(triangles) == 12
+    np.testing.assert_allclose(
+        np.unique(triangles.reshape(-1, 3), axis=0), np.unique(corners, axis=0), atol=1e-7
+    )
+    outward = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    assert (np.einsum("ij,ij->i", outward, triangles.mean(axis=1)) > 0.0).all()
+
     count = frame_count(commands)
     data, geometry_data = model.createData(), pin.GeometryData(visual_model)
-    expected = np.empty((count, 2, 7))
+    expected = np.empty((count, 3, 7))
     for k, alpha in enumerate(frame_alphas(run, count)):
         q, _points = closed_form_configuration(other, alpha)
         pin.updateGeometryPlacements(model, data, visual_model, geometry_data, q)
