@@ -9,6 +9,16 @@ animation frame by the closure-consistent configuration q(alpha)
 and actual (``xyz``) platform paths are drawn as two lines of different colours; a translucent
 ghost of the desired pose q(alpha_d) is optional.
 
+Any closed-chain robot (:class:`~delta_pin.model.closed_chain.ClosedChainRobot`) is drawn the same
+way: from its ``visual_model`` where it carries one (an MJCF robot's; meshes Pinocchio read are
+drawn from its triangles, capsules as triangle meshes), else from its URDF's visuals (mesh files
+relative to ``robot.base_dir``), else, for a robot with no visual at all, from a skeleton of its
+kinematics (a cylinder per joint-to-child-joint segment and per joint-to-closure-frame segment, a
+sphere at each closure frame). Each frame is assembled by Newton (``robot.configuration``), the
+first one from the robot's reference configuration and each next one from the one before. The
+robot of a closed-chain run is rebuilt from the run's URDF when it has ``<constraint>`` elements;
+otherwise (MJCF, Gepetto ``robot.yaml``) ``robot=`` must be given.
+
 No meshcat server is started (docs/architecture.md section 7): :class:`RecordingWindow` stands in for
 meshcat's ``ViewerWindow`` and keeps the msgpack-packed commands in the scene tree that meshcat's
 zmq server would keep; :func:`scene_html` then writes the page ``Visualizer.static_html()``
@@ -24,6 +34,7 @@ same ``fps`` (three.js scales key times by 1 / fps): one second of run lasts one
 from __future__ import annotations
 
 import base64
+import contextlib
 import html
 import itertools
 import json
@@ -39,6 +50,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import DeltaPinError, InvalidParameterError, NonFiniteError
+from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.sim.run import Run, load_run
 from delta_pin.utils.atomic import write_text_atomically
 
@@ -67,6 +79,9 @@ CAMERA_DIRECTION = np.array([0.31, 0.85, 0.42])
 CAMERA_FOV = 75.0  # [deg] vertical field of view of meshcat's default camera
 _FLOAT32_EXT = 0x17  # msgpack ext code meshcat's JS (msgpack-lite) decodes as a Float32Array
 _UUID_NAMESPACE = uuid.UUID("6f9d3c52-1f0e-4b3a-9a51-0d5e7a1c2b40")
+# [m] largest distance between a closed-chain run's xyz[0] and the end-effector frame of the robot
+# drawn, assembled at alpha[0]; another assembly mode or another robot is centimetres off
+ASSEMBLY_TOLERANCE = 1e-4
 _SCENE_SCRIPT_ID = "delta-pin-scene"
 _RING = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
 _AXES = np.vstack([np.eye(3), -np.eye(3)])
@@ -355,20 +370,102 @@ def _describe_difference(run_urdf: str, robot_urdf: str) -> str:
     return "the URDF texts differ"  # pragma: no cover - only line endings differ
 
 
+def _rebuild_closed_chain(run: Run) -> ClosedChainRobot:
+    """The closed-chain robot of a run, rebuilt from its URDF text (``run.metadata["urdf"]``),
+    actuated joints and end effector (``run.metadata["robot"]``).
+
+    Raises:
+        VisualizationError: the run's metadata cannot rebuild it: no URDF (an MJCF robot), a URDF
+            without ``<constraint>`` (closures from a Gepetto ``robot.yaml``), or mesh visuals at
+            paths relative to a folder the run does not record.
+    """
+    import tempfile
+
+    from lxml import etree
+
+    from delta_pin.errors import MeshFileError
+    from delta_pin.model.loaders import load_robot
+    from delta_pin.model.visuals import resolve_mesh_path
+
+    meta = run.metadata.get("robot") or {}
+    urdf = run.metadata.get("urdf")
+    base_dir = run.metadata.get("urdf_dir")
+    label = "the run's closed-chain robot" + (f" {meta['name']!r}" if meta.get("name") else "")
+    label += f" (from {meta['source']})" if meta.get("source") else ""
+    hint = "pass robot=load_robot(path) with the file it was loaded from"
+    if not urdf:
+        raise VisualizationError(f"{label} cannot be rebuilt from the run: it carries no URDF; {hint}")
+    if "<constraint" not in urdf:
+        raise VisualizationError(
+            f"{label} cannot be rebuilt from the run: its URDF has no <constraint> (the loops came from "
+            f"another file); {hint}"
+        )
+    # the run records no folder for a closed-chain robot's URDF: relative mesh filenames need robot=
+    try:
+        for link in etree.fromstring(urdf.encode()).findall("link"):
+            for index, visual in enumerate(link.findall("visual")):
+                for mesh in visual.iter("mesh"):
+                    where = f"visual {index} of link {link.get('name')!r}"
+                    resolve_mesh_path(mesh.get("filename", ""), base_dir, where)
+    except MeshFileError as exc:
+        raise VisualizationError(f"{label} cannot be drawn from the run: {exc}; {hint}") from None
+    actuated = list(meta.get("actuated_joints") or [])
+    end_effector = meta.get("end_effector")
+    with tempfile.TemporaryDirectory(prefix="delta_pin_viz_") as folder:
+        path = Path(folder) / "robot.urdf"
+        path.write_text(urdf, encoding="utf-8")
+        robot = None
+        # as it was loaded (transmissions, the Delta convention's reference pose), if that fits
+        with contextlib.suppress(DeltaPinError):
+            robot = load_robot(path, end_effector=end_effector, recognise=False)
+        if robot is None or (actuated and list(robot.actuated_joints) != actuated):
+            try:
+                robot = load_robot(
+                    path, actuated=actuated or None, end_effector=end_effector, recognise=False
+                )
+            except DeltaPinError as exc:
+                raise VisualizationError(f"{label} cannot be rebuilt from the run ({exc}); {hint}") from None
+    robot.base_dir = base_dir  # relative mesh filenames: the run's folder, not the temporary one
+    return robot
+
+
+def _describe_robot_difference(run: Run, robot) -> str | None:
+    """Why a closed-chain run cannot be the given robot's (actuated joints), or ``None``."""
+    meta = run.metadata.get("robot") or {}
+    actuated = meta.get("actuated_joints")
+    if not actuated or not _is_closed_chain(robot) or list(robot.actuated_joints) == list(actuated):
+        return None
+    return f"actuated joints {list(actuated)} (run) vs {list(robot.actuated_joints)} (robot)"
+
+
 def _resolve_robot(run: Run, robot):
     from delta_pin.model.description import read_description
     from delta_pin.model.robot import Delta
 
     run_urdf = run.metadata.get("urdf")
+    closed_chain = (run.metadata.get("robot") or {}).get("kind") == "closed_chain"
     if robot is None:
+        if closed_chain:
+            return _rebuild_closed_chain(run)
         if not run_urdf:
             raise VisualizationError("the run carries no URDF (metadata['urdf']): pass robot= to draw it")
         return Delta(read_description(run_urdf, base_dir=run.metadata.get("urdf_dir")))
     if run_urdf and robot.urdf != run_urdf:
+        difference = (
+            "the run's robot has a URDF, the robot given has none"
+            if not robot.urdf
+            else _describe_difference(run_urdf, robot.urdf)
+        )
         raise RobotMismatchError(
             "the run was simulated on another robot than the one given ("
-            + _describe_difference(run_urdf, robot.urdf)
+            + difference
             + "); pass robot=None to draw the run's own robot"
+        )
+    difference = _describe_robot_difference(run, robot) if closed_chain else None
+    if difference:
+        raise RobotMismatchError(
+            f"the run was simulated on another robot than the one given ({difference}); "
+            "pass robot= the robot the run was simulated on"
         )
     return robot
 
@@ -422,40 +519,191 @@ class _TriangleMesh:
         }
 
 
-def _visuals(robot) -> tuple[pin.GeometryModel, list[_Visual]]:
+def _is_closed_chain(robot) -> bool:
+    return isinstance(robot, ClosedChainRobot)
+
+
+def _robot_model(robot) -> pin.Model:
+    return robot.model if _is_closed_chain(robot) else robot.pinocchio.model
+
+
+def _urdf_geometry(model: pin.Model, urdf: str, base_dir) -> tuple[pin.GeometryModel, dict]:
+    """The URDF's visuals on ``model`` read by Pinocchio, and its mesh visuals read by trimesh."""
     from delta_pin.model.visuals import has_mesh_visuals, load_visual_meshes, primitive_stand_in
 
-    mg = _meshcat().geometry
-    model = robot.pinocchio.model
-    urdf = robot.urdf
     meshes = {}
     if has_mesh_visuals(urdf):  # Pinocchio places a small sphere for each; the meshes come from trimesh
-        meshes = load_visual_meshes(urdf, robot.description.base_dir)
+        meshes = load_visual_meshes(urdf, base_dir)
         urdf = primitive_stand_in(urdf)
     try:
         geometry_model = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.VISUAL)
     except (RuntimeError, ValueError) as exc:
         raise VisualizationError(f"Pinocchio could not read the URDF's visual geometry: {exc}") from None
+    return geometry_model, meshes
+
+
+def _skeleton(robot) -> pin.GeometryModel:
+    """Stand-in visuals of a closed-chain robot that has none, from its kinematics alone.
+
+    A cylinder per segment of the tree: from each joint (the universe's origin for a root joint)
+    to each of its child joints, and from a joint to each closure frame and to the end-effector
+    frame it carries (the links that end at a loop or a tool, which have no child joint); a
+    sphere at each closure frame (both frames of a closure: they coincide once assembled).
+    Radii scale with the longest segment (2 % of it, spheres 4 %).
+    """
+    import coal
+
+    model = robot.model
+    ends = []  # (joint, end point in the joint's frame, name)
+    for joint in range(1, model.njoints):
+        parent = model.parents[joint]
+        ends.append(
+            (parent, model.jointPlacements[joint].translation, f"{model.names[parent]}-{model.names[joint]}")
+        )
+    closure_frames = [fid for f1, f2, _size in robot.closure_frames for fid in (f1, f2)]
+    for fid in [*closure_frames, robot.end_effector]:
+        frame = model.frames[fid]
+        ends.append(
+            (frame.parentJoint, frame.placement.translation, f"{model.names[frame.parentJoint]}-{frame.name}")
+        )
+    segments, seen = [], set()
+    for joint, end, name in ends:
+        key = (joint, *np.round(end, 9))
+        if np.linalg.norm(end) > 1e-9 and key not in seen:
+            seen.add(key)
+            segments.append((joint, np.array(end, dtype=float), name))
+    longest = max((float(np.linalg.norm(end)) for _j, end, _n in segments), default=0.1)
+    radius = max(0.02 * longest, 1e-3)
+    geometry_model = pin.GeometryModel()
+    z = np.array([0.0, 0.0, 1.0])
+    for joint, end, name in segments:
+        length = float(np.linalg.norm(end))
+        rotation = pin.Quaternion.FromTwoVectors(z, end / length).matrix()
+        frame = model.getFrameId(model.names[joint], pin.FrameType.JOINT) if joint else 0
+        obj = pin.GeometryObject(
+            f"skeleton_{name}", joint, frame, pin.SE3(rotation, 0.5 * end), coal.Cylinder(radius, length)
+        )
+        obj.meshColor = np.array([0.6, 0.6, 0.6, 1.0])
+        geometry_model.addGeometryObject(obj)
+    for fid in closure_frames:
+        frame = model.frames[fid]
+        obj = pin.GeometryObject(
+            f"closure_{frame.name}", frame.parentJoint, fid, pin.SE3(np.eye(3), frame.placement.translation),
+            coal.Sphere(2.0 * radius),
+        )  # fmt: skip
+        obj.meshColor = np.array([0.93, 0.50, 0.13, 1.0])
+        geometry_model.addGeometryObject(obj)
+    return geometry_model
+
+
+def _robot_geometry(robot) -> tuple[pin.Model, pin.GeometryModel, dict]:
+    """The model, its visual geometry and the URDF's mesh visuals (by (link, rank)) of a robot.
+
+    A Delta: its URDF's visuals. A closed-chain robot: its ``visual_model`` where it has one,
+    else its URDF's visuals, else (no visual at all) the :func:`_skeleton` of its kinematics.
+    """
+    if not _is_closed_chain(robot):
+        model = robot.pinocchio.model
+        return (model, *_urdf_geometry(model, robot.urdf, robot.description.base_dir))
+    model = robot.model
+    if robot.visual_model is not None:
+        geometry_model, meshes = pin.GeometryModel(robot.visual_model), {}
+    elif robot.urdf:
+        geometry_model, meshes = _urdf_geometry(model, robot.urdf, robot.base_dir)
+    else:
+        geometry_model, meshes = pin.GeometryModel(), {}
+    if geometry_model.ngeoms == 0:
+        geometry_model = _skeleton(robot)
+    return model, geometry_model, meshes
+
+
+def _capsule_mesh(radius: float, half_length: float, segments: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and triangles of a capsule along z (a cylinder with two hemispherical caps)."""
+    # (z, ring radius) from the top pole down: the top cap around +half_length, the bottom one around -
+    quarter = np.linspace(0.0, math.pi / 2, segments // 4 + 1)
+    rings = [(half_length + radius * math.cos(phi), radius * math.sin(phi)) for phi in quarter]
+    rings += [(-half_length - radius * math.sin(phi), radius * math.cos(phi)) for phi in quarter]
+    azimuth = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
+    vertices = np.array([[r * math.cos(a), r * math.sin(a), z] for z, r in rings for a in azimuth])
+    faces = []
+    for i in range(len(rings) - 1):
+        for j in range(segments):
+            a, b = i * segments + j, i * segments + (j + 1) % segments
+            c, d = a + segments, b + segments
+            faces += [(a, c, b), (b, c, d)]
+    return vertices, np.array(faces)
+
+
+def _collision_mesh(shape) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices (already scaled by Pinocchio) and triangles of a mesh shape of a geometry model."""
+    import coal
+
+    if isinstance(shape, coal.BVHModelBase) and shape.num_tris > 0:
+        vertices = np.array(shape.vertices(), dtype=float).reshape(-1, 3)
+        faces = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
+        return vertices, faces
+    if isinstance(shape, coal.ConvexBase) and shape.num_points >= 4:
+        from scipy.spatial import ConvexHull
+
+        vertices = np.array(shape.points(), dtype=float).reshape(-1, 3)
+        faces = ConvexHull(vertices).simplices.copy()
+        corners = vertices[faces]  # qhull's triangles are not oriented: turn each one outwards
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        inward = np.einsum("ij,ij->i", normals, corners.mean(axis=1) - vertices.mean(axis=0)) < 0.0
+        faces[inward] = faces[inward][:, ::-1]
+        return vertices, faces
+    return None
+
+
+def _unique_names(names: list[str]) -> list[str]:
+    """Scene-path-safe names, a suffix added to repeats (an MJCF model may leave geoms unnamed)."""
+    result, seen = [], set()
+    for index, name in enumerate(names):
+        name = (name or f"visual_{index}").replace("/", "_")
+        candidate, number = name, 1
+        while candidate in seen:
+            candidate, number = f"{name}_{number}", number + 1
+        seen.add(candidate)
+        result.append(candidate)
+    return result
+
+
+def _visuals(robot) -> tuple[pin.GeometryModel, list[_Visual]]:
+    mg = _meshcat().geometry
+    model, geometry_model, meshes = _robot_geometry(robot)
     visuals = []
     rank: dict[str, int] = {}  # visuals seen so far per link: (link, rank) names a mesh visual
-    for obj in geometry_model.geometryObjects:
+    names = _unique_names([obj.name for obj in geometry_model.geometryObjects])
+    for obj, name in zip(geometry_model.geometryObjects, names, strict=True):
         shape = obj.geometry
         kind = type(shape).__name__
         correction = np.eye(4)
-        link = model.frames[obj.parentFrame].name
+        link = (
+            model.frames[obj.parentFrame].name
+            if obj.parentFrame < len(model.frames)
+            else model.names[obj.parentJoint]
+        )
         index = rank[link] = rank.get(link, -1) + 1
         mesh = meshes.get((link, index))
+        triangles = _collision_mesh(shape) if mesh is None else None
         if mesh is not None:
             geometry = _TriangleMesh(mesh.vertices, mesh.faces)
             correction[:3, :3] = np.diag(mesh.scale)
             step = max(1, len(mesh.vertices) // 200)  # at most ~200 hull points for the camera framing
             outline = mesh.vertices[::step] * mesh.scale
+        elif triangles is not None:  # a mesh Pinocchio read itself (a visual_model's)
+            vertices, faces = triangles
+            geometry = _TriangleMesh(vertices, faces)
+            outline = vertices[:: max(1, len(vertices) // 200)]
         elif kind == "Cylinder":  # URDF cylinders lie along z, three.js ones along y
             geometry = mg.Cylinder(2.0 * shape.halfLength, shape.radius)
             correction[:3, :3] = pin.utils.rotate("x", math.pi / 2)
             ring = shape.radius * np.column_stack([np.cos(_RING), np.sin(_RING), np.zeros_like(_RING)])
             cap = np.array([0.0, 0.0, shape.halfLength])
             outline = np.vstack([ring + cap, ring - cap])
+        elif kind == "Capsule":
+            vertices, faces = _capsule_mesh(shape.radius, shape.halfLength)
+            geometry, outline = _TriangleMesh(vertices, faces), vertices
         elif kind == "Sphere":
             geometry, outline = mg.Sphere(shape.radius), shape.radius * _AXES
         elif kind == "Box":
@@ -466,10 +714,10 @@ def _visuals(robot) -> tuple[pin.GeometryModel, list[_Visual]]:
         else:
             raise VisualizationError(
                 f"visual {obj.name!r}: geometry {kind} is not supported "
-                "(cylinder, sphere, box, ellipsoid, STL/OBJ/DAE mesh)"
+                "(cylinder, capsule, sphere, box, ellipsoid, STL/OBJ/DAE mesh)"
             )
         color, opacity = _rgba_color(obj.meshColor)
-        visuals.append(_Visual(obj.name, geometry, correction, color, opacity, obj.parentJoint != 0, outline))
+        visuals.append(_Visual(name, geometry, correction, color, opacity, obj.parentJoint != 0, outline))
     return geometry_model, visuals
 
 
@@ -493,15 +741,30 @@ def _resample(t: np.ndarray, values: np.ndarray, times: np.ndarray) -> np.ndarra
     return np.column_stack([np.interp(t[0] + times, t, values[:, j]) for j in range(values.shape[1])])
 
 
+def _configurations(robot, alphas: np.ndarray) -> list[np.ndarray]:
+    """The closure-consistent configuration q(alpha) (nq,) of each row of ``alphas``.
+
+    A Delta: its analytic closure solve. A closed-chain robot: Newton assembly started at the
+    first frame from the robot's reference configuration (its assembly mode), then each frame
+    warm-started from the one before.
+    """
+    if not _is_closed_chain(robot):
+        return [robot.pinocchio.configuration(alpha) for alpha in alphas]
+    q = robot.reference_configuration
+    configurations = []
+    for alpha in alphas:
+        q = robot.configuration(alpha, initial_guess=q)
+        configurations.append(q)
+    return configurations
+
+
 def _placements(robot, geometry_model: pin.GeometryModel, alphas: np.ndarray) -> np.ndarray:
     """(F, V, 7) world placements (xyz, quaternion xyzw) of every visual at q(alpha) per frame."""
-    pinocchio_model = robot.pinocchio
-    model = pinocchio_model.model
+    model = _robot_model(robot)
     data = model.createData()
     geometry_data = pin.GeometryData(geometry_model)
     poses = np.empty((len(alphas), geometry_model.ngeoms, 7))
-    for k, alpha in enumerate(alphas):
-        q = pinocchio_model.configuration(alpha)
+    for k, q in enumerate(_configurations(robot, alphas)):
         pin.updateGeometryPlacements(model, data, geometry_model, geometry_data, q)
         for j in range(geometry_model.ngeoms):
             poses[k, j] = pin.SE3ToXYZQUAT(geometry_data.oMg[j])
@@ -525,16 +788,40 @@ def _check_fps(fps) -> float:
     return float(fps)
 
 
+def _check_assembly(run: Run, robot, alpha0: np.ndarray) -> None:
+    """The closed-chain robot drawn puts the run's end-effector frame where the run recorded it
+    at t[0] (to ASSEMBLY_TOLERANCE): the same robot, assembled in the same mode."""
+    frame = (run.metadata.get("robot") or {}).get("end_effector") or robot.end_effector_name
+    if not robot.model.existFrame(frame):
+        return  # another robot: the dof check has passed, nothing to compare with
+    q = robot.configuration(alpha0, initial_guess=robot.reference_configuration)
+    gap = float(np.linalg.norm(robot.frame_placement(q, frame).translation - np.asarray(run.xyz[0], float)))
+    if gap > ASSEMBLY_TOLERANCE:
+        raise RobotMismatchError(
+            f"assembled at the run's first joint angles, robot {robot.name!r} puts frame {frame!r} "
+            f"{gap * 1e3:.3g} mm from the run's xyz[0] (another robot, or another assembly mode): "
+            "pass robot= the robot the run was simulated on"
+        )
+
+
 def _build_scene(run: Run, robot, fps: float, show_desired_ghost: bool) -> _Scene:
     t = np.asarray(run.t, dtype=float)
-    alpha = np.asarray(run.alpha, dtype=float).reshape(len(t), 3)
+    dof = robot.dof if _is_closed_chain(robot) else 3
+    alpha = np.asarray(run.alpha, dtype=float).reshape(len(t), -1)
+    if alpha.shape[1] != dof:
+        raise RobotMismatchError(
+            f"the run has {alpha.shape[1]} joint angle(s) per sample and the robot {dof} actuated "
+            "joint(s): pass robot= the robot the run was simulated on"
+        )
     _check_finite("alpha", t, alpha)
+    if _is_closed_chain(robot):
+        _check_assembly(run, robot, alpha[0])
     times = _frame_times(t, fps)
     geometry_model, visuals = _visuals(robot)
     poses = _placements(robot, geometry_model, _resample(t, alpha, times))
     ghost = None
     if show_desired_ghost:
-        alpha_d = np.asarray(run.alpha_d, dtype=float).reshape(len(t), 3)
+        alpha_d = np.asarray(run.alpha_d, dtype=float).reshape(len(t), dof)
         _check_finite("alpha_d", t, alpha_d)
         ghost = _placements(robot, geometry_model, _resample(t, alpha_d, times))
     xyz = np.asarray(run.xyz, dtype=float).reshape(len(t), 3)
@@ -694,8 +981,10 @@ def export_html(
     Args:
         run: a :class:`~delta_pin.sim.runner.Run`, or the path of one saved with ``Run.save``.
         path: the HTML file to write (its folder is created; written atomically).
-        robot: the :class:`~delta_pin.model.robot.Delta` the run was simulated on; ``None`` rebuilds it
-            from the URDF stored with the run (``run.metadata["urdf"]``).
+        robot: the robot the run was simulated on: a :class:`~delta_pin.model.robot.Delta` or a
+            :class:`~delta_pin.model.closed_chain.ClosedChainRobot`; ``None`` rebuilds it from the
+            URDF stored with the run (``run.metadata["urdf"]``; for a closed-chain run, only a URDF
+            with ``<constraint>`` elements: pass ``robot=load_robot(path)`` for an MJCF robot).
         fps: animation frames per second [1/s]; joint angles are interpolated at k / fps.
         show_desired_ghost: also draw a translucent robot in the desired pose q(alpha_d).
         path_colors: colours (desired, actual) of the two platform paths, ``0xRRGGBB`` or
@@ -709,9 +998,11 @@ def export_html(
         RunFileNotFoundError: ``run`` is a path that does not exist.
         EmptyRunError: the run has no samples.
         RobotMismatchError: ``robot`` is not the robot the run came from (the message names
-            the parameters, or the URDF line, that differ).
+            the parameters, or the URDF line, that differ; for a closed-chain robot, also other
+            actuated joints, or an end effector assembled away from the run's ``xyz[0]``).
         VisualizationError: ``run`` is a file that is not a saved run, the run carries no URDF
-            and no robot is given, or the URDF has an unsupported visual geometry.
+            (or, closed-chain, no URDF with ``<constraint>``) and no robot is given, or the URDF
+            has an unsupported visual geometry.
         NonFiniteError: NaN or infinite angles or positions (the message gives the time).
         InvalidParameterError: a bad ``fps``, ``path_colors`` or ``repetitions``.
     """
