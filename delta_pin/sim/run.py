@@ -144,7 +144,8 @@ def run_metadata(robot: Delta, controller: Controller, trajectory, plant: Plant,
         "robot": robot.metadata(),
         "urdf": robot.urdf,
         # where its relative mesh filenames point (a serial robot from example-robot-data has none)
-        "urdf_dir": getattr(getattr(robot, "description", None), "base_dir", None),
+        "urdf_dir": getattr(getattr(robot, "description", None), "base_dir", None)
+        or getattr(robot, "base_dir", None),
         "controller": controller.metadata(),
         "trajectory": None if trajectory is None else trajectory.metadata(),
         **plant.metadata(),
