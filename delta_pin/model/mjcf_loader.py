@@ -369,7 +369,8 @@ def read_mjcf(
     try:
         m = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:  # MuJoCo's compiler: the message names the element and the line
-        raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {str(exc).strip()}") from None
+        message = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
+        raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {message}") from None
     _warn_ignored(mujoco, m, source)
     model, bodies, q_maps = mjcf_to_pinocchio(m, source=source)
     model.name = bytes(m.names).split(b"\0", 1)[0].decode() or path.stem  # <mujoco model="...">
