@@ -132,8 +132,10 @@ def _replace_joints(model: pin.Model, names: list, types: list, where) -> pin.Mo
             joint = pin.JointModelSpherical()
         elif kind == "CARDAN":
             parent = new.addJoint(parent, pin.JointModelRX(), placement, name + "_X")
+            new.addJointFrame(parent, -1)
             joint, placement, name = pin.JointModelRY(), pin.SE3.Identity(), name + "_Y"
         jid = new.addJoint(parent, joint, placement, name)
+        new.addJointFrame(jid, -1)
         new.appendBodyToJoint(jid, model.inertias[j], pin.SE3.Identity())
         if kind == "FIXED":
             locked.append(jid)
@@ -144,7 +146,12 @@ def _replace_joints(model: pin.Model, names: list, types: list, where) -> pin.Mo
         if kinds.get(joint_name) == "CARDAN":
             joint_name += "_Y"
         parent = new.getJointId(joint_name) if frame.parentJoint else 0
-        new.addFrame(pin.Frame(frame.name, parent, 0, frame.placement, frame.type), False)
+        previous = model.frames[frame.parentFrame]
+        previous_name = previous.name
+        if previous.type == pin.FrameType.JOINT and kinds.get(previous_name) == "CARDAN":
+            previous_name += "_Y"
+        previous_id = new.getFrameId(previous_name) if new.existFrame(previous_name) else 0
+        new.addFrame(pin.Frame(frame.name, parent, previous_id, frame.placement, frame.type), False)
     for name in names:
         if not model.existJointName(name):
             raise URDFConventionError(f"{where('joint_name')}: joint {name!r} is not in the URDF")
