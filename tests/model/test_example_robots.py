@@ -27,6 +27,7 @@ import pinocchio as pin
 import pytest
 
 import delta_pin as dp
+from delta_pin.errors import AssemblyError, InvalidParameterError, URDFConventionError
 from delta_pin.model.loaders import load_robot
 
 pytest.importorskip("mujoco")
@@ -203,3 +204,43 @@ def test_five_bar_loads_assembles_and_its_gravity_is_the_potentials_gradient():
     gradient = [(potential(alpha + h * e) - potential(alpha - h * e)) / (2 * h) for e in np.eye(2)]
     np.testing.assert_allclose(G, gradient, rtol=0, atol=1e-7)
     assert np.abs(G).max() > 0.05  # gravity acts in the plane of motion
+
+
+def _five_bar_with(tmp_path: Path, old: str, new: str) -> Path:
+    text = (ROBOTS / "five_bar.urdf").read_text()
+    assert old in text
+    path = tmp_path / "five_bar.urdf"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def test_five_bar_with_one_actuator_is_a_mobility_error():
+    with pytest.raises(AssemblyError, match=r"2 degree\(s\) of freedom .* but 1 actuator\(s\) \(active_1\)"):
+        load_robot(ROBOTS / "five_bar.urdf", actuated=["active_1"])
+
+
+def test_five_bar_closure_to_a_missing_link_is_named_with_its_line(tmp_path):
+    path = _five_bar_with(
+        tmp_path, '<child link="distal_2"/>\n    <child_origin', '<child link="distal_9"/>\n    <child_origin'
+    )
+    with pytest.raises(
+        URDFConventionError,
+        match=r"constraint 'distal_tips' \(five_bar.urdf line \d+\) names link 'distal_9'",
+    ):
+        load_robot(path)
+
+
+def test_five_bar_that_cannot_assemble_names_the_closure(tmp_path):
+    # distal links 0.05 m long cannot bridge the 0.2 m between the elbows
+    path = _five_bar_with(tmp_path, '<parent_origin xyz="0 0 -0.3"/>', '<parent_origin xyz="0 0 -0.05"/>')
+    text = path.read_text().replace('<child_origin xyz="0 0 -0.3"/>', '<child_origin xyz="0 0 -0.05"/>')
+    path.write_text(text)
+    with pytest.raises(
+        AssemblyError, match=r"loops do not close .* closure 'distal_tips' \(five_bar.urdf line \d+\)"
+    ):
+        load_robot(path)
+
+
+def test_five_bar_actuator_on_an_unknown_joint():
+    with pytest.raises(InvalidParameterError, match=r"actuated joint 'motor_9' is not in the model"):
+        load_robot(ROBOTS / "five_bar.urdf", actuated=["active_1", "motor_9"])
