@@ -13,10 +13,11 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
   (top-level bodies only). A joint rotates about its own anchor ``jnt_pos``: the Pinocchio joint
   frame sits at that anchor. Several joints in one body become consecutive Pinocchio joints
   (massless intermediate bodies), in MuJoCo's order;
-* MuJoCo measures hinge and slide coordinates from ``qpos0`` (the ``ref`` attribute): the body
-  pose in the file is the pose at ``qpos = qpos0``. Pinocchio's coordinates are measured from the
-  same pose, so q_pin = qpos - qpos0 for hinge and slide joints (identical where ``ref`` is 0, the
-  usual case); ball and free quaternions are reordered to Pinocchio's (x, y, z, w);
+* coordinates are MuJoCo's: q = qpos for hinge and slide joints (so alpha reads as MuJoCo's
+  joint positions). The body pose in the file is the pose at ``qpos = qpos0`` (the joint's
+  ``ref``), so a joint with a non-zero ``ref`` gets the placement rotated by -ref about its axis
+  (moved by -ref along it for a slide), as Pinocchio's own MJCF parser does; ball and free
+  quaternions are reordered to Pinocchio's (x, y, z, w);
 * inertia: ``body_mass`` at ``body_ipos`` with principal moments ``body_inertia`` along the axes
   ``body_iquat`` [kg, m, kg m^2];
 * sites become OP_FRAME frames (names kept), usable as end effectors;
@@ -148,7 +149,14 @@ def mjcf_to_pinocchio(m, *, source: str = "MJCF") -> tuple[pin.Model, dict[int, 
                 if np.linalg.norm(m.jnt_axis[j]) == 0.0:
                     raise URDFConventionError(f"{source}: joint {joint_name!r} has a zero axis")
                 joint_model = _joint_model(kind, m.jnt_axis[j])
-                joint_placement = placement * _translation(anchor)
+                axis = np.array(m.jnt_axis[j], dtype=float) / np.linalg.norm(m.jnt_axis[j])
+                ref = float(m.qpos0[m.jnt_qposadr[j]])  # the file's pose is at qpos = ref
+                offset = (
+                    pin.SE3(pin.exp3(-ref * axis), np.zeros(3))
+                    if kind == "hinge"
+                    else _translation(-ref * axis)
+                )
+                joint_placement = placement * _translation(anchor) * offset
             if model.existJointName(joint_name):
                 raise URDFConventionError(f"{source}: two joints are named {joint_name!r}")
             q_index = model.nq
@@ -170,12 +178,12 @@ def mjcf_to_pinocchio(m, *, source: str = "MJCF") -> tuple[pin.Model, dict[int, 
     return model, bodies, q_maps
 
 
-def _to_pinocchio_q(model: pin.Model, q_maps, qpos: np.ndarray, qpos0: np.ndarray) -> np.ndarray:
-    """Pinocchio's q (nq,) for MuJoCo's qpos (module docstring)."""
+def _to_pinocchio_q(model: pin.Model, q_maps, qpos: np.ndarray) -> np.ndarray:
+    """Pinocchio's q (nq,) for MuJoCo's qpos (module docstring): quaternions reordered."""
     q = pin.neutral(model)
     for kind, a, i in q_maps:
         if kind in ("hinge", "slide"):
-            q[i] = qpos[a] - qpos0[a]
+            q[i] = qpos[a]
         elif kind == "ball":
             w, x, y, z = qpos[a : a + 4]
             q[i : i + 4] = np.array([x, y, z, w]) / np.linalg.norm([w, x, y, z])
@@ -393,7 +401,7 @@ def read_mjcf(
     keys = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(m.nkey)]
     home = keys.index("home") if "home" in keys else None
     qpos = m.qpos0 if home is None else m.key_qpos[home]
-    reference = _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float), np.array(m.qpos0, dtype=float))
+    reference = _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float))
     return ClosedChainRobot(
         model, closures, actuated, name=model.name, source=source, base_dir=str(path.resolve().parent),
         end_effector=end_effector, reference_configuration=reference,

@@ -31,6 +31,7 @@ ROBOTS = Path(__file__).resolve().parents[2] / "delta_pin" / "robots"
 # non-zero ref, an unaligned axis, a ball, a slide, a free-floating body, a jointless body
 TREE = """
 <mujoco model="tree">
+  <compiler angle="radian"/>
   <option gravity="0.3 -0.2 -9.81"/>
   <worldbody>
     <body name="a" pos="0.1 0.2 0.3" quat="0.9 0.1 -0.3 0.2">
@@ -84,7 +85,7 @@ def test_tree_matches_mujocos_kinematics_inertia_and_gravity():
         qpos = _random_qpos(m, rng)
         d.qpos[:] = qpos
         mujoco.mj_forward(m, d)
-        q = _to_pinocchio_q(model, q_maps, qpos, m.qpos0)
+        q = _to_pinocchio_q(model, q_maps, qpos)
         pin.framesForwardKinematics(model, data, q)
         for b in range(1, m.nbody):
             joint, placement = bodies[b]
@@ -151,7 +152,7 @@ def test_connect_and_weld_residuals_match_mujocos(tmp_path):
         qpos = _random_qpos(m, rng)
         d.qpos[:] = qpos
         mujoco.mj_forward(m, d)
-        q = _to_pinocchio_q(model, q_maps, qpos, m.qpos0)
+        q = _to_pinocchio_q(model, q_maps, qpos)
         pin.forwardKinematics(model, data, q)
         row = 0
         for closure in closures:
@@ -166,10 +167,57 @@ def test_connect_and_weld_residuals_match_mujocos(tmp_path):
                 assert 2 * np.arcsin(min(half, 1.0)) == pytest.approx(angle, abs=1e-10)
             row += closure.size
     # at qpos0 the default-relpose weld holds (MuJoCo computes relpose there)
-    pin.forwardKinematics(model, data, pin.neutral(model))
+    pin.forwardKinematics(model, data, _to_pinocchio_q(model, q_maps, m.qpos0))
     w = closures[4]
     gap = (data.oMi[w.joint1] * w.placement1).actInv(data.oMi[w.joint2] * w.placement2)
     assert np.abs(pin.log6(gap).vector).max() < 1e-12
+
+
+# a five-bar under one jointless root body (Pinocchio's own parser keeps only the first root
+# body's subtree, so this is the shape it reads whole); b2 has ref="12" (degrees, MuJoCo's default)
+ONE_ROOT = """
+<mujoco model="five_bar_one_root">
+  <worldbody>
+    <body name="base">
+      <body name="p1" pos="-0.1 0 0"><joint name="a1" axis="0 1 0"/>
+        <inertial pos="0 0 -0.125" mass="0.2" diaginertia="1e-3 1e-3 1e-5"/>
+        <body name="d1" pos="0 0 -0.25"><joint name="b1" axis="0 1 0"/>
+          <inertial pos="0 0 -0.15" mass="0.15" diaginertia="1e-3 1e-3 1e-5"/></body></body>
+      <body name="p2" pos="0.1 0 0"><joint name="a2" axis="0 1 0"/>
+        <inertial pos="0 0 -0.125" mass="0.2" diaginertia="1e-3 1e-3 1e-5"/>
+        <body name="d2" pos="0 0 -0.25"><joint name="b2" axis="0 1 0" ref="12"/>
+          <inertial pos="0 0 -0.15" mass="0.15" diaginertia="1e-3 1e-3 1e-5"/></body></body>
+    </body>
+  </worldbody>
+  <equality><connect name="tips" body1="d1" body2="d2" anchor="0.05 0 -0.3"/></equality>
+  <actuator><motor joint="a1"/><motor joint="a2"/></actuator>
+</mujoco>
+"""
+
+
+def test_agrees_with_pinocchios_mjcf_parser_where_it_reads_the_file(tmp_path):
+    """Same joint placements (ref folded in the same way), inertias and connect anchors as
+    ``pin.buildModelAndConstraintsFromMJCF`` (1e-12: round-off)."""
+    path = _write(tmp_path, ONE_ROOT)
+    robot = read_mjcf(path)
+    theirs, points, _frames = pin.buildModelAndConstraintsFromMJCF(str(path))
+    ours = robot.model
+    assert list(theirs.names) == list(ours.names)
+    for j in range(1, ours.njoints):
+        assert (
+            np.abs(
+                (theirs.jointPlacements[j].inverse() * ours.jointPlacements[j]).homogeneous - np.eye(4)
+            ).max()
+            < 1e-12
+        )
+        np.testing.assert_allclose(theirs.inertias[j].matrix(), ours.inertias[j].matrix(), atol=1e-12)
+    (point,) = points
+    closure = robot.closures[0]
+    assert (point.joint1_id, point.joint2_id) == (closure.joint1, closure.joint2)
+    np.testing.assert_allclose(point.joint1_placement.translation, closure.placement1.translation, atol=1e-12)
+    np.testing.assert_allclose(point.joint2_placement.translation, closure.placement2.translation, atol=1e-12)
+    # the reference is MuJoCo's qpos0: b2 at its ref, 12 degrees, and the loop closed there
+    np.testing.assert_allclose(robot.reference_configuration, [0, 0, 0, np.radians(12)], atol=1e-12)
 
 
 def test_delta_xml_reads_motors_gravity_sites_and_visuals():
