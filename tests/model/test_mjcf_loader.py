@@ -315,3 +315,28 @@ def test_missing_mujoco_is_an_optional_dependency_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "mujoco", None)
     with pytest.raises(OptionalDependencyError, match="pip install mujoco"):
         read_mjcf(ROBOTS / "delta.xml")
+
+
+def test_armature_is_refused_and_damping_is_reported(tmp_path):
+    path = _delta_with(
+        tmp_path, '<joint name="active_1" type="hinge"', '<joint name="active_1" armature="0.01" type="hinge"'
+    )
+    with pytest.raises(URDFConventionError, match="armature"):
+        load_robot(path)
+    path = _delta_with(
+        tmp_path, '<joint name="active_1" type="hinge"', '<joint name="active_1" damping="0.1" type="hinge"'
+    )
+    with pytest.warns(UserWarning, match="damping"):
+        load_robot(path, recognise=False)
+
+
+def test_closure_to_the_world_is_an_error(tmp_path):
+    path = _delta_with(
+        tmp_path,
+        "  </equality>",
+        '    <connect name="pin_down" body1="platform_x" anchor="0 0 -0.3"/>\n  </equality>',
+    )
+    with pytest.raises(
+        URDFConventionError, match=r"equality 'pin_down' \(robot.xml line \d+\) holds a body to the world"
+    ):
+        load_robot(path)
