@@ -214,9 +214,12 @@ def _five_bar_with(tmp_path: Path, old: str, new: str) -> Path:
     return path
 
 
-def test_five_bar_with_one_actuator_is_a_mobility_error():
-    with pytest.raises(AssemblyError, match=r"2 degree\(s\) of freedom .* but 1 actuator\(s\) \(active_1\)"):
-        load_robot(ROBOTS / "five_bar.urdf", actuated=["active_1"])
+@pytest.mark.parametrize("actuated", [["active_1"], ["active_1", "active_2", "passive_1"]])
+def test_five_bar_with_too_few_or_too_many_actuators_is_a_mobility_error(actuated):
+    with pytest.raises(
+        AssemblyError, match=rf"2 degree\(s\) of freedom .* but {len(actuated)} actuator\(s\)"
+    ):
+        load_robot(ROBOTS / "five_bar.urdf", actuated=actuated)
 
 
 def test_five_bar_closure_to_a_missing_link_is_named_with_its_line(tmp_path):
