@@ -1,0 +1,409 @@
+"""A closed-chain robot from MJCF (MuJoCo's XML), compiled by MuJoCo itself.
+
+MuJoCo compiles the file first (``mujoco.MjModel.from_xml_path``), so that defaults, classes,
+``<include>``, inertias inferred from geoms, ``<compiler angle=... eulerseq=...>`` and the
+reference-pose semantics of equality anchors mean exactly what they mean in MuJoCo. The compiled
+``mjModel`` is then turned into a ``pin.Model`` (docs/architecture.md section 13):
+
+* every MuJoCo body is placed by ``body_pos``/``body_quat`` (MuJoCo quaternions are w, x, y, z)
+  in its parent body's frame; a body without joints is rigidly merged into its parent's joint
+  (a BODY frame keeps its name);
+* joints: ``hinge`` -> revolute (``RX``/``RY``/``RZ`` for a positive unit axis, else
+  ``RevoluteUnaligned``), ``slide`` -> prismatic, ``ball`` -> spherical, ``free`` -> free-flyer
+  (top-level bodies only). A joint rotates about its own anchor ``jnt_pos``: the Pinocchio joint
+  frame sits at that anchor. Several joints in one body become consecutive Pinocchio joints
+  (massless intermediate bodies), in MuJoCo's order;
+* coordinates are MuJoCo's: q = qpos for hinge and slide joints (so alpha reads as MuJoCo's
+  joint positions). The body pose in the file is the pose at ``qpos = qpos0`` (the joint's
+  ``ref``), so a joint with a non-zero ``ref`` gets the placement rotated by -ref about its axis
+  (moved by -ref along it for a slide), as Pinocchio's own MJCF parser does; ball and free
+  quaternions are reordered to Pinocchio's (x, y, z, w);
+* inertia: ``body_mass`` at ``body_ipos`` with principal moments ``body_inertia`` along the axes
+  ``body_iquat`` [kg, m, kg m^2];
+* sites become OP_FRAME frames (names kept), usable as end effectors;
+* equalities: ``connect`` -> a ``"3d"`` closure, ``weld`` -> a ``"6d"`` closure, each with the
+  anchors MuJoCo compiled (body semantics: ``eq_data``, the second anchor computed by MuJoCo at
+  ``qpos0``; site semantics: the sites). A weld frame on body 1 is (``relpose`` position,
+  ``relpose`` quaternion), the one on body 2 is (``anchor``, identity): MuJoCo's weld holds
+  exactly these two frames together (its error is ``neg(q2) q1 relquat`` and
+  ``x1 + R1 relpos - x2 - R2 anchor``). ``torquescale`` only weighs MuJoCo's soft constraint and
+  does not change which poses satisfy it. Any other equality (``joint``, ``tendon``, ``flex``), a
+  disabled one, or one attached to the world body is an error naming it and its line;
+* actuators: ``motor`` (and ``general`` without dynamics or bias, i.e. a torque/force source) on a
+  hinge or slide joint give the actuated joints, in actuator order (``gear`` only scales the
+  control and is not part of the model); position/velocity servos, or transmissions other than
+  a joint, are errors naming the actuator and its line;
+* gravity: ``opt.gravity`` (``g=`` overrides it with g along -z);
+* reference configuration: the keyframe named ``home`` if there is one, else ``qpos0``;
+* visuals: geoms of the primitive types (box, sphere, capsule, cylinder, ellipsoid) become a
+  ``pin.GeometryModel`` (coal shapes) for drawing; mesh, plane, hfield and sdf geoms are not drawn.
+
+Joint damping, stiffness, friction loss and armature, joint limits and contacts are MuJoCo
+simulation options that the closed-chain model does not carry; armature is refused (it changes the
+inertia), the others are listed in a warning.
+
+Units: SI (m, kg, s, rad), as MuJoCo's.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from delta_pin.errors import OptionalDependencyError, URDFConventionError
+from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.closures import Closure
+
+__all__ = ["mjcf_to_pinocchio", "read_mjcf"]
+
+_UNIT_AXES = {
+    (1.0, 0.0, 0.0): ("RX", "PX"),
+    (0.0, 1.0, 0.0): ("RY", "PY"),
+    (0.0, 0.0, 1.0): ("RZ", "PZ"),
+}
+_ACTUATOR_TAGS = ("motor", "general", "position", "velocity", "intvelocity", "damper", "cylinder",
+                  "muscle", "adhesion", "plugin")  # fmt: skip
+
+
+def _import_mujoco():
+    try:
+        import mujoco
+    except ImportError as exc:  # pragma: no cover - mujoco is installed with [test]
+        raise OptionalDependencyError(
+            f"reading MJCF needs MuJoCo ({exc}): pip install mujoco (or pip install 'delta-pin[mjcf]')"
+        ) from None
+    return mujoco
+
+
+def _quat_wxyz(q) -> pin.Quaternion:
+    w, x, y, z = (float(v) for v in q)
+    quat = pin.Quaternion(w, x, y, z)
+    quat.normalize()
+    return quat
+
+
+def _se3(pos, quat_wxyz) -> pin.SE3:
+    return pin.SE3(_quat_wxyz(quat_wxyz).matrix(), np.array(pos, dtype=float))
+
+
+def _translation(pos) -> pin.SE3:
+    return pin.SE3(np.eye(3), np.array(pos, dtype=float))
+
+
+def _name(mujoco, m, kind, index: int, prefix: str) -> str:
+    name = mujoco.mj_id2name(m, kind, index)
+    return name if name else f"{prefix}_{index}"
+
+
+def _joint_model(kind: str, axis: np.ndarray):
+    axis = np.asarray(axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    key = tuple(float(v) for v in np.round(axis, 15))
+    if key in _UNIT_AXES:
+        revolute, prismatic = _UNIT_AXES[key]
+        return getattr(pin, f"JointModel{revolute if kind == 'hinge' else prismatic}")()
+    if kind == "hinge":
+        return pin.JointModelRevoluteUnaligned(*axis)
+    return pin.JointModelPrismaticUnaligned(*axis)
+
+
+def mjcf_to_pinocchio(m, *, source: str = "MJCF") -> tuple[pin.Model, dict[int, tuple[int, pin.SE3]], list]:
+    """A ``pin.Model`` of a compiled ``mujoco.MjModel`` (module docstring).
+
+    Returns:
+        (model, bodies, q_maps): ``bodies[b]`` = (Pinocchio joint id, placement of MuJoCo body
+        b's frame in that joint's frame); ``q_maps`` lists (kind, qpos address, q address) per
+        MuJoCo joint, for :func:`_to_pinocchio_q`.
+
+    Raises:
+        URDFConventionError: a free joint below the top level, or a zero joint axis.
+    """
+    mujoco = _import_mujoco()
+    model = pin.Model()
+    model.name = "mjcf"
+    bodies: dict[int, tuple[int, pin.SE3]] = {0: (0, pin.SE3.Identity())}
+    q_maps = []
+    for b in range(1, m.nbody):
+        parent_joint, parent_placement = bodies[int(m.body_parentid[b])]
+        body_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_BODY, b, "body")
+        placement = parent_placement * _se3(m.body_pos[b], m.body_quat[b])  # body frame in parent joint frame
+        joint = parent_joint
+        for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
+            kind = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}[int(m.jnt_type[j])]
+            joint_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
+            anchor = np.array(m.jnt_pos[j], dtype=float)
+            if kind == "free":
+                if int(m.body_parentid[b]) != 0 or joint != 0:
+                    raise URDFConventionError(
+                        f"{source}: free joint {joint_name!r} of body {body_name!r} is not on a top-level "
+                        "body"
+                    )
+                joint_model, joint_placement = pin.JointModelFreeFlyer(), pin.SE3.Identity()
+                anchor = np.zeros(3)
+            elif kind == "ball":
+                joint_model, joint_placement = pin.JointModelSpherical(), placement * _translation(anchor)
+            else:
+                if np.linalg.norm(m.jnt_axis[j]) == 0.0:
+                    raise URDFConventionError(f"{source}: joint {joint_name!r} has a zero axis")
+                joint_model = _joint_model(kind, m.jnt_axis[j])
+                axis = np.array(m.jnt_axis[j], dtype=float) / np.linalg.norm(m.jnt_axis[j])
+                ref = float(m.qpos0[m.jnt_qposadr[j]])  # the file's pose is at qpos = ref
+                offset = (
+                    pin.SE3(pin.exp3(-ref * axis), np.zeros(3))
+                    if kind == "hinge"
+                    else _translation(-ref * axis)
+                )
+                joint_placement = placement * _translation(anchor) * offset
+            if model.existJointName(joint_name):
+                raise URDFConventionError(f"{source}: two joints are named {joint_name!r}")
+            q_index = model.nq
+            joint = model.addJoint(joint, joint_model, joint_placement, joint_name)
+            q_maps.append((kind, int(m.jnt_qposadr[j]), q_index))
+            placement = _translation(-anchor)  # the body frame in this joint's frame
+        axes = _quat_wxyz(m.body_iquat[b]).matrix()  # principal axes in the body frame
+        rotational = axes @ np.diag(m.body_inertia[b]) @ axes.T
+        inertia = pin.Inertia(float(m.body_mass[b]), np.array(m.body_ipos[b], dtype=float), rotational)
+        model.appendBodyToJoint(joint, inertia, placement)
+        model.addFrame(pin.Frame(body_name, joint, 0, placement, pin.FrameType.BODY), False)
+        bodies[b] = (joint, placement)
+    for s in range(m.nsite):
+        joint, placement = bodies[int(m.site_bodyid[s])]
+        frame = placement * _se3(m.site_pos[s], m.site_quat[s])
+        name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_SITE, s, "site")
+        model.addFrame(pin.Frame(name, joint, 0, frame, pin.FrameType.OP_FRAME), False)
+    model.gravity.linear = np.array(m.opt.gravity, dtype=float)
+    return model, bodies, q_maps
+
+
+def _to_pinocchio_q(model: pin.Model, q_maps, qpos: np.ndarray) -> np.ndarray:
+    """Pinocchio's q (nq,) for MuJoCo's qpos (module docstring): quaternions reordered."""
+    q = pin.neutral(model)
+    for kind, a, i in q_maps:
+        if kind in ("hinge", "slide"):
+            q[i] = qpos[a]
+        elif kind == "ball":
+            w, x, y, z = qpos[a : a + 4]
+            q[i : i + 4] = np.array([x, y, z, w]) / np.linalg.norm([w, x, y, z])
+        else:
+            w, x, y, z = qpos[a + 3 : a + 7]
+            q[i : i + 3] = qpos[a : a + 3]
+            q[i + 3 : i + 7] = np.array([x, y, z, w]) / np.linalg.norm([w, x, y, z])
+    return q
+
+
+def _elements(path: Path, section: str, tags=None) -> list:
+    """The child elements of every ``<section>`` of the file, in document order (their line
+    numbers for messages); empty where the file cannot be parsed by lxml."""
+    from lxml import etree
+
+    try:
+        root = etree.parse(str(path)).getroot()
+    except (etree.XMLSyntaxError, OSError):
+        return []
+    found = []
+    for block in root.iter(section):
+        for child in block:
+            if isinstance(child.tag, str) and (tags is None or child.tag in tags):
+                found.append(child)
+    return found
+
+
+def _where(source: str, elements: list, index: int, name: str) -> str:
+    element = None
+    if name:
+        element = next((e for e in elements if e.get("name") == name), None)
+    if element is None and index < len(elements):
+        element = elements[index]
+    return f"{source} line {element.sourceline}" if element is not None else source
+
+
+def _closures(mujoco, m, bodies, path: Path, source: str) -> list[Closure]:
+    elements = _elements(path, "equality")
+    closures = []
+    for e in range(m.neq):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or ""
+        label = repr(name) if name else f"#{e} (unnamed)"
+        where = _where(source, elements, e, name)
+        kind = int(m.eq_type[e])
+        if kind not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)):
+            type_name = mujoco.mjtEq(kind).name.removeprefix("mjEQ_").lower()
+            raise URDFConventionError(
+                f"equality {label} ({where}) is a {type_name!r} equality; a closed-chain robot is closed by "
+                "'connect' (a point) and 'weld' (a rigid joint) equalities only"
+            )
+        if not bool(m.eq_active0[e]):
+            raise URDFConventionError(
+                f'equality {label} ({where}) is disabled (active="false"); a loop closure must hold '
+                "from the start: remove it or enable it"
+            )
+        data = np.array(m.eq_data[e], dtype=float)
+        id1, id2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE):
+            (j1, b1), (j2, b2) = bodies[int(m.site_bodyid[id1])], bodies[int(m.site_bodyid[id2])]
+            p1 = b1 * _se3(m.site_pos[id1], m.site_quat[id1])
+            p2 = b2 * _se3(m.site_pos[id2], m.site_quat[id2])
+        else:
+            (j1, b1), (j2, b2) = bodies[id1], bodies[id2]
+            if kind == int(mujoco.mjtEq.mjEQ_CONNECT):  # anchor in body 1, its image in body 2 at qpos0
+                p1, p2 = b1 * _translation(data[0:3]), b2 * _translation(data[3:6])
+            else:  # x1 + R1 relpos == x2 + R2 anchor and R1 relquat == R2
+                p1, p2 = b1 * _se3(data[3:6], data[6:10]), b2 * _translation(data[0:3])
+        if 0 in (j1, j2):
+            raise URDFConventionError(
+                f"equality {label} ({where}) holds a body to the world (or to a body welded to it); "
+                "delta-pin's closures join two moving bodies: add the ground link as a body of the robot"
+            )
+        if j1 == j2:
+            raise URDFConventionError(f"equality {label} ({where}) joins two bodies that move together")
+        closure_name = name or f"equality_{e}"
+        closure_kind = "3d" if kind == int(mujoco.mjtEq.mjEQ_CONNECT) else "6d"
+        closures.append(Closure(closure_name, closure_kind, j1, p1, j2, p2, source=where))
+    return closures
+
+
+def _actuated(mujoco, m, model: pin.Model, path: Path, source: str) -> list[str]:
+    elements = _elements(path, "actuator", _ACTUATOR_TAGS)
+    names = []
+    for a in range(m.nu):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or ""
+        label = repr(name) if name else f"#{a} (unnamed)"
+        where = _where(source, elements, a, name)
+        if int(m.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            kind = mujoco.mjtTrn(int(m.actuator_trntype[a])).name.removeprefix("mjTRN_").lower()
+            raise URDFConventionError(
+                f"actuator {label} ({where}) drives a {kind!r} transmission; delta-pin's actuators drive one "
+                'hinge or slide joint (joint="...")'
+            )
+        servo = (
+            int(m.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE)
+            or int(m.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_NONE)
+            or int(m.actuator_gaintype[a]) != int(mujoco.mjtGain.mjGAIN_FIXED)
+        )
+        if servo:
+            raise URDFConventionError(
+                f"actuator {label} ({where}) is not a torque source (it has activation dynamics, a bias or a "
+                'non-fixed gain: a position/velocity servo?); use <motor joint="..."/>'
+            )
+        joint = int(m.actuator_trnid[a, 0])
+        joint_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, joint, "joint")
+        if int(m.jnt_type[joint]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            raise URDFConventionError(
+                f"actuator {label} ({where}) drives joint {joint_name!r}, which is not a hinge or a slide"
+            )
+        names.append(joint_name)
+    return names
+
+
+def _warn_ignored(mujoco, m, source: str) -> None:
+    if np.any(m.dof_armature != 0.0):
+        raise URDFConventionError(
+            f"{source}: joint armature (rotor inertia) is not carried by delta-pin's model: set "
+            'armature="0" or model the rotor as a body'
+        )
+    ignored = []
+    for label, values in (
+        ("damping", m.dof_damping),
+        ("frictionloss", m.dof_frictionloss),
+        ("stiffness", m.jnt_stiffness),
+    ):
+        if np.any(np.asarray(values) != 0.0):
+            ignored.append(label)
+    if ignored:
+        warnings.warn(
+            f"{source}: joint {', '.join(ignored)} are MuJoCo simulation options that delta-pin's model "
+            "ignores",
+            stacklevel=3,
+        )
+
+
+def _visual_model(mujoco, m, bodies, model: pin.Model) -> pin.GeometryModel:
+    import coal
+
+    geometry = pin.GeometryModel()
+    types = mujoco.mjtGeom
+    for g in range(m.ngeom):
+        kind, size = int(m.geom_type[g]), np.array(m.geom_size[g], dtype=float)
+        if kind == int(types.mjGEOM_BOX):
+            shape = coal.Box(*(2.0 * size))
+        elif kind == int(types.mjGEOM_SPHERE):
+            shape = coal.Sphere(size[0])
+        elif kind == int(types.mjGEOM_CAPSULE):
+            shape = coal.Capsule(size[0], 2.0 * size[1])
+        elif kind == int(types.mjGEOM_CYLINDER):
+            shape = coal.Cylinder(size[0], 2.0 * size[1])
+        elif kind == int(types.mjGEOM_ELLIPSOID):
+            shape = coal.Ellipsoid(*size)
+        else:  # plane, mesh, hfield, sdf: not drawn
+            continue
+        joint, body = bodies[int(m.geom_bodyid[g])]
+        name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_GEOM, g, "geom")
+        frame = model.getFrameId(_name(mujoco, m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g]), "body"))
+        placement = body * _se3(m.geom_pos[g], m.geom_quat[g])
+        obj = pin.GeometryObject(f"{name}_{g}", joint, frame, placement, shape)
+        obj.meshColor = np.array(m.geom_rgba[g], dtype=float)
+        geometry.addGeometryObject(obj)
+    return geometry
+
+
+def read_mjcf(
+    path: str | Path,
+    *,
+    actuated: list[str] | None = None,
+    end_effector: str | None = None,
+    g: float | None = None,
+) -> ClosedChainRobot:
+    """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` from an MJCF file (module docstring).
+
+    Args:
+        path: the ``.xml`` file.
+        actuated: the actuated joints in the order of alpha (default: the joints of the file's
+            ``<motor>`` actuators, in actuator order).
+        end_effector: a frame (body, site or joint name) the runs record (default: the first
+            closure's first frame).
+        g: gravity [m/s^2] along -z (default: the file's ``<option gravity>``).
+
+    Raises:
+        OptionalDependencyError: MuJoCo is not installed.
+        URDFConventionError: MuJoCo rejects the file (its message, with the line), or the file
+            holds an equality or actuator delta-pin does not support (named, with its line).
+        InvalidParameterError, AssemblyError: bad actuated joints, or loops that do not close.
+    """
+    mujoco = _import_mujoco()
+    path = Path(path)
+    source = path.name
+    try:
+        m = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as exc:  # MuJoCo's compiler: the message names the element and the line
+        message = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
+        raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {message}") from None
+    _warn_ignored(mujoco, m, source)
+    model, bodies, q_maps = mjcf_to_pinocchio(m, source=source)
+    model.name = bytes(m.names).split(b"\0", 1)[0].decode() or path.stem  # <mujoco model="...">
+    if g is not None:
+        model.gravity.linear = np.array([0.0, 0.0, -float(g)])
+    closures = _closures(mujoco, m, bodies, path, source)
+    if not closures:
+        raise URDFConventionError(
+            f"{source} has no <equality> connect or weld: a closed-chain robot needs its loop closures "
+            "(see docs/architecture.md section 13)"
+        )
+    motors = _actuated(mujoco, m, model, path, source)
+    if actuated is None:
+        actuated = motors
+    if not actuated:
+        raise URDFConventionError(
+            f'{source} has no <actuator> <motor joint="..."/>: pass actuated=[...] (CLI: --actuated a,b,c) '
+            "or add motors"
+        )
+    keys = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(m.nkey)]
+    home = keys.index("home") if "home" in keys else None
+    qpos = m.qpos0 if home is None else m.key_qpos[home]
+    reference = _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float))
+    return ClosedChainRobot(
+        model, closures, actuated, name=model.name, source=source, base_dir=str(path.resolve().parent),
+        end_effector=end_effector, reference_configuration=reference,
+        visual_model=_visual_model(mujoco, m, bodies, model),
+    )  # fmt: skip
