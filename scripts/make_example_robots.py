@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 
@@ -289,8 +288,7 @@ def delta_xml() -> str:
     import delta_pin as dp
     from delta_pin.model import mjcf
 
-    with mock.patch.object(mjcf, "INERTIA_FLOOR", DELTA_INERTIA_FLOOR):
-        text = mjcf.delta_mjcf(dp.load_delta())
+    text = mjcf.delta_mjcf(dp.load_delta(), inertia_floor=DELTA_INERTIA_FLOOR)
     motors = "".join(f'    <motor name="motor_{i}" joint="active_{i}"/>\n' for i in (1, 2, 3))
     header = (
         "<!-- The Table-1 Delta (dp.load_delta()) as MJCF, written by scripts/make_example_robots.py with\n"

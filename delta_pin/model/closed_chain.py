@@ -63,7 +63,7 @@ def least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
             return np.linalg.solve(A, b)
         return np.linalg.solve(A.T @ A, A.T @ b)
     except np.linalg.LinAlgError:
-        return np.linalg.lstsq(A, b)
+        return np.linalg.lstsq(A, b, rcond=None)[0]
 
 
 def closure_rank(robot: ClosedChainRobot, q: np.ndarray) -> int:
@@ -181,7 +181,14 @@ class ClosedChainRobot:
             )
         self.home = q0[self.actuated_q_indices].copy()
         self._last_q = q0.copy()
-        self.reference_configuration = self.configuration(self.home, initial_guess=q0)
+        try:
+            self.reference_configuration = self.configuration(self.home, initial_guess=q0)
+        except AssemblyError:
+            # a wrong actuator count is the likelier cause; the rank at a generic (perturbed)
+            # configuration is the mechanism's, whatever singular pose q0 may be in
+            generic = pin.integrate(self.model, q0, np.random.default_rng(0).normal(0.0, 0.1, self.model.nv))
+            self._check_mobility(generic, assembled=False)
+            raise
         self._check_mobility(self.reference_configuration)
         self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
         self._options = {
@@ -214,6 +221,21 @@ class ClosedChainRobot:
         if isinstance(frame, (int, np.integer)) and 0 <= frame < len(self.model.frames):
             return int(frame)
         return self.frame_id(frame)
+
+    def joint_frame(self, joint: str) -> str:
+        """Name of a frame sitting exactly on a joint (its origin and axes), added as
+        ``<joint>_frame`` if the model has none (MJCF models carry body frames only)."""
+        jid = self.model.getJointId(joint) if self.model.existJointName(joint) else None
+        if jid is None:
+            raise InvalidParameterError(f"{self._label}has no joint {joint!r}")
+        for frame in self.model.frames:
+            if frame.parentJoint == jid and np.allclose(frame.placement.homogeneous, np.eye(4), atol=1e-15):
+                return frame.name
+        name = f"{joint}_frame"
+        for model in (self.model, self.tree):  # the tree too: variants (with_payload) keep it
+            model.addFrame(pin.Frame(name, jid, pin.SE3.Identity(), pin.FrameType.OP_FRAME), False)
+        self.data = self.model.createData()
+        return name
 
     def set_end_effector(self, frame: str) -> None:
         """Make ``frame`` the one :meth:`forward_kinematics` and the runs report."""
@@ -351,18 +373,18 @@ class ClosedChainRobot:
             start += closure.size
         return f"{worst.name!r}{worst.where}"
 
-    def _check_mobility(self, q: np.ndarray) -> None:
+    def _check_mobility(self, q: np.ndarray, assembled: bool = True) -> None:
         J = self.closure_jacobian(q)
         rank = _rank(J)
         mobility = self.model.nv - rank
         if mobility != self.dof:
             raise AssemblyError(
                 f"{self._label}the mechanism has {mobility} degree(s) of freedom at its reference "
-                f"configuration "
+                f"configuration{'' if assembled else ' (a generic pose near it)'} "
                 f"({self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
                 f"actuator(s) ({', '.join(self.actuated_joints)}): name one actuator per degree of freedom"
             )
-        if _rank(J[:, self.passive_indices]) != len(self.passive_indices):
+        if assembled and _rank(J[:, self.passive_indices]) != len(self.passive_indices):
             raise AssemblyError(
                 f"{self._label}the actuated joints ({', '.join(self.actuated_joints)}) do not determine "
                 "the passive "

@@ -119,6 +119,14 @@ def _urdf_transmissions(urdf: str) -> list[str]:
     ]
 
 
+def _has_constraints(text: str, source: str) -> bool:
+    """Whether URDF text holds a ``<constraint>`` element (not a comment that mentions one)."""
+    try:
+        return next(etree.fromstring(text.encode()).iter("constraint"), None) is not None
+    except etree.XMLSyntaxError as exc:
+        raise URDFConventionError(f"{source}: not valid XML: {exc}") from None
+
+
 def _read_text(path: Path) -> str:
     try:
         text = path.read_text(encoding="utf-8")
@@ -252,7 +260,7 @@ def load_robot(
         else:
             text = _read_text(path)
         sidecar = path.with_name("robot.yaml")
-        if "<constraint" not in text and sidecar.is_file():
+        if not _has_constraints(text, path.name) and sidecar.is_file():
             from delta_pin.model.gepetto_loader import read_gepetto
 
             robot = read_gepetto(path, sidecar, urdf=text, actuated=actuated, end_effector=end_effector, g=g)
@@ -265,5 +273,5 @@ def load_robot(
 
         robot.delta = recognise_delta(robot)
         if robot.delta is not None and end_effector is None:  # the paper's xyz: the platform's
-            robot.set_end_effector(delta_platform_joint(robot))
+            robot.set_end_effector(robot.joint_frame(delta_platform_joint(robot)))
     return robot

@@ -41,7 +41,14 @@ def _numbers(values) -> str:
     return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
 
 
-def delta_mjcf(robot, *, timestep: float = 1e-3, solref: str | None = None, solimp: str | None = None) -> str:
+def delta_mjcf(
+    robot,
+    *,
+    timestep: float = 1e-3,
+    solref: str | None = None,
+    solimp: str | None = None,
+    inertia_floor: float = INERTIA_FLOOR,
+) -> str:
     """MJCF text of ``robot`` (a :class:`~delta_pin.model.robot.Delta`).
 
     Args:
@@ -49,6 +56,8 @@ def delta_mjcf(robot, *, timestep: float = 1e-3, solref: str | None = None, soli
         timestep: MuJoCo's step [s] (its RK4 integrator).
         solref, solimp: the connects' softness (``None``: MuJoCo's defaults; see
             :data:`STIFF_CONNECT`).
+        inertia_floor: [kg m^2] added to every inertia's diagonal (MuJoCo accepted down to 1e-14;
+            1e-12 keeps the file within 1e-12 of the Pinocchio model, as a reference file needs).
 
     Returns:
         The MJCF document; joints keep the URDF's names, the closure sites are
@@ -87,7 +96,7 @@ def delta_mjcf(robot, *, timestep: float = 1e-3, solref: str | None = None, soli
         inertia = model.inertias[last]
         if inertia.mass == 0.0:
             raise ValueError(f"link of joint {model.names[last]!r} is massless and cannot be merged")
-        c = inertia.inertia + INERTIA_FLOOR * np.eye(3)
+        c = inertia.inertia + inertia_floor * np.eye(3)
         text += (
             f'{indent}  <inertial pos="{_numbers(inertia.lever)}" mass="{inertia.mass!r}" '
             f'fullinertia="{_numbers([c[0, 0], c[1, 1], c[2, 2], c[0, 1], c[0, 2], c[1, 2]])}"/>\n'
