@@ -18,8 +18,9 @@ def main() -> None:
     args = parser.parse_args()
     robot = dp.load_robot("five_bar", end_effector="tip")  # delta_pin/robots/five_bar.urdf
     print(robot)
-    home = robot.frame_placement(robot.reference_configuration).translation
-    circle = dp.Circle(center=home - [0.03, 0.0, 0.0], radius=0.03, period=2.0, plane="xz")  # starts at home
+    home = robot.frame_placement(robot.reference_configuration).translation  # the tip, near full stretch
+    above = home + np.array([0.0, 0.0, 0.03])  # the circle rises from home, away from full stretch
+    circle = dp.Circle(center=above, radius=0.03, period=2.0, plane="xz", phase=-np.pi / 2)
     nominal = dp.ClosedChainNominalModel(robot)  # the projected model, no payload
     plant = dp.ClosedChainPlant(
         robot, payload_mass=lambda t: 0.2 * (1.0 + np.sin(np.pi * t)), coordinates="active"

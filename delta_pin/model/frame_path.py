@@ -30,19 +30,20 @@ _PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
 
 class Circle(Trajectory):
-    """x(t) = center + radius (cos(2 pi t / period) e_1 + sin(2 pi t / period) e_2) [m].
+    """x(t) = center + radius (cos(2 pi t / period + phase) e_1 + sin(2 pi t / period + phase) e_2) [m].
 
     Args:
         center: the circle's center (3,) [m].
         radius: [m] (> 0).
         period: time of one turn [s] (> 0).
         plane: ``"xy"``, ``"xz"`` or ``"yz"`` (e_1, e_2 its axes).
+        phase: the start's angle on the circle [rad] (0: center + radius e_1).
     """
 
     name = "circle"
     duration = None
 
-    def __init__(self, center, radius: float, period: float, plane: str = "xy") -> None:
+    def __init__(self, center, radius: float, period: float, plane: str = "xy", phase: float = 0.0) -> None:
         self.center = np.asarray(center, dtype=float).reshape(3)
         if not np.isfinite(self.center).all():
             raise InvalidParameterError(f"center={np.asarray(center).tolist()} must be 3 finite numbers [m]")
@@ -52,11 +53,13 @@ class Circle(Trajectory):
             raise InvalidParameterError(f"period={period!r} must be > 0 [s]")
         if plane not in _PLANES:
             raise InvalidParameterError(f"plane={plane!r} must be one of {', '.join(_PLANES)}")
-        self.radius, self.period, self.plane = float(radius), float(period), plane
+        if not math.isfinite(phase):
+            raise InvalidParameterError(f"phase={phase!r} must be finite [rad]")
+        self.radius, self.period, self.plane, self.phase = float(radius), float(period), plane, float(phase)
 
     def _axes(self, t: np.ndarray, derivative: int) -> np.ndarray:
         omega = 2.0 * math.pi / self.period
-        phase = omega * t + derivative * math.pi / 2.0  # d/dt cos = cos(. + pi/2) omega
+        phase = omega * t + self.phase + derivative * math.pi / 2.0  # d/dt cos = cos(. + pi/2) omega
         values = np.zeros((len(t), 3))
         i, j = _PLANES[self.plane]
         values[:, i] = self.radius * omega**derivative * np.cos(phase)
@@ -82,6 +85,7 @@ class Circle(Trajectory):
             "radius": self.radius,
             "period": self.period,
             "plane": self.plane,
+            "phase": self.phase,
         }
 
 

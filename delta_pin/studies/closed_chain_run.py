@@ -5,7 +5,8 @@ The controller's nominal model is the robot's projected dynamics
 is its constrained Pinocchio tree (:class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`).
 The reference is either a circle drawn by a frame (task space, :class:`~delta_pin.model.frame_path.FramePath`)
 or a sinusoid of every actuated joint about home (joint space). Both start at the robot's home
-configuration, so the run starts on its reference (docs/architecture.md section 10).
+configuration, so the run starts on its reference; the circle turns towards the base from there
+(docs/architecture.md section 10).
 """
 
 from __future__ import annotations
@@ -45,6 +46,22 @@ def circle_plane(robot: ClosedChainRobot, frame: str | None = None) -> str:
     return "xyz"[first] + "xyz"[second]
 
 
+def circle_from_home(home: np.ndarray, radius: float, period: float, plane: str) -> Circle:
+    """A circle through ``home`` [m] whose center lies ``radius`` from it towards the world
+    origin (the robot's base) within ``plane``: a frame near the edge of its reach (an arm at
+    full stretch) then moves inwards, away from that singularity."""
+    i, j = ("xyz".index(plane[0]), "xyz".index(plane[1]))
+    inward = -np.array([home[i], home[j]])
+    if np.linalg.norm(inward) < 1e-9:
+        inward = np.array([-1.0, 0.0])
+    inward /= np.linalg.norm(inward)
+    center = np.array(home, dtype=float)
+    center[i] += radius * inward[0]
+    center[j] += radius * inward[1]
+    phase = math.atan2(-inward[1], -inward[0])  # home = center - radius * inward
+    return Circle(center, radius, period, plane, phase)
+
+
 def closed_chain_reference(
     robot: ClosedChainRobot, frame: str | None, radius: float, period: float
 ) -> tuple[object, dict]:
@@ -63,9 +80,7 @@ def closed_chain_reference(
     robot.frame_id(frame)  # names the frames that exist
     plane = circle_plane(robot, frame)
     home = robot.frame_placement(robot.reference_configuration, frame).translation
-    center = home.copy()
-    center["xyz".index(plane[0])] -= radius  # the circle starts at home
-    path = FramePath(Circle(center, radius, period, plane), frame=frame)
+    path = FramePath(circle_from_home(home, radius, period, plane), frame=frame)
     return path, {"reference": "circle", "frame": frame, "plane": plane, "radius": radius, "period": period}
 
 
