@@ -572,7 +572,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_choice_argument(run, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(run, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     run.add_argument(
-        "--t-end", type=float, default=None, help="duration [s] (None: 15 for path I, 10 for II, 3 for adept)"
+        "--t-end",
+        type=float,
+        default=None,
+        help="duration [s] (None: 15 for path I, 10 for II, 3 for adept; with --robot 6, or two periods)",
     )
     run.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
     run.add_argument(

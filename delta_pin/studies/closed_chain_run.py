@@ -118,13 +118,14 @@ def run_closed_chain(
     sampling_aware: bool = False,
     announce: Callable[[str], None] | None = None,
 ) -> tuple[Run, dict]:
-    """Simulate ``controller`` on ``robot`` (module docstring); ``t_end`` defaults to two periods.
+    """Simulate ``controller`` on ``robot`` (module docstring); ``t_end`` defaults to 6 s (the
+    "last 5 s" indices then follow a 1 s transient), at least two periods.
 
     Returns:
         (the run, a description of what ran, for summary.json).
     """
     reference, description = closed_chain_reference(robot, frame, radius, period)
-    t_end = 2.0 * period if t_end is None else t_end
+    t_end = max(6.0, 2.0 * period) if t_end is None else t_end
     law = closed_chain_controller(controller, robot, dt, sampling_aware)
     if announce is not None:
         what = f"a circle of {frame}" if frame else "a joint-space sinusoid"
