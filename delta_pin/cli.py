@@ -518,7 +518,12 @@ def _cmd_view(args: argparse.Namespace) -> int:
     previous = {signum: signal.signal(signum, _stop) for signum in stops}
     viewer = None
     try:
-        viewer = view_live(args.run, open_browser=args.open)
+        robot = None
+        if args.robot is not None:  # a run on a robot its file alone rebuilds (MJCF, robot.yaml)
+            from delta_pin.model.loaders import load_robot
+
+            robot = load_robot(args.robot)
+        viewer = view_live(args.run, robot, open_browser=args.open)
         print(f"meshcat viewer at {viewer.url()} -- press Ctrl-C to stop", flush=True)
         while True:
             time.sleep(1.0)
@@ -670,6 +675,9 @@ def build_parser() -> argparse.ArgumentParser:
     view = add("view", help="open a live meshcat viewer of a saved run")
     view.add_argument("run", type=Path, help="a run.npz written by delta-pin run")
     view.add_argument("--open", action="store_true", help="open the browser")
+    view.add_argument(
+        "--robot", default=None, help="the robot file of a run on a closed-chain robot (None: from the run)"
+    )
     view.set_defaults(func=_cmd_view)
     return parser
 
