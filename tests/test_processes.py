@@ -211,3 +211,41 @@ def test_view_ends_its_meshcat_server(run_file, signum):
             process.kill()
             process.wait()
         _end(servers)
+
+
+def test_view_replays_a_closed_chain_run_with_its_robot_file(tmp_path):
+    """A run on the MJCF Delta carries no URDF: `view --robot delta_mjcf` rebuilds the robot from
+    its file and serves the scene; without it the command names what to pass."""
+    pytest.importorskip("meshcat")
+    pytest.importorskip("mujoco")
+    import delta_pin as dp
+
+    robot = dp.load_robot("delta_mjcf", g=9.8)
+    run = dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, t_end=0.05, alpha0=robot.home)
+    path = tmp_path / "run.npz"
+    run.save(path)
+    refused = subprocess.run(
+        [sys.executable, "-m", "delta_pin.cli", "view", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert refused.returncode == 2 and "robot=load_robot(path)" in refused.stderr, refused.stderr
+    process = subprocess.Popen(
+        [sys.executable, "-m", "delta_pin.cli", "view", str(path), "--robot", "delta_mjcf"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    servers = []
+    try:
+        lines = _read_until(process.stdout, "meshcat viewer at", 120.0)
+        assert lines and "meshcat viewer at" in lines[-1], (lines, process.stderr)
+        servers = [c for c in _children(process.pid) if "meshcat.servers.zmqserver" in _cmdline(c)]
+        os.kill(process.pid, signal.SIGTERM)
+        assert process.wait(timeout=10) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        _end(servers)
