@@ -64,6 +64,14 @@ from delta_pin.sim.run import Run, run_metadata
 
 __all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
 
+#: The native stage of the compiled loops on the tree in full coordinates (sampled mode, designs
+#: I/II and the digital loop): ``"schur"``, ``dpn_dynamics_schur`` (constraintDynamics' kinematic
+#: pass and right-hand side, the KKT system solved by its Schur complement on the tree-sparse
+#: factor of M: equal to ``pin.constraintDynamics`` to ~1e-13 relative, and a 15 s run ~15 %
+#: faster), or ``"constraint_dynamics"``, ``dpn_dynamics`` (Pinocchio's ``constraintDynamics``, the
+#: function the Python loop calls: its arrays bit for bit). tests/sim/test_compiled_loops.py runs
+#: both against the Python loop.
+NATIVE_STAGE = "schur"
 RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
 RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
@@ -366,13 +374,14 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
 
 def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
     """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
-    the active and platform indices in q, the platform's rotational inertia at each truth row,
-    the TREE_LOOP_LIMITS record)."""
+    with the stage :data:`NATIVE_STAGE` names, the active and platform indices in q, the
+    platform's rotational inertia at each truth row, the TREE_LOOP_LIMITS record)."""
+    if NATIVE_STAGE not in ("schur", "constraint_dynamics"):
+        raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be 'schur' or 'constraint_dynamics'")
     source = plant.robot.pinocchio
     tree = plant.native_tree()
-    native_tree = record(
-        NATIVE_TREE, dynamics=tree.address_dynamics, closure_gap=tree.address_gap, handle=tree.handle
-    )
+    dynamics = tree.address_dynamics_schur if NATIVE_STAGE == "schur" else tree.address_dynamics
+    native_tree = record(NATIVE_TREE, dynamics=dynamics, closure_gap=tree.address_gap, handle=tree.handle)
     rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
     limits = record(
         TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
