@@ -155,6 +155,19 @@ def test_save_runs_recomputes_points_cached_without_their_run(grid, tmp_path):
     assert run_sweep(grid[:1], tmp_path, save_runs=True).skipped == 1
 
 
+def test_save_runs_can_name_the_runs_to_keep(grid, serial, tmp_path):
+    """A predicate keeps the runs of the specs it accepts (reproduce keeps its main runs only);
+    the other points keep their metrics, equal to the serial sweep's."""
+    keep = grid[0]
+    points = run_sweep(grid, tmp_path, save_runs=lambda spec: spec == keep)
+    saved = {point.key for point in points if (tmp_path / f"{point.key}.npz").is_file()}
+    assert saved == {points[0].key}
+    assert compute_metrics(load_run(tmp_path / f"{points[0].key}.npz")).as_dict() == points[0].metrics
+    assert _metrics(points) == _metrics(serial)
+    again = run_sweep(grid, tmp_path, save_runs=lambda spec: spec == keep)
+    assert again.skipped == len(grid) and again.computed == 0  # the runs not kept are not needed
+
+
 def test_a_failing_point_is_recorded_cached_and_does_not_stop_the_others(tmp_path):
     specs = [BASE, DIVERGING, BASE.with_(delta_m=0.0)]
     points = run_sweep(specs, tmp_path, executor="process", workers=2)
