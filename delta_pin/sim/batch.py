@@ -65,13 +65,16 @@ from delta_pin.sim.run import Run, run_metadata
 __all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
 
 #: The native stage of the compiled loops on the tree in full coordinates (sampled mode, designs
-#: I/II and the digital loop): ``"schur"``, ``dpn_dynamics_schur`` (constraintDynamics' kinematic
-#: pass and right-hand side, the KKT system solved by its Schur complement on the tree-sparse
-#: factor of M: equal to ``pin.constraintDynamics`` to ~1e-13 relative, and a 15 s run ~15 %
-#: faster), or ``"constraint_dynamics"``, ``dpn_dynamics`` (Pinocchio's ``constraintDynamics``, the
-#: function the Python loop calls: its arrays bit for bit). tests/sim/test_compiled_loops.py runs
-#: both against the Python loop.
-NATIVE_STAGE = "schur"
+#: I/II and the digital loop): ``"constraint_dynamics"`` (the default), ``dpn_dynamics``:
+#: Pinocchio's ``constraintDynamics``, the function the Python loop calls, so the compiled runs
+#: are its arrays bit for bit; or ``"schur"``, ``dpn_dynamics_schur``: constraintDynamics'
+#: kinematic pass and right-hand side, the KKT system solved by its Schur complement on the
+#: tree-sparse factor of M, equal to ``pin.constraintDynamics`` to ~1e-13 relative and a 15 s
+#: sampled run ~15 % faster. Not the default: on a drive with quantising encoders those rounding
+#: differences change which quantisation level a reading falls on, and the digital study's
+#: TDC / digital-robust errors then move by up to ~5 % over 15 s (an equally valid realisation,
+#: but no longer the reference's). tests/sim/test_compiled_loops.py runs both against the Python loop.
+NATIVE_STAGE = "constraint_dynamics"
 RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
 RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}

@@ -3,12 +3,14 @@ references.
 
 * Equivalence, one parametrised test (plant x controller x substeps): in sampled mode a compiled
   run gives the arrays of the Python loop (``simulate(..., compiled=False)``, the reference) to
-  1e-12 relative. On the Pinocchio tree, with the native stage ``constraint_dynamics``, they are
-  equal bit for bit on this machine (the same kernels and the same Pinocchio function in the same
-  order); with the default stage ``schur`` (the KKT system by its Schur complement,
-  ``delta_pin.sim.batch.NATIVE_STAGE``) they agree to 1e-12 relative (measured: ~1e-15 over these
-  runs, 2e-16 rad over 15 s of path I); on the analytic plant the torques differ by up to ~2e-15
-  N m (the law's sums are associated differently when M, C, G come from the shared kinematics).
+  1e-12 relative. On the Pinocchio tree, with the default native stage ``constraint_dynamics``,
+  they are equal bit for bit on this machine (the same kernels and the same Pinocchio function in
+  the same order); with the stage ``schur`` (the KKT system by its Schur complement,
+  ``delta_pin.sim.batch.NATIVE_STAGE``) they agree to 1e-12 relative over these 0.2 s runs
+  (measured: 2e-16 rad over 15 s of path I with the exact state; with quantising encoders the
+  rounding differences grow over long runs, see NATIVE_STAGE); on the analytic plant the torques
+  differ by up to ~2e-15 N m (the law's sums are associated differently when M, C, G come from the
+  shared kinematics).
 * Accuracy of BDF2 (it exists only compiled): against LSODA at rtol 1e-9, an independent adaptive
   integrator, on both plants.
 * Batches: each run of a batch is the run made alone, bit for bit.

@@ -16,7 +16,8 @@
 // complement (constraintDynamics' own kinematic pass and closure right-hand side, then the
 // tree-sparse factor of M and the small Delassus matrix instead of the generic sparse KKT
 // factorisation and its residual evaluation): equal to constraintDynamics to ~1e-13 relative and
-// ~1 us cheaper a call; the compiled sampled loops call it by default (delta_pin.sim.batch.NATIVE_STAGE).
+// ~1 us cheaper a call; the compiled sampled loops call it where delta_pin.sim.batch.NATIVE_STAGE
+// says so (not by default: the Python loop's arithmetic is constraintDynamics').
 //
 // `dpn_active_dynamics` is the same plant in active coordinates (PinocchioPlant with
 // coordinates="active"): q(alpha) completed by Newton on the passive coordinates from a
