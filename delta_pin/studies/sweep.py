@@ -324,9 +324,8 @@ def estimated_cost(spec: RunSpec) -> float:
     """A run's cost in units of one compiled 1 ms sample, to start the longest runs first: the
     samples of a sampled run (one compiled step each); for the compiled continuous Radau IIA/BDF2
     (designs I/II and the LQR) 1.5 times that on the Pinocchio plant and a tenth of that on the
-    analytic plant, the LQR's twice the designs' (measured in one ``reproduce --full``: 15 s on
-    the Pinocchio plant took 0.8-1.1 s for designs I/II, 1.4-2.5 s for the LQR, 0.6-0.7 s for a
-    sampled 1 kHz run); fifteen times that for LSODA."""
+    analytic plant (in ``reproduce --full``, 15 s on the Pinocchio plant took 0.8-1.1 s for designs
+    I/II, 1.2-1.4 s for the LQR, 0.6-0.7 s for a sampled 1 kHz run); fifteen times that for LSODA."""
     samples = spec.duration / spec.dt
     if spec.mode == "sampled":
         return samples
@@ -334,7 +333,7 @@ def estimated_cost(spec: RunSpec) -> float:
     compiled = compiled_law and spec.integrator in ("auto", "radau", "bdf2")
     if not compiled:
         return samples * 15.0
-    return samples * (1.5 if spec.plant == "pinocchio" else 0.1) * (2.0 if spec.controller == "lqr" else 1.0)
+    return samples * (1.5 if spec.plant == "pinocchio" else 0.1)
 
 
 def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None) -> list[list[str]]:

@@ -461,10 +461,10 @@ def test_single_runs_start_longest_first_and_batches_follow():
         > estimated_cost(specs["sampled_1k"])
         > estimated_cost(specs["radau"])
     )
-    # on the Pinocchio plant a compiled continuous run costs more than a sampled 1 kHz one, the
-    # LQR's (more rejected steps at the friction's sign changes) more than the designs'
+    # on the Pinocchio plant a compiled continuous run (the LQR's too) costs more than a sampled
+    # 1 kHz one, far less than a 10 kHz one
     lqr, design = RunSpec(controller="lqr"), RunSpec(controller="design1")
-    assert estimated_cost(lqr) > estimated_cost(design) > estimated_cost(specs["sampled_1k"])
+    assert estimated_cost(lqr) == estimated_cost(design) > estimated_cost(specs["sampled_1k"])
     assert estimated_cost(specs["sampled_10k"]) > estimated_cost(lqr)
     tasks = _chunks(list(specs), specs, workers=2)
     assert tasks[:4] == [["lqr_lsoda"], ["sampled_10k"], ["sampled_1k"], ["radau"]]
