@@ -219,6 +219,16 @@ def main() -> int:
     spec = RunSpec(
         controller="design1", plant="pinocchio", mode="sampled", sampling_aware=True, t_end=args.t_end
     )
+
+    def run_with_stage(stage: str, t_end: float = args.t_end):
+        from delta_pin.sim import batch
+
+        default, batch.NATIVE_STAGE = batch.NATIVE_STAGE, stage
+        try:
+            return run_spec(spec.with_(t_end=t_end), robot)
+        finally:
+            batch.NATIVE_STAGE = default
+
     loops = [
         measure(
             "mujoco.rollout (C++, zero torque)",
@@ -227,11 +237,18 @@ def main() -> int:
             f"{args.t_end:g} s, RK4 1 ms",
         ),
         measure(
-            "delta-pin compiled sampled loop, design I",
+            "delta-pin compiled sampled loop, design I (native stage constraintDynamics, the default)",
             lambda: run_spec(spec, robot),
             args.repeats,
             f"{args.t_end:g} s, RK4 1 ms, controller and friction included",
             warmup=lambda: run_spec(spec.with_(t_end=0.2), robot),
+        ),
+        measure(
+            "the same, native stage Schur complement (sim.batch.NATIVE_STAGE = 'schur')",
+            lambda: run_with_stage("schur"),
+            args.repeats,
+            f"{args.t_end:g} s, RK4 1 ms",
+            warmup=lambda: run_with_stage("schur", 0.2),
         ),
     ]
     print_table(f"{args.t_end:g} s of the Delta in a compiled loop", loops, reference=loops[0])
@@ -240,6 +257,16 @@ def main() -> int:
         loops[1].median / loops[0].median,
         1.0,
         unit="x",
+    )
+    report_target(
+        "the same with the Schur-complement stage / mujoco.rollout (issue 14)",
+        loops[2].median / loops[0].median,
+        1.0,
+        unit="x",
+    )
+    print(
+        f"Schur-complement stage / constraintDynamics stage, the whole run: "
+        f"{loops[2].median / loops[1].median:.2f}"
     )
 
     sim.set_state(q0, v0)

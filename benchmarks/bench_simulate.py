@@ -15,7 +15,8 @@ with the paper's gains: the default, the compiled Radau IIA (issue 14: at most 1
 rad of a tight reference), and the fixed-step BDF2 (at most 1.3 s). Each target row has its
 reference in the same table: the Python loop (``compiled=False``) and LSODA (timed once: ~20 s).
 The accuracy is measured against LSODA at rtol 1e-11 (~30 s). With ``--t-end`` shorter than 15 s
-the time limits are scaled by t_end / 15.
+the time limits are scaled by t_end / 15. Then the LQR's continuous run (``reproduce --full``'s two
+slowest runs before issue 14): the compiled Radau IIA against LSODA, and against LSODA at rtol 1e-10.
 
 Each case is warmed up by a 0.2 s run (numba compilation, caches), then timed ``repeats`` times.
 """
@@ -165,6 +166,42 @@ def main() -> None:
     )
     report_target(
         "continuous design I default: deviation from a tight reference", deviation, 1e-6, unit="rad"
+    )
+
+    # issue 14: the LQR's continuous runs of ``reproduce --full`` (path I, Pinocchio plant): the
+    # compiled Radau IIA with the LQR's compiled law (the default since issue 14) against LSODA
+    # (the only integrator the LQR had before), same run; and the Radau run's deviation from LSODA
+    # at rtol 1e-10 (the test at 2 s: tests/sim/test_radau.py)
+    lqr = RunSpec(controller="lqr", plant="pinocchio", t_end=args.t_end)
+    lqr_timings = [
+        measure(
+            "LQR, continuous, the default (compiled Radau IIA)",
+            lambda: run_spec(lqr, robot),
+            args.repeats,
+            f"{args.t_end:g} s, Pinocchio plant",
+            warmup=lambda: run_spec(lqr.with_(t_end=WARMUP_T_END), robot),
+        ),
+        measure(
+            "the same, LSODA (rtol 1e-6: the LQR's integrator before issue 14)",
+            lambda: run_spec(lqr.with_(integrator="lsoda"), robot),
+            1,
+            f"{args.t_end:g} s, Pinocchio plant",
+            warmup=lambda: run_spec(lqr.with_(integrator="lsoda", t_end=WARMUP_T_END), robot),
+        ),
+    ]
+    print_table(
+        f"issue 14: the LQR, continuous, {args.t_end:g} s of path I", lqr_timings, reference=lqr_timings[1]
+    )
+    fast = run_spec(lqr, robot)
+    tight = simulate(
+        robot, build_controller(lqr, robot), build_trajectory("I"), plant="pinocchio", t_end=args.t_end,
+        mode="continuous", integrator="lsoda", rtol=1e-10, atol=1e-13, alpha0=np.full(3, 0.3322),
+        friction=dp.Friction(), uncertainty=build_uncertainty(lqr),
+    )  # fmt: skip
+    print(
+        f"LQR default ({fast.metadata['integrator']}) against LSODA at rtol 1e-10: "
+        f"{np.abs(fast.alpha - tight.alpha).max():.1e} rad over {args.t_end:g} s "
+        f"(the reference took {tight.metadata['wall_time']:.1f} s)"
     )
 
     digital = [

@@ -10,6 +10,7 @@ delta-pin objects, so this package imports nothing from the layers above it
 * :func:`delta_pin.compiled.tree_loop.run_tree_sampled` -- one sampled run on Pinocchio's tree
   in full coordinates (resumable around projections);
 * :func:`delta_pin.compiled.adaptive_robust.adaptive_robust_kernel` -- one controller step;
+* :func:`delta_pin.compiled.lqr.lqr_law_into` -- the LQR baseline's law in those closed loops;
 * :mod:`delta_pin.compiled.delta_kernels` -- the analytic model at one state;
 * :mod:`delta_pin.compiled.native` -- the native library (built on first use).
 

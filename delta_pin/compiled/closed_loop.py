@@ -54,6 +54,8 @@ from delta_pin.compiled.delta_kernels import (
     solve3_into,
 )
 from delta_pin.compiled.jit import njit
+from delta_pin.compiled.layouts import LAW_LQR
+from delta_pin.compiled.lqr import lqr_law_into
 from delta_pin.compiled.native.calls import call_active_dynamics
 from delta_pin.compiled.rk4 import combine, stage_point, within_limits
 
@@ -82,7 +84,8 @@ def copy_info(source, target):
 @njit(cache=True)
 def control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, ws):
     """The kinematics at y (``ws.J``, ``ws.J_dot``, ``ws.xyz``) and the controller's output
-    (``ws.tau``, ``ws.rho_dot``, ``ws.info``); returns ``ok``.
+    (``ws.tau``, ``ws.rho_dot``, ``ws.info``); returns ``ok``. The controller is design I or II, or
+    the LQR baseline (``pc.law``; it has no rho_hat: nr = 0).
 
     ``pc``: a CONTROLLER record; ``plant``: a PLANT record; ``ref``: a REFERENCE record. When the
     controller's nominal geometry is the plant's (``plant.shared_kinematics``), the kinematics
@@ -93,6 +96,9 @@ def control_into(pc, cos_phi, sin_phi, plant, ref, y, nr, ws):
         plant.geometry, cos_phi, sin_phi, alpha, velocity, ws.xyz, ws.J, ws.J_dot, ws.kinematics
     ):
         return False
+    if pc.law == LAW_LQR:  # a linear model frozen at alpha0: no nominal terms at the state
+        lqr_law_into(pc, alpha, velocity, ref.alpha, ref.alpha_dot, ref.alpha_ddot, ws.tau, ws.info)
+        return True
     if plant.shared_kinematics:
         delta_dynamics_into(plant.geometry, pc.m_eq, alpha, ws.J, ws.J_dot, ws.M_bar, ws.C_bar, ws.G_bar)
         adaptive_robust_law_into(

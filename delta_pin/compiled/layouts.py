@@ -26,6 +26,8 @@ __all__ = [
     "FRICTION",
     "GEOMETRY",
     "INFO",
+    "LAW_ADAPTIVE_ROBUST",
+    "LAW_LQR",
     "NATIVE_TREE",
     "OBSERVER_MAX",
     "PLANT",
@@ -72,7 +74,8 @@ FRICTION = np.dtype(
     ]
 )
 
-#: Designs I and II on the Delta's analytic nominal model (eqs. 23-26, 30-32, 55-57, 67).
+#: Designs I and II on the Delta's analytic nominal model (eqs. 23-26, 30-32, 55-57, 67), or the LQR
+#: baseline (``law``), as the compiled closed loops read them.
 CONTROLLER = np.dtype(
     [
         ("D", F8, (3,)),  # error-surface gain [1/s]
@@ -93,8 +96,18 @@ CONTROLLER = np.dtype(
         ("normal_force", F8, (3,)),  # nominal F_n [N]
         ("m_eq", F8),  # nominal m_o + 3/2 m_b [kg]
         ("geometry", GEOMETRY),  # the nominal model's geometry
+        # the law: LAW_ADAPTIVE_ROBUST (the fields above) or LAW_LQR (delta_pin.control.baselines.LQR:
+        # tau = G0 + F-bar [+ M-bar_f] + dG (alpha^d - alpha0) + M0 alpha_ddot^d - K [r, r_dot],
+        # with disturbance, friction and normal_force above)
+        ("law", I8),
+        ("lqr_alpha0", F8, (3,)),  # the linearisation's configuration [rad]
+        ("lqr_gravity", F8, (3,)),  # G0 = G-bar(alpha0) [N m]
+        ("lqr_gravity_slope", F8, (3, 3)),  # dG-bar/dalpha at alpha0 [N m/rad]
+        ("lqr_inertia", F8, (3, 3)),  # M0 = M-bar(alpha0) [kg m^2]
+        ("lqr_gain", F8, (3, 6)),  # K on [r, r_dot] [N m/rad, N m s/rad]
     ]
 )
+LAW_ADAPTIVE_ROBUST, LAW_LQR = 0, 1  # CONTROLLER.law
 
 OBSERVER_MAX = 6  # states per joint of the largest extended-state observer (order 4)
 ADAPTIVE_ROBUST, TDC, DIGITAL_ROBUST = 0, 1, 2  # DIGITAL_LAW.kind (0: designs I/II, their CONTROLLER)

@@ -1,5 +1,6 @@
-"""Designs I and II run compiled, on either plant: continuous mode (BDF2) and sampled mode
-(zero-order hold, RK4) -- the entry from ``sim`` to :mod:`delta_pin.compiled`.
+"""Designs I and II run compiled, on either plant: continuous mode (BDF2, Radau IIA) and sampled
+mode (zero-order hold, RK4) -- the entry from ``sim`` to :mod:`delta_pin.compiled`; so does the LQR
+baseline in continuous mode (its compiled law, :mod:`delta_pin.compiled.lqr`).
 
 :func:`simulate_batch` runs many runs that share the robot, the path and the timing but differ in
 gains, uncertainty or initial state: the reference is tabulated once, then each run is one
@@ -49,6 +50,7 @@ from delta_pin.compiled.layouts import (
 )
 from delta_pin.control.adaptive_robust import AdaptiveRobustController
 from delta_pin.control.base import Reference
+from delta_pin.control.baselines import LQR
 from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
@@ -62,6 +64,17 @@ from delta_pin.sim.run import Run, run_metadata
 
 __all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
 
+#: The native stage of the compiled loops on the tree in full coordinates (sampled mode, designs
+#: I/II and the digital loop): ``"constraint_dynamics"`` (the default), ``dpn_dynamics``:
+#: Pinocchio's ``constraintDynamics``, the function the Python loop calls, so the compiled runs
+#: are its arrays bit for bit; or ``"schur"``, ``dpn_dynamics_schur``: constraintDynamics'
+#: kinematic pass and right-hand side, the KKT system solved by its Schur complement on the
+#: tree-sparse factor of M, equal to ``pin.constraintDynamics`` to ~1e-13 relative and a 15 s
+#: sampled run ~15 % faster. Not the default: on a drive with quantising encoders those rounding
+#: differences change which quantisation level a reading falls on, and the digital study's
+#: TDC / digital-robust errors then move by up to ~5 % over 15 s (an equally valid realisation,
+#: but no longer the reference's). tests/sim/test_compiled_loops.py runs both against the Python loop.
+NATIVE_STAGE = "constraint_dynamics"
 RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
 RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
@@ -95,9 +108,12 @@ def native_available() -> bool:
 
 def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
     """Whether ``controller`` on ``plant`` can take a compiled path: design I or II with its
-    compiled step (the Delta's analytic nominal model), on the analytic plant or on the Pinocchio
-    plant (in sampled mode in full coordinates) where the native library is available."""
-    if not (isinstance(controller, AdaptiveRobustController) and controller.compiled):
+    compiled step (the Delta's analytic nominal model), or in continuous mode the LQR on that
+    model, on the analytic plant or on the Pinocchio plant (in sampled mode in full coordinates)
+    where the native library is available."""
+    designs = isinstance(controller, AdaptiveRobustController) and controller.compiled
+    lqr = isinstance(controller, LQR) and controller.compiled and mode == "continuous"
+    if not (designs or lqr):
         return False
     if plant == "analytic" or isinstance(plant, AnalyticPlant):
         return True
@@ -116,7 +132,7 @@ class _Outcome:
 
 def simulate_batch(
     robot: Delta,
-    controllers: Sequence[AdaptiveRobustController],
+    controllers: Sequence[AdaptiveRobustController | LQR],
     trajectory=None,
     *,
     plant: str | Plant = "analytic",
@@ -133,13 +149,13 @@ def simulate_batch(
     rtol: float = 1e-6,
     atol: float = 1e-8,
 ) -> list:
-    """Simulate one run per controller (design I or II), compiled: BDF2 in continuous mode, RK4
-    under a zero-order hold in sampled mode.
+    """Simulate one run per controller (design I or II; the LQR in continuous mode), compiled: BDF2
+    or Radau IIA in continuous mode, RK4 under a zero-order hold in sampled mode.
 
     Args:
         robot: the robot; every run uses it.
-        controllers: designs I/II on the Delta's analytic nominal model, all with the same
-            ``vector_rho``; gains and options may differ.
+        controllers: designs I/II (or, in continuous mode, LQRs) on the Delta's analytic nominal
+            model, all with the same ``vector_rho``; gains and options may differ.
         trajectory: the shared path (``None``: hold ``alpha0``).
         plant: ``"analytic"`` or ``"pinocchio"`` (needs the native library), or such a
             :class:`~delta_pin.sim.plants.Plant` (its friction and uncertainty then serve the
@@ -257,9 +273,17 @@ def _check_controllers(controllers, plant, mode: str) -> list:
                 "with the native library (in sampled mode in full coordinates); use "
                 "integrator='lsoda' or simulate(..., compiled=False)"
             )
-    if len({c.vector_rho for c in controllers}) > 1:
-        raise InvalidParameterError("all controllers of a batch must have the same vector_rho")
+    if len({_rho_size(c) for c in controllers}) > 1:
+        raise InvalidParameterError(
+            "all controllers of a batch must have the same vector_rho (LQR runs go in a batch of their own)"
+        )
     return controllers
+
+
+def _rho_size(controller) -> int:
+    """The controller's entries of the compiled loops' state after [alpha, alpha_dot]: rho_hat's
+    size for designs I/II, none for the LQR."""
+    return len(controller.initial_state())
 
 
 def _initial_state(controller, alpha0, alpha_dot0, b: int) -> np.ndarray:
@@ -353,13 +377,14 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
 
 def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
     """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
-    the active and platform indices in q, the platform's rotational inertia at each truth row,
-    the TREE_LOOP_LIMITS record)."""
+    with the stage :data:`NATIVE_STAGE` names, the active and platform indices in q, the
+    platform's rotational inertia at each truth row, the TREE_LOOP_LIMITS record)."""
+    if NATIVE_STAGE not in ("schur", "constraint_dynamics"):
+        raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be 'schur' or 'constraint_dynamics'")
     source = plant.robot.pinocchio
     tree = plant.native_tree()
-    native_tree = record(
-        NATIVE_TREE, dynamics=tree.address_dynamics, closure_gap=tree.address_gap, handle=tree.handle
-    )
+    dynamics = tree.address_dynamics_schur if NATIVE_STAGE == "schur" else tree.address_dynamics
+    native_tree = record(NATIVE_TREE, dynamics=dynamics, closure_gap=tree.address_gap, handle=tree.handle)
     rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
     limits = record(
         TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
@@ -437,7 +462,9 @@ def _run_from_samples(outcome: _Outcome, nr: int, dt: float, alpha_d, alpha_dot_
         xyz_d=np.array(xyz_d),
         tau=samples["tau"].copy(),
         closure_residual=samples["closure_gap"].copy(),
-        internals={
+        internals={}
+        if nr == 0  # the LQR: no internals, as its Python loop
+        else {
             "rho_hat": samples["rho_hat"][:, :nr].copy(),
             "Lambda": info["Lambda"].copy(),
             "robust_gain": info["robust_gain"].copy(),

@@ -43,7 +43,8 @@ __all__ = ["INTEGRATOR_CHOICES", "simulate"]
 def _choose_integrator(integrator: str, mode: str, controller=None, plant="pinocchio", compiled=None) -> str:
     """The integrator ``"auto"`` stands for in ``mode``, or ``integrator`` if it fits the mode:
     in continuous mode the compiled Radau IIA where it applies (designs I/II with their compiled
-    step; not with ``compiled=False``), else LSODA; RK4 in sampled mode."""
+    step, the LQR on the Delta's analytic nominal model; not with ``compiled=False``), else LSODA;
+    RK4 in sampled mode."""
     if integrator == "auto":
         if mode != "continuous":
             return "rk4"
@@ -183,7 +184,8 @@ def simulate(
         integrator: ``"rk4"`` (fixed step dt / substeps), ``"lsoda"`` (scipy's adaptive
             stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (the compiled
             Radau IIA of order 5 with error control, :mod:`delta_pin.compiled.radau`: continuous
-            mode, designs I/II with their compiled step, on either plant -- the Pinocchio plant in
+            mode, designs I/II with their compiled step and the LQR on the Delta's analytic
+            nominal model, on either plant -- the Pinocchio plant in
             active coordinates through the native library; 3.7e-8 rad from a tight reference over
             15 s of path I at the default tolerances, reaching phase included, in ~0.1 s on the
             analytic plant) or ``"bdf2"`` (compiled implicit BDF2 with fixed steps dt / substeps;

@@ -101,6 +101,24 @@ def _spec(
     )
 
 
+def _default_gain(controller: str, gain: str):
+    """The default of ``gain`` in ``controller``'s constructor (``None`` if it has none)."""
+    import inspect
+
+    from delta_pin.control.adaptive_robust import AdaptiveRobustController
+    from delta_pin.control.digital import TimeDelayControl
+    from delta_pin.control.digital_robust import DigitalRobustController
+
+    classes = {
+        "design1": AdaptiveRobustController,
+        "design2": AdaptiveRobustController,
+        "tdc": TimeDelayControl,
+        "digital-robust": DigitalRobustController,
+    }
+    parameter = inspect.signature(classes[controller]).parameters.get(gain)
+    return None if parameter is None or parameter.default is inspect.Parameter.empty else parameter.default
+
+
 def digital_specs(study: DigitalStudy) -> tuple[dict, dict]:
     """The runs: ``{(label, rate [Hz]): spec}`` and ``{(label, gain name, value): spec}``."""
     by_rate = {
@@ -110,8 +128,11 @@ def digital_specs(study: DigitalStudy) -> tuple[dict, dict]:
     }
     trade_off = {}
     for (controller, aware), (gain, values) in MAIN_GAINS.items():
+        default = _default_gain(controller, gain)
         for value in study.gain_values(values):
-            spec = _spec(study, controller, aware, TRADE_OFF_RATE, {gain: value})
+            # the law's default value is the run of the rate table at 1 kHz: one spec, so one run
+            gains = {} if value == default else {gain: value}
+            spec = _spec(study, controller, aware, TRADE_OFF_RATE, gains)
             trade_off[(DIGITAL_CONTROLLERS[(controller, aware)], gain, value)] = spec
     return by_rate, trade_off
 

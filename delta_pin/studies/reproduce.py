@@ -24,6 +24,7 @@ import html
 import io
 import json
 import math
+import multiprocessing
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -216,7 +217,10 @@ def reproduce(
         f"and {len(digital)} digital-drive runs",
         flush=True,
     )
-    points = run_sweep(every, cache, save_runs=True, **options)
+    # only the main runs are read back (figures, metrics, meshcat pages): the surface and digital
+    # points keep their metrics, not their runs (compressing those 769 runs cost the main process
+    # ~37 s of --full)
+    points = run_sweep(every, cache, save_runs=lambda spec: spec in main_specs, **options)
     # the points come in the order of ``every``; their keys cover the robot arguments too, so a
     # cache folder shared with another robot never answers for this one
     main_points, surface_points = points[: len(main_specs)], iter(points[len(main_specs) :])
@@ -251,7 +255,7 @@ def reproduce(
         result.digital_rates, result.digital_trade_off = digital_rows(
             digital_by_rate, digital_trade, points[len(points) - len(digital) :]
         )
-    _write_figures(result, figures)
+    _write_figures(result, figures, workers)
     _write_tables(result)
     pages = _write_meshcat_pages(result)
     result.wall_time = time.perf_counter() - start
@@ -380,32 +384,70 @@ def _continuous_reference(result: ReproductionResult) -> dict[str, float]:
     }
 
 
-def _write_figures(result: ReproductionResult, figures: Path) -> None:
+def _write_figures(result: ReproductionResult, figures: Path, workers: int | None = None) -> None:
+    """Every figure of the study into ``figures``; with more than one worker and ``fork``
+    available, a forked child draws every other figure while this process draws the rest (the
+    27 figures of ``--full`` took ~10 s in one process). A child that fails leaves its figures
+    to this process, so the outputs never depend on it."""
+    jobs = _figure_jobs(result, figures)
+    child = None
+    if (
+        (workers is None or workers > 1)
+        and len(jobs) > 1
+        and "fork" in multiprocessing.get_all_start_methods()
+    ):
+        child = multiprocessing.get_context("fork").Process(target=_draw, args=(jobs[1::2],), daemon=True)
+        child.start()
+        jobs, theirs = jobs[0::2], jobs[1::2]
+    _draw(jobs)
+    if child is not None:
+        child.join()
+        if child.exitcode != 0:
+            _draw(theirs)
+
+
+def _draw(jobs: list) -> None:
+    from delta_pin.viz import plots
+
+    for path, make, args, options in jobs:
+        if path is None:  # a job that saves its own figures
+            make(*args, **options)
+        else:
+            plots.save_figure(make(*args, **options), path)
+
+
+def _figure_jobs(result: ReproductionResult, figures: Path) -> list[tuple]:
+    """The study's figures as (file, plot function, args, keyword args), in the paper's order."""
     from delta_pin.studies.digital import write_digital_figures
     from delta_pin.viz import plots
 
+    jobs = []
+
+    def figure(path: Path, make, *args, **options) -> None:
+        jobs.append((path, make, args, options))
+
     runs = result.runs
     if result.digital_rates:
-        write_digital_figures(
-            result.digital_rates, result.digital_trade_off or [], _continuous_reference(result), figures
+        digital = (
+            result.digital_rates,
+            result.digital_trade_off or [],
+            _continuous_reference(result),
+            figures,
         )
+        jobs.append((None, write_digital_figures, digital, {}))
     for design, numbers in (("design I", (6, 7, 8)), ("design II", (12, 13, 14))):
         run = runs.get((design, "I"))
         if run is None:
             continue
-        plots.save_figure(
-            plots.plot_tracking_errors(run), figures / f"fig{numbers[0]:02d}_{_slug(design)}_errors.png"
-        )
-        plots.save_figure(
-            plots.plot_rho_hat(run), figures / f"fig{numbers[1]:02d}_{_slug(design)}_rho_hat.png"
-        )
-        plots.save_figure(
-            plots.plot_torques(run), figures / f"fig{numbers[2]:02d}_{_slug(design)}_torques.png"
-        )
+        figure(figures / f"fig{numbers[0]:02d}_{_slug(design)}_errors.png", plots.plot_tracking_errors, run)
+        figure(figures / f"fig{numbers[1]:02d}_{_slug(design)}_rho_hat.png", plots.plot_rho_hat, run)
+        figure(figures / f"fig{numbers[2]:02d}_{_slug(design)}_torques.png", plots.plot_torques, run)
     number = {"design1": 9, "design2": 15}
     for (design, x, y), values in result.surfaces.items():
         k = number[design] + SURFACE_PLANES.index((x, y))
-        fig = plots.plot_rho_surface(
+        figure(
+            figures / f"fig{k:02d}_{design}_rho_max_{x}_{y}.png",
+            plots.plot_rho_surface,
             result.grid,
             result.grid,
             values,
@@ -413,34 +455,33 @@ def _write_figures(result: ReproductionResult, figures: Path) -> None:
             SYMBOLS[y],
             title=f"ρ̂_max, {NAMES[design]}, over ({SYMBOLS[x]}, {SYMBOLS[y]})",
         )
-        plots.save_figure(fig, figures / f"fig{k:02d}_{design}_rho_max_{x}_{y}.png")
     table = {}
     for row in result.metrics:
         if "error" not in row:
             table.setdefault(row["controller"], {})[f"path {row['path']}"] = row
     designs = {k: v for k, v in table.items() if k in ("design I", "design II")}
-    plots.save_figure(plots.plot_metric_bars(designs, "control_effort"), figures / "fig18_control_effort.png")
-    plots.save_figure(plots.plot_metric_bars(designs, "wall_time"), figures / "fig19_runtime.png")
+    figure(figures / "fig18_control_effort.png", plots.plot_metric_bars, designs, "control_effort")
+    figure(figures / "fig19_runtime.png", plots.plot_metric_bars, designs, "wall_time")
     for path, number_3d in (("I", 20), ("II", 21)):
         chosen = {c: runs[(c, path)] for c in ("design I", "design II", "LQR") if (c, path) in runs}
         if chosen:
-            plots.save_figure(plots.plot_paths_3d(chosen), figures / f"fig{number_3d:02d}_paths_{path}.png")
+            figure(figures / f"fig{number_3d:02d}_paths_{path}.png", plots.plot_paths_3d, chosen)
     for path, (n_error, n_rate) in (("I", (22, 23)), ("II", (24, 25))):
         chosen = {c: runs[(c, path)] for c in ("design I", "design II", "LQR") if (c, path) in runs}
         if chosen:
-            plots.save_figure(
-                plots.plot_error_comparison(chosen, log=True), figures / f"fig{n_error}_errors_{path}.png"
-            )
-            plots.save_figure(
-                plots.plot_error_comparison(chosen, rate=True, log=True),
+            figure(figures / f"fig{n_error}_errors_{path}.png", plots.plot_error_comparison, chosen, log=True)
+            figure(
                 figures / f"fig{n_rate}_error_rates_{path}.png",
+                plots.plot_error_comparison,
+                chosen,
+                rate=True,
+                log=True,
             )
     for metric, numbers in (("iae", (26, 27)), ("ise", (28, 29))):
         for path, n in zip(("I", "II"), numbers):
             rows = {c: {f"path {path}": v[f"path {path}"]} for c, v in table.items() if f"path {path}" in v}
-            plots.save_figure(
-                plots.plot_metric_bars(rows, metric, log=True), figures / f"fig{n}_{metric}_{path}.png"
-            )
+            figure(figures / f"fig{n}_{metric}_{path}.png", plots.plot_metric_bars, rows, metric, log=True)
+    return jobs
 
 
 def _settings(robot_args: dict) -> str:

@@ -322,14 +322,18 @@ def evaluate_batch(
 
 def estimated_cost(spec: RunSpec) -> float:
     """A run's cost in units of one compiled 1 ms sample, to start the longest runs first: the
-    samples of a sampled run (one compiled step each), a tenth of that for the compiled continuous
-    integrators of designs I/II (Radau takes ~2 000 steps for 15 s), fifteen times that for LSODA
-    (15 s of LQR on the Pinocchio plant: 7.7 s, against 5 s for 150 000 compiled samples)."""
+    samples of a sampled run (one compiled step each); for the compiled continuous Radau IIA/BDF2
+    (designs I/II and the LQR) 1.5 times that on the Pinocchio plant and a tenth of that on the
+    analytic plant (in ``reproduce --full``, 15 s on the Pinocchio plant took 0.8-1.1 s for designs
+    I/II, 1.2-1.4 s for the LQR, 0.6-0.7 s for a sampled 1 kHz run); fifteen times that for LSODA."""
     samples = spec.duration / spec.dt
     if spec.mode == "sampled":
         return samples
-    compiled = spec.controller in ("design1", "design2") and spec.integrator in ("auto", "radau", "bdf2")
-    return samples * (0.1 if compiled else 15.0)
+    compiled_law = spec.controller in ("design1", "design2", "lqr")
+    compiled = compiled_law and spec.integrator in ("auto", "radau", "bdf2")
+    if not compiled:
+        return samples * 15.0
+    return samples * (1.5 if spec.plant == "pinocchio" else 0.1)
 
 
 def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None) -> list[list[str]]:
@@ -565,7 +569,7 @@ def run_sweep(
     executor: str | concurrent.futures.Executor | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    save_runs: bool = False,
+    save_runs: bool | Callable[[RunSpec], bool] = False,
     robot_args: Mapping | None = None,
     progress: bool | None = None,
     retry_failed: bool = False,
@@ -585,7 +589,9 @@ def run_sweep(
             thread each; the default with ``executor="dask"``) or a scheduler address
             (``"tcp://host:8786"``).
         save_runs: also store each run (``<key>.npz``, :func:`~delta_pin.load_run` reads it); a
-            cached point without its ``.npz`` is recomputed.
+            cached point without its ``.npz`` is recomputed. A function of the spec: store the runs
+            of the specs it accepts only (compressing a run costs ~50 ms of the calling process:
+            ``reproduce --full`` keeps the 10 runs it plots, not the 769 it only takes metrics of).
         robot_args: keyword arguments of :func:`~delta_pin.load_delta` (``None``: Table 1); part of
             the cache key when given.
         progress: ``None``: a progress bar on a terminal only; ``True``: also one line per 10% when
@@ -610,7 +616,10 @@ def run_sweep(
 
     keys = [spec_key(spec, args) for spec in specs]
     unique = {key: spec for key, spec in zip(keys, specs)}
-    records = _read_cache(cache_dir, unique, save_runs, retry_failed)
+    wanted = {
+        key: bool(save_runs(spec) if callable(save_runs) else save_runs) for key, spec in unique.items()
+    }
+    records = _read_cache(cache_dir, unique, wanted, retry_failed)
     from_cache = set(records)
     todo = [key for key in unique if key not in records]
     skipped = sum(key in from_cache for key in keys)
@@ -620,7 +629,7 @@ def run_sweep(
         bar.note(f"sweep: {skipped} points from the cache, {len(todo)} to compute")
     try:
         unexpected = _compute(
-            todo, unique, records, cache_dir, args, save_runs, executor, workers, scheduler, bar
+            todo, unique, records, cache_dir, args, wanted, executor, workers, scheduler, bar
         )
     finally:
         bar.close()
@@ -659,30 +668,34 @@ def _checked_specs(specs: Iterable[RunSpec]) -> list[RunSpec]:
     return specs
 
 
-def _read_cache(cache_dir: Path, unique: dict, save_runs: bool, retry_failed: bool) -> dict[str, dict]:
-    """The records of the points already in the cache, by key."""
+def _read_cache(cache_dir: Path, unique: dict, wanted: dict, retry_failed: bool) -> dict[str, dict]:
+    """The records of the points already in the cache, by key (``wanted``: key -> whether its run
+    must be there too)."""
     records: dict[str, dict] = {}
     for key in unique:
-        record = _read_cached(cache_dir, key, save_runs, retry_failed)
+        record = _read_cached(cache_dir, key, wanted[key], retry_failed)
         if record is not None:
             records[key] = record
     return records
 
 
-def _compute(todo, unique, records, cache_dir, args, save_runs, executor, workers, scheduler, bar) -> list:
+def _compute(todo, unique, records, cache_dir, args, wanted, executor, workers, scheduler, bar) -> list:
     """Simulate the points ``todo`` in batches on the executor, storing each record in the cache
-    (and in ``records``) as it arrives; returns the (spec, record) of unexpected failures."""
+    (and in ``records``) as it arrives, with its run where ``wanted[key]``; returns the (spec,
+    record) of unexpected failures."""
     unexpected = []
     if not todo:
         return unexpected
     _cached_robot(_freeze(args))  # bad robot arguments fail here, once, not in every point
     items = [
-        (tuple(chunk), ([_canonical_spec(unique[key]) for key in chunk], args, save_runs))
+        (tuple(chunk), ([_canonical_spec(unique[key]) for key in chunk], args, any(wanted[k] for k in chunk)))
         for chunk in _chunks(todo, unique, workers)
     ]
     with _backend(executor, workers, scheduler) as run_all:
         for chunk, chunk_records in run_all(evaluate_batch, items):
             for key, record in zip(chunk, chunk_records):
+                if not wanted[key]:
+                    record.pop("run", None)
                 _store(cache_dir, key, record, args)
                 records[key] = record
                 if record.get("unexpected"):

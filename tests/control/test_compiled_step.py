@@ -72,3 +72,30 @@ def test_serial_nominal_models_use_the_reference_law():
             return np.eye(3), np.zeros((3, 3)), np.zeros(3)
 
     assert not dp.design1(Unit()).compiled
+
+
+@pytest.mark.parametrize("friction_compensation", [True, False])
+def test_compiled_lqr_law_equals_the_readable_one(robot, friction_compensation):
+    """The LQR's compiled law (delta_pin.compiled.lqr, what the compiled closed loops run) against
+    LQR.evaluate at random states and references: 1e-13 relative (the same sums in its order;
+    numpy's matrix products may group them differently)."""
+    from delta_pin.compiled.layouts import INFO, record
+    from delta_pin.compiled.lqr import lqr_law_into
+
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    alpha0 = robot.inverse_kinematics(dp.PathI().position(0.0))
+    controller = dp.LQR(nominal, alpha0, friction_compensation=friction_compensation)
+    assert controller.compiled
+    info = record(INFO)
+    rng = np.random.default_rng(13)
+    alphas, alpha_dots = sample_states(robot, 40, seed=14)
+    for alpha, alpha_dot in zip(alphas, alpha_dots):
+        reference = Reference(alpha + rng.normal(scale=0.05, size=3), rng.normal(size=3), rng.normal(size=3))
+        slow = controller.evaluate(0.0, alpha, alpha_dot, reference, controller.initial_state())
+        fast = np.empty(3)
+        lqr_law_into(
+            controller.kernel_parameters, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
+            reference.alpha_ddot, fast, info,
+        )  # fmt: skip
+        np.testing.assert_allclose(fast, slow.tau, rtol=1e-13, atol=1e-13 * np.abs(slow.tau).max())
+        assert info.ok

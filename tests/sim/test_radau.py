@@ -66,3 +66,48 @@ def test_radau_needs_positive_tolerances(robot):
         simulate_batch(robot, [dp.design1(nominal)], dp.PathI(), t_end=0.1, integrator="radau", rtol=0.0)
     with pytest.raises(InvalidParameterError, match="integrator='rk45'"):
         simulate_batch(robot, [dp.design1(nominal)], dp.PathI(), t_end=0.1, integrator="rk45")
+
+
+def _lqr_run(robot, plant, t_end, **options):
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    controller = dp.LQR(nominal, robot.inverse_kinematics(dp.PathI().position(0.0)))
+    return dp.simulate(
+        robot, controller, dp.PathI(), plant=plant, t_end=t_end, mode="continuous", alpha0=ALPHA0,
+        friction=dp.Friction(), uncertainty=dp.PaperUncertainty(), **options,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
+def test_the_lqr_runs_compiled_within_1e6_rad_of_a_tight_reference(robot, plant):
+    """The LQR baseline's continuous runs take the compiled Radau IIA too (its compiled law,
+    delta_pin.compiled.lqr). Reference: LSODA at rtol 1e-11 with the readable LQR.evaluate in the
+    loop. Measured over 2 s: 7e-9 rad on the analytic plant; over the study's 15 s on the Pinocchio
+    plant 3.4e-8 rad against LSODA at rtol 1e-10 (LSODA at its default rtol 1e-6: 4.2e-7)."""
+    fast = _lqr_run(robot, plant, 2.0)
+    assert fast.metadata["integrator"] == "radau" and fast.metadata["compiled"]
+    assert fast.internals == {}  # as the Python loop's LQR run
+    tight = _lqr_run(robot, plant, 2.0, integrator="lsoda", rtol=1e-11, atol=1e-13)
+    assert tight.metadata["integrator"] == "lsoda"
+    deviation = np.abs(fast.alpha - tight.alpha).max()
+    assert deviation <= 1e-6
+    assert np.abs(fast.alpha - tight.alpha).max() > 0.0  # the two runs are not the same code
+    # each sample's torque is the readable law at the sample's (dense-output) state
+    controller = dp.LQR(
+        dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6)),
+        robot.inverse_kinematics(dp.PathI().position(0.0)),
+    )
+    for k in (0, 7, 500, 1999):
+        desired = dp.PathI().joint_reference(robot, fast.t[k])
+        reference = dp.Reference(fast.alpha_d[k], fast.alpha_dot_d[k], desired.alpha_ddot[0])
+        out = controller.evaluate(fast.t[k], fast.alpha[k], fast.alpha_dot[k], reference, np.zeros(0))
+        np.testing.assert_allclose(fast.tau[k], out.tau, rtol=1e-9, atol=1e-9)
+
+
+def test_the_lqr_keeps_the_python_loop_in_sampled_mode_and_on_request(robot):
+    """Only continuous mode has the compiled LQR; compiled=False keeps LSODA and the readable law."""
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    controller = dp.LQR(nominal, robot.inverse_kinematics(dp.PathI().position(0.0)))
+    run = dp.simulate(robot, controller, dp.PathI(), plant="analytic", t_end=0.05, mode="sampled")
+    assert not run.metadata.get("compiled")
+    run = _lqr_run(robot, "analytic", 0.05, compiled=False)
+    assert run.metadata["integrator"] == "lsoda"

@@ -51,6 +51,25 @@ def test_every_output_is_written(tiny):
     assert len(result.claims) == len(json.loads((out / "claims.json").read_text())) >= 10
 
 
+def test_figures_drawn_by_two_processes_are_the_ones_one_process_draws(tiny, tmp_path):
+    """With two workers a forked child draws every other figure (studies.reproduce._write_figures):
+    the same files, byte for byte, as the one-process run (matplotlib's Agg output is
+    deterministic), and the run's cache answers every point. The surface and digital points keep
+    no run, the main runs do."""
+    import shutil
+
+    out = tmp_path / "reproduce"
+    shutil.copytree(tiny[0] / "cache", out / "cache")
+    result = reproduce(out, settings=TINY, workers=2)
+    assert result.claims == tiny[1].claims
+    one = {p.name: p.read_bytes() for p in (tiny[0] / "figures").glob("*.png")}
+    two = {p.name: p.read_bytes() for p in (out / "figures").glob("*.png")}
+    assert two.keys() == one.keys() and len(one) == 27
+    assert [name for name in one if one[name] != two[name]] == []
+    runs = list((out / "cache").glob("*.npz"))
+    assert len(runs) == len(result.runs) == 10
+
+
 def _cells(row: str) -> int:
     """The cells of a Markdown table row: its unescaped pipes, less one."""
     return len(re.findall(r"(?<!\\)\|", row)) - 1

@@ -155,6 +155,19 @@ def test_save_runs_recomputes_points_cached_without_their_run(grid, tmp_path):
     assert run_sweep(grid[:1], tmp_path, save_runs=True).skipped == 1
 
 
+def test_save_runs_can_name_the_runs_to_keep(grid, serial, tmp_path):
+    """A predicate keeps the runs of the specs it accepts (reproduce keeps its main runs only);
+    the other points keep their metrics, equal to the serial sweep's."""
+    keep = grid[0]
+    points = run_sweep(grid, tmp_path, save_runs=lambda spec: spec == keep)
+    saved = {point.key for point in points if (tmp_path / f"{point.key}.npz").is_file()}
+    assert saved == {points[0].key}
+    assert compute_metrics(load_run(tmp_path / f"{points[0].key}.npz")).as_dict() == points[0].metrics
+    assert _metrics(points) == _metrics(serial)
+    again = run_sweep(grid, tmp_path, save_runs=lambda spec: spec == keep)
+    assert again.skipped == len(grid) and again.computed == 0  # the runs not kept are not needed
+
+
 def test_a_failing_point_is_recorded_cached_and_does_not_stop_the_others(tmp_path):
     specs = [BASE, DIVERGING, BASE.with_(delta_m=0.0)]
     points = run_sweep(specs, tmp_path, executor="process", workers=2)
@@ -436,9 +449,9 @@ def test_single_runs_start_longest_first_and_batches_follow():
 
     specs = {
         "sampled_1k": RunSpec(controller="tdc", mode="sampled", dt=1e-3),
-        "lqr_lsoda": RunSpec(controller="lqr"),
+        "lqr_lsoda": RunSpec(controller="pd"),  # no compiled law: LSODA
         "sampled_10k": RunSpec(controller="tdc", mode="sampled", dt=1e-4),
-        "radau": RunSpec(controller="design1"),
+        "radau": RunSpec(controller="design1", plant="analytic"),
         "bdf2_a": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.1),
         "bdf2_b": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.2),
     }
@@ -448,6 +461,11 @@ def test_single_runs_start_longest_first_and_batches_follow():
         > estimated_cost(specs["sampled_1k"])
         > estimated_cost(specs["radau"])
     )
+    # on the Pinocchio plant a compiled continuous run (the LQR's too) costs more than a sampled
+    # 1 kHz one, far less than a 10 kHz one
+    lqr, design = RunSpec(controller="lqr"), RunSpec(controller="design1")
+    assert estimated_cost(lqr) == estimated_cost(design) > estimated_cost(specs["sampled_1k"])
+    assert estimated_cost(specs["sampled_10k"]) > estimated_cost(lqr)
     tasks = _chunks(list(specs), specs, workers=2)
     assert tasks[:4] == [["lqr_lsoda"], ["sampled_10k"], ["sampled_1k"], ["radau"]]
     assert sorted(key for task in tasks[4:] for key in task) == ["bdf2_a", "bdf2_b"]  # one batch group

@@ -202,6 +202,8 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
         double_p,
         double_p,
     ]
+    library.dpn_dynamics_schur.restype = ctypes.c_int
+    library.dpn_dynamics_schur.argtypes = library.dpn_dynamics.argtypes
     library.dpn_closure_gap.restype = ctypes.c_double
     library.dpn_closure_gap.argtypes = [void_p, double_p]
     library.dpn_set_active.restype = ctypes.c_int
@@ -259,7 +261,9 @@ class TreeDynamics:
         handle: the address of the C++ tree (for compiled callers); ``address_dynamics``,
             ``address_gap`` and ``address_active``: those of ``dpn_dynamics``,
             ``dpn_closure_gap`` and ``dpn_active_dynamics`` (see
-            :mod:`delta_pin.compiled.native.calls`).
+            :mod:`delta_pin.compiled.native.calls`); ``address_dynamics_schur``: that of
+            ``dpn_dynamics_schur``, the same accelerations with the KKT system solved by its
+            Schur complement (equal to ``constraintDynamics``' up to rounding, cheaper).
     """
 
     def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:
@@ -302,6 +306,7 @@ class TreeDynamics:
         self.handle = int(handle)
         self.nv = model.nv
         self.address_dynamics = ctypes.cast(library.dpn_dynamics, ctypes.c_void_p).value
+        self.address_dynamics_schur = ctypes.cast(library.dpn_dynamics_schur, ctypes.c_void_p).value
         self.address_gap = ctypes.cast(library.dpn_closure_gap, ctypes.c_void_p).value
         self.address_active = ctypes.cast(library.dpn_active_dynamics, ctypes.c_void_p).value
 
@@ -331,13 +336,15 @@ class TreeDynamics:
             raise RuntimeError(f"dpn_active_dynamics failed with status {status}")
         return alpha_ddot, xyz, float(gap[0])
 
-    def dynamics(self, q, v, tau, mass: float, rotational) -> np.ndarray:
+    def dynamics(self, q, v, tau, mass: float, rotational, schur: bool = False) -> np.ndarray:
         """ddq (nv,) at (q, v) under joint torques tau (nv,) with platform mass [kg] and
-        rotational inertia about the COM (3, 3) [kg m^2] (from Python, for tests)."""
+        rotational inertia about the COM (3, 3) [kg m^2] (from Python, for tests):
+        ``constraintDynamics``, or with ``schur`` the Schur-complement stage."""
         q, v, tau = (np.ascontiguousarray(a, dtype=float) for a in (q, v, tau))
         rotational = np.ascontiguousarray(rotational, dtype=float)
         ddq = np.empty(self.nv)
-        if self._library.dpn_dynamics(
+        function = self._library.dpn_dynamics_schur if schur else self._library.dpn_dynamics
+        if function(
             self.handle,
             _pointer(q),
             _pointer(v),
@@ -346,7 +353,7 @@ class TreeDynamics:
             _pointer(rotational),
             _pointer(ddq),
         ):
-            raise RuntimeError("Pinocchio's constraintDynamics failed")
+            raise RuntimeError("the native tree dynamics failed" + (" (Schur stage)" if schur else ""))
         return ddq
 
     def closure_gap(self, q) -> float:
