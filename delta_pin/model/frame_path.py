@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from delta_pin.errors import InvalidParameterError
+from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePoseError
 from delta_pin.model.trajectory import JointReference, Trajectory, _vectorised
 
 __all__ = ["Circle", "FramePath"]
@@ -146,9 +146,7 @@ class FramePath:
                 guess = alpha[k - 1] + step * alpha_dot[k - 1] + 0.5 * step * step * alpha_ddot[k - 1]
             try:
                 guess = robot.inverse_kinematics(xyz[k], fid, axes=axes, initial_guess=guess)
-            except InvalidParameterError:
-                raise
-            except Exception as exc:  # UnreachablePoseError, AssemblyError: name the time
+            except (UnreachablePoseError, AssemblyError) as exc:  # name the time
                 raise type(exc)(f"t={times[k]:g} s: {exc}") from None
             q = robot.configuration(guess)
             J = robot.frame_jacobian(q, fid)[:3][rows]

@@ -188,3 +188,11 @@ def test_the_delta_from_each_file_shape_runs_design_one_alike():
     for name in ("delta_mjcf", "delta_gepetto"):
         np.testing.assert_allclose(runs[name].alpha, runs["xacro"].alpha, rtol=0, atol=1e-8)
     assert np.abs(runs["xacro"].alpha - runs["xacro"].alpha_d).max() < 1e-3
+
+
+def test_a_path_the_frame_cannot_follow_names_the_time(five_bar):
+    """A 0.5 m circle leaves the five-bar's reach (0.55 m links from a 0.2 m base): the error
+    names the first sample the tip cannot reach."""
+    path = dp.FramePath(dp.Circle(center=[0.0, 0.0, -0.4], radius=0.5, period=1.0, plane="xz"), frame="tip")
+    with pytest.raises(dp.UnreachablePoseError, match=r"^t=0 s: .*frame 'tip' cannot reach"):
+        path.joint_reference(five_bar, np.linspace(0.0, 1.0, 11))
