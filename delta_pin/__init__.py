@@ -71,6 +71,7 @@ if TYPE_CHECKING:
     from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant
     from delta_pin.sim.run import Run, load_run
     from delta_pin.sim.runner import simulate
+    from delta_pin.sim.serial import JointSinusoid
     from delta_pin.sim.uncertainty import (
         FunctionUncertainty,
         NoUncertainty,
@@ -128,6 +129,7 @@ _PUBLIC = {
     ),
     "delta_pin.sim.drive": ("Encoder",),
     "delta_pin.sim.run": ("Run", "load_run"),
+    "delta_pin.sim.serial": ("JointSinusoid",),
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),
     "delta_pin.sim.closed_chain_plant": ("ClosedChainPlant",),
