@@ -181,7 +181,9 @@ class ClosedChainPlant(Plant):
         )
 
     # ------------------------------------------------------------------ state interface
-    def _complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) on the loops for actuated positions and velocities, warm-started from the last
+        completion (the active-coordinate state's full configuration); t [s] only names a failure."""
         try:
             q = self.robot.configuration(alpha, initial_guess=self._last_q)
         except AssemblyError as exc:
@@ -194,12 +196,12 @@ class ClosedChainPlant(Plant):
         alpha_dot = np.asarray(alpha_dot, dtype=float)
         if self.coordinates == "active":
             return np.concatenate([alpha, alpha_dot])
-        q, v = self._complete(alpha, alpha_dot, 0.0)
+        q, v = self.complete(alpha, alpha_dot, 0.0)
         return np.concatenate([q, v])
 
     def derivative(self, t, x, tau):
         if self.coordinates == "active":
-            q, v = self._complete(x[: self.dof], x[self.dof :], t)
+            q, v = self.complete(x[: self.dof], x[self.dof :], t)
             return np.concatenate([x[self.dof :], self.accelerations(t, q, v, tau)[self.active]])
         q, v = x[: self.nq], x[self.nq :]
         return np.concatenate([v, self.accelerations(t, q, v, tau)])
@@ -211,7 +213,7 @@ class ClosedChainPlant(Plant):
 
     def _configuration(self, x: np.ndarray) -> np.ndarray:
         if self.coordinates == "active":
-            return self._complete(x[: self.dof], x[self.dof :], math.nan)[0]
+            return self.complete(x[: self.dof], x[self.dof :], math.nan)[0]
         return x[: self.nq]
 
     def platform_position(self, x):

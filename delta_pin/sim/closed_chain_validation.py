@@ -161,7 +161,7 @@ def _energy_drift(robot: ClosedChainRobot, duration: float, rng) -> tuple[float,
     nq, n = robot.model.nq, robot.dof
 
     def point(x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        return (x[:nq], x[nq:]) if full else plant._complete(x[:n], x[n:], t)
+        return (x[:nq], x[nq:]) if full else plant.complete(x[:n], x[n:], t)
 
     q, v = point(x, 0.0)
     energy0, kinetic = _energy(robot, q, v)

@@ -61,7 +61,7 @@ def test_payload_and_friction_enter_the_plant_as_stated(five_bar):
     t = 0.3
     acceleration = plant.derivative(t, x, tau)[plant.nq + plant.active]
     heavier = five_bar.with_payload(0.5, "tip")
-    M, _, G, coriolis = heavier.reduced_terms(alpha, alpha_dot, plant._configuration(x))
+    M, _, G, coriolis = heavier.reduced_terms(alpha, alpha_dot, x[: plant.nq])
     expected = np.linalg.solve(M, tau - plant.joint_friction(alpha_dot) - coriolis - G)
     np.testing.assert_allclose(acceleration, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
     stribeck_torque = (
