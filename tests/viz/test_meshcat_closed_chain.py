@@ -7,7 +7,6 @@ from the motor angles, the tip where the two distal circles meet), then Pinocchi
 ``updateGeometryPlacements`` (or ``forwardKinematics``) at that configuration.
 """
 
-import base64
 import itertools
 import math
 import os
@@ -33,9 +32,9 @@ from delta_pin.viz.meshcat_export import (
     VisualizationError,
     export_html,
     read_scene_commands,
-    view_live,
 )
 from tests.model.closed_chain_fixtures import BASE, DISTAL, PROXIMAL, five_bar_urdf
+from tests.viz.test_meshcat_export import live_scene_commands, scene_key
 
 meshcat = pytest.importorskip("meshcat")
 
@@ -512,28 +511,9 @@ def test_live_viewer_smoke(run, folder):
     """view_live draws, through a real local meshcat server, the same scene the export records."""
     if os.environ.get("DELTA_PIN_SKIP_LIVE_VIEWER"):
         pytest.skip("DELTA_PIN_SKIP_LIVE_VIEWER is set")
-    zmq = pytest.importorskip("zmq")
-    import umsgpack
-
-    try:
-        vis = view_live(run)
-    except (OSError, RuntimeError, zmq.ZMQError) as exc:  # no local server possible here
-        pytest.skip(f"could not start a local meshcat server: {exc}")
-    try:
-        live_page = vis.static_html()
-    finally:
-        vis.window.server_proc.kill()
-        vis.window.server_proc.wait()
-    live = [
-        umsgpack.unpackb(base64.b64decode(data))
-        for data in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", live_page)
-    ]
+    live = live_scene_commands(run)
     recorded = commands_of(export_html(run, folder / "live_reference.html"))
-
-    def key(command):
-        return command["type"], command["path"], command.get("property")
-
-    assert sorted(map(key, live)) == sorted(map(key, recorded))
+    assert sorted(map(scene_key, live)) == sorted(map(scene_key, recorded))
     assert len(robot_objects(live)) == len(VISUALS)
 
 

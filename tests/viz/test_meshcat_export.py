@@ -308,6 +308,32 @@ def test_non_finite_angles_name_the_time(short_run, tmp_path):
         export_html(run, tmp_path / "x.html")
 
 
+def live_scene_commands(run, robot=None) -> list[dict]:
+    """The commands a real local meshcat server holds after :func:`view_live` drew ``run``
+    (skips where no local server can start: ports, sandbox)."""
+    zmq = pytest.importorskip("zmq")
+    import umsgpack
+
+    try:
+        vis = view_live(run, robot)
+    except (OSError, RuntimeError, zmq.ZMQError) as exc:
+        pytest.skip(f"could not start a local meshcat server: {exc}")
+    try:
+        live_page = vis.static_html()
+    finally:
+        vis.window.server_proc.kill()
+        vis.window.server_proc.wait()
+    return [
+        umsgpack.unpackb(base64.b64decode(data))
+        for data in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", live_page)
+    ]
+
+
+def scene_key(command: dict) -> tuple:
+    """What identifies a scene command: its type, path and property."""
+    return command["type"], command["path"], command.get("property")
+
+
 # -------------------------------------------------------------------------------- real browser
 def chromium(tmp_path: Path, url: str, *options: str, budget_ms: int) -> subprocess.CompletedProcess:
     """Run headless chromium once (its own fresh profile) on ``url`` for ``budget_ms`` of virtual time."""
@@ -431,28 +457,9 @@ def test_live_viewer_smoke(short_run, tmp_path):
     """view_live draws, through a real local meshcat server, the same scene the export records."""
     if os.environ.get("DELTA_PIN_SKIP_LIVE_VIEWER"):
         pytest.skip("DELTA_PIN_SKIP_LIVE_VIEWER is set")
-    zmq = pytest.importorskip("zmq")
-    try:
-        vis = view_live(short_run)
-    except (OSError, RuntimeError, zmq.ZMQError) as exc:  # no local server possible here (ports, sandbox)
-        pytest.skip(f"could not start a local meshcat server: {exc}")
-    try:
-        live_page = vis.static_html()
-    finally:
-        vis.window.server_proc.kill()
-        vis.window.server_proc.wait()
-    import umsgpack
-
-    live = [
-        umsgpack.unpackb(base64.b64decode(data))
-        for data in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", live_page)
-    ]
+    live = live_scene_commands(short_run)
     recorded = commands_of(export_html(short_run, tmp_path / "run.html"))
-
-    def key(command):
-        return command["type"], command["path"], command.get("property")
-
-    assert sorted(map(key, live)) == sorted(map(key, recorded))
+    assert sorted(map(scene_key, live)) == sorted(map(scene_key, recorded))
 
 
 # ---------------------------------------------------------------------------------- mesh visuals
