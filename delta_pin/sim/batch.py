@@ -48,6 +48,7 @@ from delta_pin.compiled.layouts import (
     records,
     tree_loop_state,
 )
+from delta_pin.compiled.native import STAGES
 from delta_pin.control.adaptive_robust import AdaptiveRobustController
 from delta_pin.control.base import Reference
 from delta_pin.control.baselines import LQR
@@ -65,16 +66,20 @@ from delta_pin.sim.run import Run, run_metadata
 __all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
 
 #: The native stage of the compiled loops on the tree in full coordinates (sampled mode, designs
-#: I/II and the digital loop): ``"constraint_dynamics"`` (the default), ``dpn_dynamics``:
-#: Pinocchio's ``constraintDynamics``, the function the Python loop calls, so the compiled runs
-#: are its arrays bit for bit; or ``"schur"``, ``dpn_dynamics_schur``: constraintDynamics'
-#: kinematic pass and right-hand side, the KKT system solved by its Schur complement on the
-#: tree-sparse factor of M, equal to ``pin.constraintDynamics`` to ~1e-13 relative and a 15 s
-#: sampled run ~15 % faster. Not the default: on a drive with quantising encoders those rounding
-#: differences change which quantisation level a reading falls on, and the digital study's
-#: TDC / digital-robust errors then move by up to ~5 % over 15 s (an equally valid realisation,
-#: but no longer the reference's). tests/sim/test_compiled_loops.py runs both against the Python loop.
-NATIVE_STAGE = "constraint_dynamics"
+#: I/II and the digital loop), one of :data:`delta_pin.compiled.native.STAGES`:
+#:
+#: - ``"axis_tree"`` (the default), ``dpn_dynamics_axis``: delta-pin's own recursive algorithms for
+#:   trees of 1-DOF axis joints (``compiled/native/axis_tree.hpp``), equal to
+#:   ``pin.constraintDynamics`` to ~1e-13 relative at a quarter of its cost;
+#: - ``"constraint_dynamics"``, ``dpn_dynamics``: Pinocchio's ``constraintDynamics``, the function
+#:   the Python loop calls, so the compiled runs are the Python loop's arrays bit for bit.
+#:
+#: The two give the same runs to ~1e-12 relative, except on a drive with quantising encoders: there
+#: a rounding difference can change which quantisation level a reading falls on, and a 15 s run's
+#: error then moves by up to a few per cent (an equally valid realisation of the same sampled
+#: system; docs/architecture.md, section 6). tests/sim/test_compiled_loops.py runs both against
+#: the Python loop.
+NATIVE_STAGE = "axis_tree"
 RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
 RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
@@ -379,11 +384,11 @@ def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
     """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
     with the stage :data:`NATIVE_STAGE` names, the active and platform indices in q, the
     platform's rotational inertia at each truth row, the TREE_LOOP_LIMITS record)."""
-    if NATIVE_STAGE not in ("schur", "constraint_dynamics"):
-        raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be 'schur' or 'constraint_dynamics'")
+    if NATIVE_STAGE not in STAGES:
+        raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be one of {', '.join(STAGES)}")
     source = plant.robot.pinocchio
     tree = plant.native_tree()
-    dynamics = tree.address_dynamics_schur if NATIVE_STAGE == "schur" else tree.address_dynamics
+    dynamics = tree.address_dynamics_axis if NATIVE_STAGE == "axis_tree" else tree.address_dynamics
     native_tree = record(NATIVE_TREE, dynamics=dynamics, closure_gap=tree.address_gap, handle=tree.handle)
     rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
     limits = record(

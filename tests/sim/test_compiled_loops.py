@@ -3,14 +3,14 @@ references.
 
 * Equivalence, one parametrised test (plant x controller x substeps): in sampled mode a compiled
   run gives the arrays of the Python loop (``simulate(..., compiled=False)``, the reference) to
-  1e-12 relative. On the Pinocchio tree, with the default native stage ``constraint_dynamics``,
-  they are equal bit for bit on this machine (the same kernels and the same Pinocchio function in
-  the same order); with the stage ``schur`` (the KKT system by its Schur complement,
-  ``delta_pin.sim.batch.NATIVE_STAGE``) they agree to 1e-12 relative over these 0.2 s runs
-  (measured: 2e-16 rad over 15 s of path I with the exact state; with quantising encoders the
-  rounding differences grow over long runs, see NATIVE_STAGE); on the analytic plant the torques
-  differ by up to ~2e-15 N m (the law's sums are associated differently when M, C, G come from the
-  shared kinematics).
+  1e-12 relative. On the Pinocchio tree with the native stage ``constraint_dynamics`` (Pinocchio's
+  ``constraintDynamics``, ``delta_pin.sim.batch.NATIVE_STAGE``) they are equal bit for bit on this
+  machine (the same kernels and the same Pinocchio function in the same order); with the default
+  stage ``axis_tree`` (delta-pin's own recursive algorithms, equal to constraintDynamics to ~1e-15
+  relative per call) they agree to 1e-12 relative over these 0.2 s runs (with quantising encoders
+  the rounding differences can grow over long runs, see NATIVE_STAGE); on the analytic plant the
+  torques differ by up to ~2e-15 N m (the law's sums are associated differently when M, C, G come
+  from the shared kinematics).
 * Accuracy of BDF2 (it exists only compiled): against LSODA at rtol 1e-9, an independent adaptive
   integrator, on both plants.
 * Batches: each run of a batch is the run made alone, bit for bit.
@@ -55,7 +55,7 @@ def _assert_same_run(fast, reference):
 
 PLANTS_AND_STAGES = [
     ("analytic", None),
-    pytest.param("pinocchio", "schur", marks=needs_native),
+    pytest.param("pinocchio", "axis_tree", marks=needs_native),
     pytest.param("pinocchio", "constraint_dynamics", marks=needs_native),
 ]
 
@@ -111,7 +111,7 @@ def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, stage, 
     """The digital laws, and design I (sampling-aware, its rho_hat advanced once per sample), on a
     digital drive (17-bit encoders with seeded noise, one sample of delay, a torque limit that
     binds): the compiled digital loop against the Python loop, on the tree bit for bit with the
-    native stage ``constraint_dynamics`` and to 1e-12 relative with ``schur`` (with projections at
+    native stage ``constraint_dynamics`` and to 1e-12 relative with ``axis_tree`` (with projections at
     almost every step, as above)."""
     from delta_pin.sim.drive import Encoder
 

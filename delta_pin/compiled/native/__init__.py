@@ -40,9 +40,18 @@ import numpy as np
 
 from delta_pin.errors import NativeUnavailableError
 
-__all__ = ["JOINT_TYPES", "NativeUnavailableError", "TreeDynamics", "build", "build_prebuilt", "load"]
+__all__ = [
+    "JOINT_TYPES",
+    "STAGES",
+    "NativeUnavailableError",
+    "TreeDynamics",
+    "build",
+    "build_prebuilt",
+    "load",
+]
 
 SOURCE = Path(__file__).with_name("tree_dynamics.cpp")
+HEADERS = (Path(__file__).with_name("axis_tree.hpp"),)  # included by SOURCE: part of its stamp
 PREBUILT = Path(__file__).with_name("prebuilt")  # the library built at install time, and its stamp
 # what pinocchio's CMake targets define for their users (lib/cmake/pinocchio/pinocchioTargets.cmake)
 DEFINES = (
@@ -54,6 +63,9 @@ DEFINES = (
     "NDEBUG",
 )
 FLAGS = ("-O2", "-std=c++17", "-fPIC", "-shared", "-Wno-deprecated-declarations")
+# the two evaluations of ddq a compiled loop can call: Pinocchio's constraintDynamics (the Python
+# loop's arithmetic, bit for bit) and delta-pin's own recursive algorithms (axis_tree.hpp)
+STAGES = ("constraint_dynamics", "axis_tree")
 JOINT_TYPES = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelPX", "JointModelPY", "JointModelPZ")
 
 _loaded: dict[str, object] = {}
@@ -101,11 +113,17 @@ def _command(prefix: Path, output: Path) -> list[str]:
     ]
 
 
+def _source_bytes() -> bytes:
+    """The library's source and the headers it includes, as one byte string (what its stamp and
+    cache name hash)."""
+    return b"".join(path.read_bytes() for path in (SOURCE, *HEADERS))
+
+
 def _library_path(prefix: Path) -> Path:
     import pinocchio
 
     key = hashlib.sha256(
-        SOURCE.read_bytes()
+        _source_bytes()
         + repr((FLAGS, DEFINES, pinocchio.__version__, str(prefix), os.environ.get("CXX", "c++"))).encode()
     ).hexdigest()[:16]
     return _cache_dir() / f"tree_dynamics-{key}.so"
@@ -117,7 +135,7 @@ def _stamp() -> str:
     import pinocchio
 
     return hashlib.sha256(
-        SOURCE.read_bytes() + repr((FLAGS, DEFINES, pinocchio.__version__)).encode()
+        _source_bytes() + repr((FLAGS, DEFINES, pinocchio.__version__)).encode()
     ).hexdigest()
 
 
@@ -202,8 +220,8 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
         double_p,
         double_p,
     ]
-    library.dpn_dynamics_schur.restype = ctypes.c_int
-    library.dpn_dynamics_schur.argtypes = library.dpn_dynamics.argtypes
+    library.dpn_dynamics_axis.restype = ctypes.c_int
+    library.dpn_dynamics_axis.argtypes = library.dpn_dynamics.argtypes
     library.dpn_closure_gap.restype = ctypes.c_double
     library.dpn_closure_gap.argtypes = [void_p, double_p]
     library.dpn_set_active.restype = ctypes.c_int
@@ -261,9 +279,10 @@ class TreeDynamics:
         handle: the address of the C++ tree (for compiled callers); ``address_dynamics``,
             ``address_gap`` and ``address_active``: those of ``dpn_dynamics``,
             ``dpn_closure_gap`` and ``dpn_active_dynamics`` (see
-            :mod:`delta_pin.compiled.native.calls`); ``address_dynamics_schur``: that of
-            ``dpn_dynamics_schur``, the same accelerations with the KKT system solved by its
-            Schur complement (equal to ``constraintDynamics``' up to rounding, cheaper).
+            :mod:`delta_pin.compiled.native.calls`); ``address_dynamics_axis``: that of
+            ``dpn_dynamics_axis``, the same accelerations from delta-pin's own recursive
+            algorithms for trees of axis joints (``axis_tree.hpp``: equal to
+            ``constraintDynamics``' up to rounding, about four times cheaper).
     """
 
     def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:
@@ -306,7 +325,7 @@ class TreeDynamics:
         self.handle = int(handle)
         self.nv = model.nv
         self.address_dynamics = ctypes.cast(library.dpn_dynamics, ctypes.c_void_p).value
-        self.address_dynamics_schur = ctypes.cast(library.dpn_dynamics_schur, ctypes.c_void_p).value
+        self.address_dynamics_axis = ctypes.cast(library.dpn_dynamics_axis, ctypes.c_void_p).value
         self.address_gap = ctypes.cast(library.dpn_closure_gap, ctypes.c_void_p).value
         self.address_active = ctypes.cast(library.dpn_active_dynamics, ctypes.c_void_p).value
 
@@ -336,14 +355,17 @@ class TreeDynamics:
             raise RuntimeError(f"dpn_active_dynamics failed with status {status}")
         return alpha_ddot, xyz, float(gap[0])
 
-    def dynamics(self, q, v, tau, mass: float, rotational, schur: bool = False) -> np.ndarray:
+    def dynamics(self, q, v, tau, mass: float, rotational, stage: str = "constraint_dynamics") -> np.ndarray:
         """ddq (nv,) at (q, v) under joint torques tau (nv,) with platform mass [kg] and
         rotational inertia about the COM (3, 3) [kg m^2] (from Python, for tests):
-        ``constraintDynamics``, or with ``schur`` the Schur-complement stage."""
+        with the stage ``stage`` (``"constraint_dynamics"`` or ``"axis_tree"``, see
+        :data:`STAGES`)."""
         q, v, tau = (np.ascontiguousarray(a, dtype=float) for a in (q, v, tau))
         rotational = np.ascontiguousarray(rotational, dtype=float)
         ddq = np.empty(self.nv)
-        function = self._library.dpn_dynamics_schur if schur else self._library.dpn_dynamics
+        if stage not in STAGES:
+            raise ValueError(f"stage={stage!r} must be one of {', '.join(STAGES)}")
+        function = self._library.dpn_dynamics_axis if stage == "axis_tree" else self._library.dpn_dynamics
         if function(
             self.handle,
             _pointer(q),
@@ -353,7 +375,7 @@ class TreeDynamics:
             _pointer(rotational),
             _pointer(ddq),
         ):
-            raise RuntimeError("the native tree dynamics failed" + (" (Schur stage)" if schur else ""))
+            raise RuntimeError(f"the native tree dynamics failed (stage {stage})")
         return ddq
 
     def closure_gap(self, q) -> float:

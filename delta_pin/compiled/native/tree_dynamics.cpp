@@ -12,12 +12,11 @@
 // Only 1-DOF joints along the frame axes (RX, RY, RZ, PX, PY, PZ) are accepted: delta-pin's
 // models are made of those (nq == nv).
 //
-// `dpn_dynamics_schur` gives the same accelerations with the KKT system solved by its Schur
-// complement (constraintDynamics' own kinematic pass and closure right-hand side, then the
-// tree-sparse factor of M and the small Delassus matrix instead of the generic sparse KKT
-// factorisation and its residual evaluation): equal to constraintDynamics to ~1e-13 relative and
-// ~1 us cheaper a call; the compiled sampled loops call it where delta_pin.sim.batch.NATIVE_STAGE
-// says so (not by default: the Python loop's arithmetic is constraintDynamics').
+// `dpn_dynamics_axis` gives the same accelerations from delta-pin's own recursive algorithms for
+// trees of axis joints (axis_tree.hpp, built from the same numbers): equal to constraintDynamics to
+// ~1e-13 relative at about a quarter of its cost; the compiled sampled loops call it by default
+// (delta_pin.sim.batch.NATIVE_STAGE), constraintDynamics where the Python loop's arithmetic is
+// wanted bit for bit.
 //
 // `dpn_active_dynamics` is the same plant in active coordinates (PinocchioPlant with
 // coordinates="active"): q(alpha) completed by Newton on the passive coordinates from a
@@ -26,15 +25,17 @@
 // every evaluation, for implicit integrators on the small state [alpha, alpha_dot].
 
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
-#include <pinocchio/algorithm/cholesky.hpp>
 #include <pinocchio/algorithm/jacobian.hpp>
 #include <pinocchio/algorithm/kinematics.hpp>
 #include <pinocchio/multibody.hpp>
+
+#include "axis_tree.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -64,12 +65,8 @@ namespace
     Eigen::MatrixXd last_S, jacobian, joint_jacobian, passive_jacobian, active_jacobian, passive_rates;
     Eigen::VectorXd residual, correction;
     Eigen::PartialPivLU<Eigen::MatrixXd> lu;
-    // the Schur-complement stage (dpn_dynamics_schur): constraint Jacobian, its right-hand side,
-    // M^-1 J^T, the Delassus matrix J M^-1 J^T and their factors
-    Eigen::MatrixXd constraint_jacobian, minv_jt;
-    Eigen::VectorXd constraint_rhs, ddq;
-    std::vector<double> delassus_numbers, multiplier_numbers;  // D's Cholesky factor (row-major), y
-    bool schur_ok = true;
+    // the same tree in delta-pin's own recursive algorithms (dpn_dynamics_axis)
+    std::unique_ptr<dpn::AxisTree> axis;
   };
 
   // A placement from 12 numbers: the rotation row by row, then the translation.
@@ -160,183 +157,6 @@ namespace
       tree->constraint_datas, tree->settings);
   }
 
-  // The same constrained acceleration as solve_tree, the KKT system solved by its Schur complement.
-  // The kinematic pass, the mass matrix (upper triangle), the nonlinear effects, the constraint
-  // placements and the right-hand side of each point closure with its Baumgarte terms are
-  // constraintDynamics' own (its two passes and the CONTACT_3D / LOCAL branch of its loop), so
-  // those numbers are Pinocchio's. Where constraintDynamics then factorises the whole
-  // (rows + nv)^2 KKT matrix with its generic sparse Cholesky and evaluates a residual, this
-  // factorises M = U D U^T with the tree's sparsity (cholesky::decompose), forms
-  // a_free = M^-1 (tau - nle), the Delassus matrix D = J M^-1 J^T (rows x rows) and solves
-  // D y = rhs - J a_free, ddq = a_free + M^-1 J^T y: the exact solution of
-  // M ddq = tau - nle + J^T y,  J ddq = rhs  (constraintDynamics with mu = 0 and one iteration),
-  // equal to it up to rounding (tests/sim/test_native.py).
-  const Eigen::VectorXd & solve_tree_schur(Tree * tree, double mass, const double * rotational)
-  {
-    Model & model = tree->model;
-    Data & data = tree->data;
-    if (mass != tree->platform_mass)
-    {
-      Inertia & inertia = model.inertias[tree->platform_joint];
-      inertia = Inertia(
-        mass, inertia.lever(), Symmetric3(Eigen::Matrix3d(Eigen::Map<const RowMatrix3>(rotational))));
-      tree->platform_mass = mass;
-    }
-    data.oYcrb[0].setZero();
-    data.of[0].setZero();
-    data.oa[0].setZero();
-    data.ov[0].setZero();
-    typedef ContactAndImpulseDynamicsForwardStep<
-      double, 0, JointCollectionDefaultTpl, Eigen::VectorXd, Eigen::VectorXd, true>
-      Pass1;
-    for (JointIndex i = 1; i < (JointIndex)model.njoints; ++i)
-      Pass1::run(model.joints[i], data.joints[i], Pass1::ArgsType(model, data, tree->q, tree->v));
-    typedef ContactAndImpulseDynamicsBackwardStep<double, 0, JointCollectionDefaultTpl, true> Pass2;
-    for (JointIndex i = (JointIndex)(model.njoints - 1); i > 0; --i)
-      Pass2::run(model.joints[i], Pass2::ArgsType(model, data));
-    data.M.diagonal() += model.armature;
-    calc(model, data, tree->constraint_models, tree->constraint_datas);
-
-    const Eigen::Index rows = 3 * (Eigen::Index)tree->constraint_models.size();
-    const Eigen::Index nv = model.nv;
-    tree->constraint_jacobian.resize(rows, nv);
-    tree->constraint_rhs.resize(rows);
-    for (size_t c = 0; c < tree->constraint_models.size(); ++c)
-    {
-      const RigidConstraintModel & constraint = tree->constraint_models[c];
-      RigidConstraintData & cdata = tree->constraint_datas[c];
-      if (constraint.type != CONTACT_3D || constraint.reference_frame != LOCAL)
-        throw std::invalid_argument("the Schur stage takes CONTACT_3D closures in LOCAL frames");
-      const JointIndex joint1_id = constraint.joint1_id, joint2_id = constraint.joint2_id;
-      const SE3 & oMc1 = cdata.oMc1;
-      const SE3 & oMc2 = cdata.oMc2;
-      const SE3 & c1Mc2 = cdata.c1Mc2;
-      // the Jacobian of the anchors' relative velocity in frame c1 (what RigidConstraintModel's
-      // jacobian gives: v_point = v_o + omega x p per world column of data.J, rotated into c1)
-      const auto & support1 = model.sparsity_pattern_vector[joint1_id];
-      const auto & support2 = model.sparsity_pattern_vector[joint2_id];
-      const Eigen::Vector3d & p1 = oMc1.translation();
-      const Eigen::Vector3d & p2 = oMc2.translation();
-      for (Eigen::Index jj = 0; jj < nv; ++jj)
-      {
-        const bool on1 = joint1_id > 0 && support1[jj], on2 = joint2_id > 0 && support2[jj];
-        Eigen::Vector3d column = Eigen::Vector3d::Zero();
-        if (on1 != on2)
-        {
-          const Eigen::Vector3d linear = data.J.col(jj).head<3>();
-          const Eigen::Vector3d angular = data.J.col(jj).tail<3>();
-          column = on1 ? Eigen::Vector3d(linear + angular.cross(p1))
-                       : Eigen::Vector3d(-(linear + angular.cross(p2)));
-        }
-        else if (on1)
-        {
-          const Eigen::Vector3d angular = data.J.col(jj).tail<3>();
-          column = angular.cross(p1 - p2);
-        }
-        tree->constraint_jacobian.block<3, 1>(3 * (Eigen::Index)c, jj).noalias() =
-          oMc1.rotation().transpose() * column;
-      }
-      // the right-hand side: constraintDynamics' CONTACT_3D / LOCAL branch, verbatim
-      const RigidConstraintModel::BaumgarteCorrectorParameters & corrector =
-        constraint.m_baumgarte_parameters;
-      Motion & vc1 = cdata.contact1_velocity;
-      Motion & vc2 = cdata.contact2_velocity;
-      if (joint1_id > 0)
-        vc1 = oMc1.actInv(data.ov[joint1_id]);
-      else
-        vc1.setZero();
-      if (joint2_id > 0)
-        vc2 = oMc2.actInv(data.ov[joint2_id]);
-      else
-        vc2.setZero();
-      cdata.contact_placement_error.linear() = -c1Mc2.translation();
-      cdata.contact_placement_error.angular().setZero();
-      cdata.contact_velocity_error.linear() = vc1.linear() - c1Mc2.rotation() * vc2.linear();
-      cdata.contact_velocity_error.angular().setZero();
-      Motion & acceleration_error = cdata.contact_acceleration_error;
-      if ((corrector.Kp == 0.0) && (corrector.Kd == 0.0))
-        acceleration_error.setZero();
-      else
-      {
-        acceleration_error.linear().noalias() =
-          -(corrector.Kp * cdata.contact_placement_error.linear())
-          - (corrector.Kd * cdata.contact_velocity_error.linear());
-        acceleration_error.angular().setZero();
-      }
-      Motion & drift1 = cdata.contact1_acceleration_drift;
-      Motion & drift2 = cdata.contact2_acceleration_drift;
-      drift1 = oMc1.actInv(data.oa[joint1_id]);
-      drift1.linear() += vc1.angular().cross(vc1.linear());
-      drift1.angular().setZero();
-      drift2.linear().noalias() =
-        oMc1.rotation().transpose()
-        * (data.oa[joint2_id].linear() + data.oa[joint2_id].angular().cross(oMc2.translation())
-           + data.ov[joint2_id].angular().cross(
-             data.ov[joint2_id].linear() + data.ov[joint2_id].angular().cross(oMc2.translation())));
-      drift2.angular().setZero();
-      tree->constraint_rhs.segment<3>(3 * (Eigen::Index)c) =
-        -drift1.linear() + drift2.linear() + acceleration_error.linear()
-        + cdata.contact_acceleration_desired.linear();
-    }
-
-    // M = U D U^T with the tree's sparsity (Pinocchio's cholesky::decompose of the upper triangle
-    // Pass2 filled), then a_free = M^-1 (tau - nle) and M^-1 J^T, column by column
-    cholesky::decompose(model, data);
-    tree->ddq = tree->tau - data.nle;
-    cholesky::solve(model, data, tree->ddq);  // a_free
-    tree->minv_jt = tree->constraint_jacobian.transpose();
-    cholesky::solve(model, data, tree->minv_jt);
-    // D = J M^-1 J^T (rows x rows, symmetric positive definite where the closures are
-    // independent), D y = rhs - J a_free by a plain Cholesky, ddq = a_free + M^-1 J^T y
-    double * L = tree->delassus_numbers.data();
-    double * y = tree->multiplier_numbers.data();
-    const Eigen::Index k = rows;
-    for (Eigen::Index i = 0; i < k; ++i)
-    {
-      for (Eigen::Index j = 0; j <= i; ++j)
-        L[i * k + j] = tree->constraint_jacobian.row(i).dot(tree->minv_jt.col(j));
-      y[i] = tree->constraint_rhs[i] - tree->constraint_jacobian.row(i).dot(tree->ddq);
-    }
-    tree->schur_ok = true;
-    for (Eigen::Index j = 0; j < k; ++j)
-    {
-      double diagonal = L[j * k + j];
-      for (Eigen::Index m = 0; m < j; ++m)
-        diagonal -= L[j * k + m] * L[j * k + m];
-      if (!(diagonal > 0.0))
-      {
-        tree->schur_ok = false;
-        return tree->ddq;
-      }
-      diagonal = std::sqrt(diagonal);
-      L[j * k + j] = diagonal;
-      for (Eigen::Index i = j + 1; i < k; ++i)
-      {
-        double value = L[i * k + j];
-        for (Eigen::Index m = 0; m < j; ++m)
-          value -= L[i * k + m] * L[j * k + m];
-        L[i * k + j] = value / diagonal;
-      }
-    }
-    for (Eigen::Index i = 0; i < k; ++i)  // L z = y
-    {
-      double value = y[i];
-      for (Eigen::Index m = 0; m < i; ++m)
-        value -= L[i * k + m] * y[m];
-      y[i] = value / L[i * k + i];
-    }
-    for (Eigen::Index i = k - 1; i >= 0; --i)  // L^T y = z
-    {
-      double value = y[i];
-      for (Eigen::Index m = i + 1; m < k; ++m)
-        value -= L[m * k + i] * y[m];
-      y[i] = value / L[i * k + i];
-    }
-    for (Eigen::Index i = 0; i < k; ++i)
-      tree->ddq.noalias() += y[i] * tree->minv_jt.col(i);
-    return tree->ddq;
-  }
-
   double largest(const Eigen::VectorXd & values)
   {
     double result = 0.0;
@@ -416,8 +236,9 @@ void * dpn_create(
     tree->v = Eigen::VectorXd::Zero(model.nv);
     tree->tau = Eigen::VectorXd::Zero(model.nv);
     tree->residual = Eigen::VectorXd::Zero(3 * closures);
-    tree->delassus_numbers.assign((size_t)(9 * closures * closures), 0.0);
-    tree->multiplier_numbers.assign((size_t)(3 * closures), 0.0);
+    tree->axis.reset(new dpn::AxisTree(
+      joints, parents, types, placements, inertias, gravity, closures, closure_joints, anchors, kp, kd,
+      platform_joint));
     tree->platform_joint = (JointIndex)platform_joint;
     tree->platform_mass = model.inertias[tree->platform_joint].mass();
     return tree;
@@ -463,31 +284,16 @@ int dpn_dynamics(
   }
 }
 
-// dpn_dynamics with the KKT system solved by its Schur complement (solve_tree_schur): the same
-// accelerations up to rounding, without constraintDynamics' generic sparse KKT factorisation and
-// residual evaluation. Returns 0, or 1 where Pinocchio throws or M or J M^-1 J^T is not positive
-// definite (a singular closure).
-int dpn_dynamics_schur(
+// The same ddq as dpn_dynamics from delta-pin's own recursive algorithms for trees of axis joints
+// (axis_tree.hpp), equal to constraintDynamics' up to rounding (~1e-13 relative) at a quarter of its
+// cost. Returns 0, or 1 where M or the Delassus matrix J_c M^-1 J_c^T is not positive definite
+// (a massless mechanism, dependent closures).
+int dpn_dynamics_axis(
   void * handle, const double * q, const double * v, const double * tau, double mass,
   const double * rotational, double * ddq)
 {
   Tree * tree = static_cast<Tree *>(handle);
-  const Eigen::Index n = tree->model.nv;
-  try
-  {
-    tree->q = Eigen::Map<const Eigen::VectorXd>(q, n);
-    tree->v = Eigen::Map<const Eigen::VectorXd>(v, n);
-    tree->tau = Eigen::Map<const Eigen::VectorXd>(tau, n);
-    const Eigen::VectorXd & result = solve_tree_schur(tree, mass, rotational);
-    if (!tree->schur_ok)
-      return 1;
-    Eigen::Map<Eigen::VectorXd>(ddq, n) = result;
-    return 0;
-  }
-  catch (const std::exception &)
-  {
-    return 1;
-  }
+  return tree->axis->dynamics(q, v, tau, mass, rotational, ddq) ? 0 : 1;
 }
 
 // Active coordinates: the indices of alpha in q (3), of the platform slides (3), the completion
