@@ -61,7 +61,7 @@ def analytic_dynamics(
     J = jacobian(params, alpha, xyz)
     J_T = np.swapaxes(J, -1, -2)
     M = params.arm_equivalent_inertia * np.eye(3) + m_eq * (J_T @ J)
-    C = m_eq * (J_T @ jacobian_derivative(params, alpha, alpha_dot, xyz))
+    C = m_eq * (J_T @ jacobian_derivative(params, alpha, alpha_dot, xyz, J=J))
     G = -0.5 * (params.m_a + params.m_b) * params.g * params.l_a * np.cos(alpha) + (
         m_eq[..., 0] * params.g * J[..., 2, :]
     )

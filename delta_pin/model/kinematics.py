@@ -29,6 +29,7 @@ __all__ = [
     "jacobian_derivative",
     "jacobian_derivative_times_velocity",
     "radial_units",
+    "solve3_batched",
 ]
 
 _E_Z = np.array([0.0, 0.0, 1.0])
@@ -70,7 +71,69 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _diag(d: np.ndarray) -> np.ndarray:
     """Batch of diagonal matrices (..., 3, 3) from (..., 3)."""
-    return d[..., :, None] * np.eye(3)
+    out = np.zeros((*d.shape, 3))
+    out.reshape(*d.shape[:-1], 9)[..., ::4] = d  # entries (0, 0), (1, 1), (2, 2) of each matrix
+    return out
+
+
+def _components_first(X: np.ndarray) -> np.ndarray:
+    """A contiguous copy of a batch of matrices (..., m, n) with the batch axes last, (m, n, ...):
+    numpy then runs every loop over the whole batch instead of over 3 entries at a time."""
+    return np.ascontiguousarray(X.transpose(X.ndim - 2, X.ndim - 1, *range(X.ndim - 2)))
+
+
+def _cross_first(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u x v for vectors stored components first, (3, ...) each."""
+    return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+
+
+def solve3_batched(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with A x = b for a batch of 3x3 systems, in closed form (the adjugate, i.e. Cramer's rule).
+
+    With a_i the rows of A, the columns of adj(A) are a_1 x a_2, a_2 x a_0 and a_0 x a_1, so
+    A adj(A) = det(A) I with det(A) = a_0 . (a_1 x a_2), and x = adj(A) b / det(A). On the batches
+    of this module (N ~ 1e4-1e5 systems) this is 3-5x faster than ``np.linalg.solve``, which pays
+    LAPACK's per-matrix overhead; on a single system it costs ~25 us instead of ~4 us.
+
+    Accuracy: the relative error grows like cond(A)^2 eps instead of LU's cond(A) eps; measured
+    against ``np.linalg.solve`` (relative to |x|): ~1e-15 for cond(A) <= 10, 5e-14 at 100,
+    5e-12 at 1e3, 5e-10 at 1e4. The Delta's forearm matrices S and Jacobians J are well
+    conditioned in its workspace (cond < 5 measured on path I and on 20000 sampled states),
+    where both agree with ``np.linalg.solve`` to ~1e-15.
+
+    Args:
+        A: matrices (..., 3, 3).
+        b: right-hand sides: one vector per system, (3,) or (..., 3) with ``b.ndim == A.ndim - 1``,
+            or k columns per system, (..., 3, k); batch axes broadcast as in numpy.
+
+    Returns:
+        x, of b's form: (..., 3) or (..., 3, k), in b's unit over A's.
+
+    Raises:
+        numpy.linalg.LinAlgError: a system of the batch is exactly singular (det(A) = 0), where
+            ``np.linalg.solve`` raises the same. Near-singular systems are not detected (nor by
+            ``np.linalg.solve``): x then grows like 1 / det(A).
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if A.ndim < 2 or A.shape[-2:] != (3, 3):
+        raise ValueError(f"A must have shape (..., 3, 3), got {A.shape}")
+    vector = b.ndim in (1, A.ndim - 1)
+    if vector:
+        b = b[..., None]
+    if b.ndim < 2 or b.shape[-2] != 3:
+        raise ValueError(f"b must have shape (..., 3) or (..., 3, k), got {b.shape}")
+    a, rhs = _components_first(A), _components_first(b)  # a[i] = row a_i, rhs[j] = row j of b
+    columns = [_cross_first(a[1], a[2]), _cross_first(a[2], a[0]), _cross_first(a[0], a[1])]
+    adjugate = np.stack(columns, axis=1)  # adjugate[i, j] = adj(A)[i, j]
+    det = a[0, 0] * adjugate[0, 0] + a[0, 1] * adjugate[1, 0] + a[0, 2] * adjugate[2, 0]
+    if not det.all():
+        where = f" at batch index {tuple(np.argwhere(det == 0.0)[0].tolist())}" if det.ndim else ""
+        raise np.linalg.LinAlgError(f"Singular matrix{where}: det(A) = 0")
+    # x[i, k] = sum_j adj(A)[i, j] b[j, k] / det(A), batch last
+    x = (adjugate[:, 0, None] * rhs[0] + adjugate[:, 1, None] * rhs[1] + adjugate[:, 2, None] * rhs[2]) / det
+    x = np.ascontiguousarray(x.transpose(*range(2, x.ndim), 0, 1))
+    return x[..., 0] if vector else x
 
 
 def _first_failure(mask: np.ndarray) -> tuple:
@@ -78,22 +141,27 @@ def _first_failure(mask: np.ndarray) -> tuple:
     return tuple(np.argwhere(mask)[0][:-1]) if mask.ndim > 1 else ()
 
 
+def _chain_rows(radial: np.ndarray, vertical: np.ndarray) -> np.ndarray:
+    """Rows radial_i u_i + vertical_i e_z (..., 3, 3) from per-chain coefficients (..., 3)."""
+    return np.stack([radial * _COS_PHI, radial * _SIN_PHI, vertical], axis=-1)
+
+
 def elbow_positions(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray:
     """Elbow points B_i (eq. 3) as rows of a (..., 3, 3) array [m]."""
-    reach = params.R + params.l_a * np.cos(alpha)
-    return np.stack([reach * _COS_PHI, reach * _SIN_PHI, -params.l_a * np.sin(alpha)], axis=-1)
+    return _chain_rows(params.R + params.l_a * np.cos(alpha), -params.l_a * np.sin(alpha))
 
 
-def _elbow_tangents(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray:
-    """dB_i/dalpha_i = l_a (-sin(alpha_i) u_i - cos(alpha_i) e_z), rows (..., 3, 3) [m/rad]."""
-    radial = -params.l_a * np.sin(alpha)
-    return np.stack([radial * _COS_PHI, radial * _SIN_PHI, -params.l_a * np.cos(alpha)], axis=-1)
+def _elbow_geometry(params: DeltaParameters, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The elbows B_i [m] and their derivatives B_i' = dB_i/dalpha_i [m/rad] and
+    B_i'' = d^2B_i/dalpha_i^2 [m/rad^2], rows of (..., 3, 3) arrays, from one cos and one sin of alpha:
 
-
-def _elbow_curvatures(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray:
-    """d^2B_i/dalpha_i^2 = l_a (-cos(alpha_i) u_i + sin(alpha_i) e_z), rows (..., 3, 3) [m/rad^2]."""
-    radial = -params.l_a * np.cos(alpha)
-    return np.stack([radial * _COS_PHI, radial * _SIN_PHI, params.l_a * np.sin(alpha)], axis=-1)
+        B_i = R u_i + l_a (cos(alpha_i) u_i - sin(alpha_i) e_z),
+        B_i' = l_a (-sin(alpha_i) u_i - cos(alpha_i) e_z),
+        B_i'' = l_a (-cos(alpha_i) u_i + sin(alpha_i) e_z).
+    """
+    arm_cos, arm_sin = params.l_a * np.cos(alpha), params.l_a * np.sin(alpha)
+    elbows = _chain_rows(params.R + arm_cos, -arm_sin)
+    return elbows, _chain_rows(-arm_sin, -arm_cos), _chain_rows(-arm_cos, arm_sin)
 
 
 def inverse_kinematics(params: DeltaParameters, xyz: np.ndarray) -> np.ndarray:
@@ -130,10 +198,12 @@ def inverse_kinematics(params: DeltaParameters, xyz: np.ndarray) -> np.ndarray:
             f"platform position xyz={point(out_of_reach)} m is out of reach of chain {chain} "
             f"(the forearm of length l_b={params.l_b} m cannot meet the elbow circle)"
         )
+    # The roots are base +- spread, and cos(base + spread) - cos(base - spread)
+    # = -2 sin(base) sin(spread) >= 0 because sin(base) = F / amplitude < 0 (z < 0) and spread is
+    # in [0, pi]: base + spread is the elbow-out root, and it lies in (-pi, pi) as base is in (-pi, 0).
     base = np.arctan2(F, E)
     spread = np.arccos(K / amplitude)
-    roots = np.remainder(np.stack([base + spread, base - spread]) + np.pi, 2.0 * np.pi) - np.pi
-    alpha = np.where(np.cos(roots[0]) >= np.cos(roots[1]), roots[0], roots[1])
+    alpha = base + spread
     outside = np.abs(alpha) >= 0.5 * np.pi
     if outside.any():
         chain = int(np.argwhere(outside)[0][-1]) + 1
@@ -190,9 +260,9 @@ def forward_kinematics(params: DeltaParameters, alpha: np.ndarray) -> np.ndarray
     return xyz
 
 
-def _closure_vectors(params: DeltaParameters, alpha: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    """Rows s_i = C_i - B_i (forearm vectors, |s_i| = l_b) (..., 3, 3) [m]."""
-    return xyz[..., None, :] + params.r * _U - elbow_positions(params, alpha)
+def _closure_vectors(params: DeltaParameters, xyz: np.ndarray, elbows: np.ndarray) -> np.ndarray:
+    """Rows s_i = C_i - B_i (forearm vectors, |s_i| = l_b) (..., 3, 3) [m] from the elbows B_i."""
+    return xyz[..., None, :] + params.r * _U - elbows
 
 
 def jacobian(params: DeltaParameters, alpha: np.ndarray, xyz: np.ndarray | None = None) -> np.ndarray:
@@ -204,41 +274,70 @@ def jacobian(params: DeltaParameters, alpha: np.ndarray, xyz: np.ndarray | None 
     """
     if xyz is None:
         xyz = forward_kinematics(params, alpha)
-    s = _closure_vectors(params, alpha, xyz)
-    return np.linalg.solve(s, _diag(_dot(s, _elbow_tangents(params, alpha))))
+    elbows, tangents, _ = _elbow_geometry(params, alpha)
+    s = _closure_vectors(params, xyz, elbows)
+    return solve3_batched(s, _diag(_dot(s, tangents)))
 
 
 def jacobian_derivative_times_velocity(
-    params: DeltaParameters, alpha: np.ndarray, alpha_dot: np.ndarray, xyz: np.ndarray | None = None
+    params: DeltaParameters,
+    alpha: np.ndarray,
+    alpha_dot: np.ndarray,
+    xyz: np.ndarray | None = None,
+    *,
+    J: np.ndarray | None = None,
 ) -> np.ndarray:
     """J_dot alpha_dot [m/s^2] (..., 3): the platform acceleration when alpha_ddot = 0.
 
     Differentiating s_i^T (p_dot - B_i' alpha_dot_i) = 0 once more gives
     s_i^T p_ddot = s_i^T B_i'' alpha_dot_i^2 - |p_dot - B_i' alpha_dot_i|^2.
+
+    Args:
+        alpha: active angles [rad].
+        alpha_dot: active joint rates [rad/s].
+        xyz: the platform position for ``alpha`` [m] if already known (saves an FK).
+        J: the Jacobian :func:`jacobian` at ``alpha`` [m/rad] if already known (saves computing it
+            again; it is used as given).
     """
     if xyz is None:
         xyz = forward_kinematics(params, alpha)
-    s = _closure_vectors(params, alpha, xyz)
-    xyz_dot = (jacobian(params, alpha, xyz) @ alpha_dot[..., None])[..., 0]
-    relative = xyz_dot[..., None, :] - _elbow_tangents(params, alpha) * alpha_dot[..., :, None]
-    rhs = _dot(s, _elbow_curvatures(params, alpha)) * alpha_dot**2 - _dot(relative, relative)
-    return np.linalg.solve(s, rhs[..., None])[..., 0]
+    if J is None:
+        J = jacobian(params, alpha, xyz)
+    elbows, tangents, curvatures = _elbow_geometry(params, alpha)
+    s = _closure_vectors(params, xyz, elbows)
+    xyz_dot = (J @ alpha_dot[..., None])[..., 0]
+    relative = xyz_dot[..., None, :] - tangents * alpha_dot[..., :, None]
+    rhs = _dot(s, curvatures) * alpha_dot**2 - _dot(relative, relative)
+    return solve3_batched(s, rhs)
 
 
 def jacobian_derivative(
-    params: DeltaParameters, alpha: np.ndarray, alpha_dot: np.ndarray, xyz: np.ndarray | None = None
+    params: DeltaParameters,
+    alpha: np.ndarray,
+    alpha_dot: np.ndarray,
+    xyz: np.ndarray | None = None,
+    *,
+    J: np.ndarray | None = None,
 ) -> np.ndarray:
     """Time derivative J_dot (..., 3, 3) of the Jacobian along alpha_dot [m/(rad s)].
 
     From S J = diag(d) (S rows s_i^T, d_i = s_i^T B_i'):
     J_dot = S^-1 (diag(d_dot) - S_dot J) with s_i_dot = p_dot - B_i' alpha_dot_i and
     d_i_dot = s_i_dot^T B_i' + s_i^T B_i'' alpha_dot_i.
+
+    Args:
+        alpha: active angles [rad].
+        alpha_dot: active joint rates [rad/s].
+        xyz: the platform position for ``alpha`` [m] if already known (saves an FK).
+        J: the Jacobian :func:`jacobian` at ``alpha`` [m/rad] if already known (saves computing it
+            again; it is used as given).
     """
     if xyz is None:
         xyz = forward_kinematics(params, alpha)
-    s = _closure_vectors(params, alpha, xyz)
-    tangents = _elbow_tangents(params, alpha)
-    J = np.linalg.solve(s, _diag(_dot(s, tangents)))
+    elbows, tangents, curvatures = _elbow_geometry(params, alpha)
+    s = _closure_vectors(params, xyz, elbows)
+    if J is None:
+        J = solve3_batched(s, _diag(_dot(s, tangents)))
     s_dot = (J @ alpha_dot[..., None])[..., 0][..., None, :] - tangents * alpha_dot[..., :, None]
-    d_dot = _dot(s_dot, tangents) + _dot(s, _elbow_curvatures(params, alpha)) * alpha_dot
-    return np.linalg.solve(s, _diag(d_dot) - s_dot @ J)
+    d_dot = _dot(s_dot, tangents) + _dot(s, curvatures) * alpha_dot
+    return solve3_batched(s, _diag(d_dot) - s_dot @ J)

@@ -143,7 +143,8 @@ class Trajectory(ABC):
         """Sample the trajectory at times ``t`` [s] and map it to joint space (eqs. 5, 10).
 
         alpha = IK(xyz), alpha_dot = J^-1 xyz_dot, alpha_ddot = J^-1 (xyz_ddot - J_dot alpha_dot),
-        solved for the whole batch at once.
+        solved for the whole batch at once (closed-form 3x3 solves,
+        :func:`~delta_pin.model.kinematics.solve3_batched`; J is computed once).
 
         Args:
             robot_or_params: a :class:`~delta_pin.model.robot.Delta` or its DeltaParameters.
@@ -159,9 +160,9 @@ class Trajectory(ABC):
         xyz_ddot = self.acceleration(times)
         alpha = self._inverse_kinematics(params, times, xyz)
         J = kinematics.jacobian(params, alpha, xyz)
-        alpha_dot = np.linalg.solve(J, xyz_dot[..., None])[..., 0]
-        drift = kinematics.jacobian_derivative_times_velocity(params, alpha, alpha_dot, xyz)
-        alpha_ddot = np.linalg.solve(J, (xyz_ddot - drift)[..., None])[..., 0]
+        alpha_dot = kinematics.solve3_batched(J, xyz_dot)
+        drift = kinematics.jacobian_derivative_times_velocity(params, alpha, alpha_dot, xyz, J=J)
+        alpha_ddot = kinematics.solve3_batched(J, xyz_ddot - drift)
         return JointReference(times, xyz, xyz_dot, xyz_ddot, alpha, alpha_dot, alpha_ddot)
 
     def check_workspace(self, robot_or_params: Any, t_end: float | None = None, dt: float = 1e-3) -> None:

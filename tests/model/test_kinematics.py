@@ -84,3 +84,95 @@ def test_non_finite_input_is_refused(robot, bad):
         robot.forward_kinematics(bad)
     with pytest.raises(dp.NonFiniteError):
         robot.inverse_kinematics(bad)
+
+
+# ------------------------------------------------------------------------ closed-form 3x3 solver
+# Cramer's rule errs like cond(A)^2 eps (LU: cond(A) eps); for cond(A) <= 10 both stay within
+# ~1e-14 of the exact x (measured <= 2e-15), so 1e-12 relative to |x| leaves a wide margin.
+SOLVE_RTOL = 1e-12
+
+
+def conditioned_matrices(rng, shape: tuple[int, ...], cond: float = 10.0) -> np.ndarray:
+    """Random A = Q1 diag(sigma) Q2 (..., 3, 3) with cond(A) = ``cond`` and scales over 1e-3..1e3."""
+    q1 = np.linalg.qr(rng.standard_normal((*shape, 3, 3)))[0]
+    q2 = np.linalg.qr(rng.standard_normal((*shape, 3, 3)))[0]
+    sigma = np.stack([np.ones(shape), np.full(shape, cond), rng.uniform(1.0, cond, shape)], axis=-1)
+    return (q1 * sigma[..., None, :]) @ q2 * 10.0 ** rng.uniform(-3, 3, (*shape, 1, 1))
+
+
+def assert_solutions_close(x: np.ndarray, expected: np.ndarray, batch_ndim: int) -> None:
+    """Each system's solution within SOLVE_RTOL of the reference, relative to its norm."""
+    axes = tuple(range(batch_ndim, expected.ndim))
+    error = np.sqrt(np.sum((x - expected) ** 2, axis=axes))
+    assert np.all(error <= SOLVE_RTOL * np.sqrt(np.sum(expected**2, axis=axes)))
+
+
+@pytest.mark.parametrize("shape", [(2000,), (4, 5)])
+def test_solve3_batched_matches_lu_on_well_conditioned_batches(rng, shape):
+    A = conditioned_matrices(rng, shape)
+    b = rng.standard_normal((*shape, 3))
+    x = kinematics.solve3_batched(A, b)
+    assert x.shape == b.shape
+    assert_solutions_close(x, np.linalg.solve(A, b[..., None])[..., 0], len(shape))
+    B = rng.standard_normal((*shape, 3, 2))
+    X = kinematics.solve3_batched(A, B)
+    assert X.shape == B.shape
+    assert_solutions_close(X, np.linalg.solve(A, B), len(shape))
+    # one right-hand side (3,) shared by the whole batch
+    b0 = b[(0,) * len(shape)]
+    expected = np.linalg.solve(A, np.broadcast_to(b0, b.shape)[..., None])[..., 0]
+    assert_solutions_close(kinematics.solve3_batched(A, b0), expected, len(shape))
+
+
+def test_solve3_batched_on_one_system(rng):
+    A = conditioned_matrices(rng, ())
+    b, B = rng.standard_normal(3), rng.standard_normal((3, 3))
+    x = kinematics.solve3_batched(A, b)
+    assert x.shape == (3,)
+    assert_solutions_close(x, np.linalg.solve(A, b), 0)
+    X = kinematics.solve3_batched(A, B)
+    assert X.shape == (3, 3)
+    assert_solutions_close(X, np.linalg.solve(A, B), 0)
+    np.testing.assert_allclose(A @ X, B, rtol=0.0, atol=1e-12 * np.abs(B).max())
+
+
+def test_solve3_batched_matches_lu_on_the_delta(robot, other_robot, rng):
+    # the forearm matrices S (rows s_i) and Jacobians of sampled states: cond < 5
+    for r in (robot, other_robot):
+        alpha, _ = sample_states(r, 500, seed=4)
+        J = kinematics.jacobian(r.params, alpha)
+        assert np.linalg.cond(J).max() < 10.0
+        b = rng.standard_normal((len(alpha), 3))
+        assert_solutions_close(kinematics.solve3_batched(J, b), np.linalg.solve(J, b[..., None])[..., 0], 1)
+
+
+def test_solve3_batched_raises_like_lu_on_a_singular_system(rng):
+    A = conditioned_matrices(rng, (5,))
+    A[3] = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.5, -1.0, 2.0]]  # rows 0 and 1 parallel: det = 0 exactly
+    b = rng.standard_normal((5, 3))
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.solve(A, b[..., None])
+    with pytest.raises(np.linalg.LinAlgError, match=r"batch index \(3,\)"):
+        kinematics.solve3_batched(A, b)
+    with pytest.raises(np.linalg.LinAlgError, match="Singular"):
+        kinematics.solve3_batched(A[3], b[3])
+
+
+@pytest.mark.parametrize(("A_shape", "b_shape"), [((3, 2), (3,)), ((4, 3, 3), (4, 2))])
+def test_solve3_batched_refuses_bad_shapes(A_shape, b_shape):
+    with pytest.raises(ValueError, match="must have shape"):
+        kinematics.solve3_batched(np.ones(A_shape), np.ones(b_shape))
+
+
+def test_given_jacobian_gives_the_same_derivatives(robot):
+    alpha, alpha_dot = sample_states(robot, 50, seed=5)
+    p = robot.params
+    J = kinematics.jacobian(p, alpha)
+    np.testing.assert_array_equal(
+        kinematics.jacobian_derivative_times_velocity(p, alpha, alpha_dot, J=J),
+        kinematics.jacobian_derivative_times_velocity(p, alpha, alpha_dot),
+    )
+    np.testing.assert_array_equal(
+        kinematics.jacobian_derivative(p, alpha, alpha_dot, J=J),
+        kinematics.jacobian_derivative(p, alpha, alpha_dot),
+    )
