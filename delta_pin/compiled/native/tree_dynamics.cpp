@@ -21,8 +21,9 @@
 // `dpn_active_dynamics` is the same plant in active coordinates (PinocchioPlant with
 // coordinates="active"): q(alpha) completed by Newton on the passive coordinates from a
 // first-order predictor off the previous completion, v = S alpha_dot with S = dq/dalpha from the
-// closure Jacobian, then alpha_ddot from constraintDynamics -- the loops closed to the tolerance at
-// every evaluation, for implicit integrators on the small state [alpha, alpha_dot].
+// closure Jacobian, then alpha_ddot from the recursive algorithms of dpn_dynamics_axis -- the loops
+// closed to the tolerance at every evaluation, for implicit integrators on the small state
+// [alpha, alpha_dot].
 
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
 #include <pinocchio/algorithm/jacobian.hpp>
@@ -65,8 +66,9 @@ namespace
     Eigen::MatrixXd last_S, jacobian, joint_jacobian, passive_jacobian, active_jacobian, passive_rates;
     Eigen::VectorXd residual, correction;
     Eigen::PartialPivLU<Eigen::MatrixXd> lu;
-    // the same tree in delta-pin's own recursive algorithms (dpn_dynamics_axis)
+    // the same tree in delta-pin's own recursive algorithms (dpn_dynamics_axis), and its ddq
     std::unique_ptr<dpn::AxisTree> axis;
+    Eigen::VectorXd ddq;
   };
 
   // A placement from 12 numbers: the rotation row by row, then the translation.
@@ -330,7 +332,7 @@ int dpn_set_active(
 // torques `torque` (3: tau - F - M_f), platform mass and rotational inertia as dpn_dynamics; the
 // platform position xyz (3) [m] and the closure gap [m] of the completed configuration go to
 // `xyz` and `gap`. Returns 0; 2 where the loops do not close (Newton fails); 1 where Pinocchio
-// throws.
+// throws or M or the Delassus matrix is not positive definite.
 int dpn_active_dynamics(
   void * handle, const double * alpha, const double * alpha_dot, const double * torque, double mass,
   const double * rotational, double * alpha_ddot, double * xyz, double * gap)
@@ -383,10 +385,16 @@ int dpn_active_dynamics(
     tree->tau.setZero();
     for (int i = 0; i < 3; ++i)
       tree->tau[tree->active[i]] = torque[i];
-    const Eigen::VectorXd & ddq = solve_tree(tree, mass, rotational);
+    // ddq by delta-pin's recursive algorithms (dpn_dynamics_axis): at a closed configuration
+    // with v = S alpha_dot the Baumgarte terms vanish, and this is constraintDynamics' ddq to
+    // rounding at a quarter of its cost
+    tree->ddq.resize(tree->model.nv);
+    if (!tree->axis->dynamics(
+          tree->q.data(), tree->v.data(), tree->tau.data(), mass, rotational, tree->ddq.data()))
+      return 1;
     for (int i = 0; i < 3; ++i)
     {
-      alpha_ddot[i] = ddq[tree->active[i]];
+      alpha_ddot[i] = tree->ddq[tree->active[i]];
       xyz[i] = tree->q[tree->platform[i]];
     }
     return 0;
