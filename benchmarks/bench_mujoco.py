@@ -106,6 +106,49 @@ def constraint_dynamics_function(plant: PinocchioPlant):
     return derivative
 
 
+def native_stage_calls(plant: PinocchioPlant, x0: np.ndarray, calls: int, repeats: int) -> list[Timing]:
+    """Seconds per evaluation of each native stage called from compiled code (numba, as the
+    compiled loops call it), ``calls`` evaluations per repeat at x0 with a small velocity that
+    changes each call; empty where the native library is unavailable."""
+    from delta_pin.compiled import native
+    from delta_pin.compiled.jit import njit
+    from delta_pin.compiled.native.calls import call_tree_dynamics
+
+    if native.load() is None:
+        return []
+
+    @njit
+    def evaluations(address, handle, q, v, tau, mass, rotational, ddq, n):
+        failed = 0
+        for i in range(n):
+            v[0] = 1e-3 * (i % 1000)
+            failed += call_tree_dynamics(address, handle, q, v, tau, mass, rotational, ddq)
+        return failed
+
+    tree = plant.native_tree()
+    nq = plant.nq
+    q, v = x0[:nq].copy(), x0[nq:].copy()
+    tau, ddq = np.zeros(nq), np.empty(nq)
+    mass = plant.nominal_platform_mass
+    rotational = np.ascontiguousarray(plant.rotational_inertia(mass))
+    rows = []
+    for stage, address in (
+        ("constraint_dynamics", tree.address_dynamics),
+        ("axis_tree", tree.address_dynamics_axis),
+    ):
+
+        def run(address=address):
+            assert evaluations(address, tree.handle, q, v, tau, mass, rotational, ddq, calls) == 0
+
+        rows.append(
+            Timing(
+                f"native stage {stage}, from compiled code (one evaluation)",
+                per_call(run, 1, repeats, per=calls),
+            )
+        )
+    return rows
+
+
 def sanity_checks(robot: dp.Delta, sim: MujocoDelta, plant: PinocchioPlant) -> list[str]:
     """Physical checks of the MJCF against the Pinocchio model; returns printable lines."""
     params = robot.params
@@ -304,8 +347,11 @@ def main() -> int:
             per_call(lambda: plant.derivative(0.0, x0, tau), args.calls, args.repeats),
         ),
     ]
+    calls += native_stage_calls(plant, x0, args.calls, args.repeats)
     print_table("one call", calls, reference=calls[0])
     report_target("pin.constraintDynamics per call (reference, about 10 us)", calls[1].median, None)
+    for timing in calls[3:]:
+        report_target(timing.name, timing.median, None)
     report_target(f"MuJoCo {args.t_end:g} s RK4 1 ms (reference, 0.5-0.8 s for 15 s)", runs[0].median, None)
     return 0
 
