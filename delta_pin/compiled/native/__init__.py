@@ -282,7 +282,7 @@ class TreeDynamics:
             :mod:`delta_pin.compiled.native.calls`); ``address_dynamics_axis``: that of
             ``dpn_dynamics_axis``, the same accelerations from delta-pin's own recursive
             algorithms for trees of axis joints (``axis_tree.hpp``: equal to
-            ``constraintDynamics``' up to rounding, about four times cheaper).
+            ``constraintDynamics``' up to rounding, 2.5-3 times cheaper).
     """
 
     def __init__(self, library, model, constraint_models, baumgarte, platform_joint: int) -> None:

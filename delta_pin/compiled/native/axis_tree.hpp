@@ -24,7 +24,8 @@
 // Only the kinematic tree's own numbers are read (placements, inertias, gravity, closures), the
 // same that build the Pinocchio model. It agrees with pinocchio::constraintDynamics to ~1e-13
 // relative (tests/sim/test_native.py), not bit for bit: the order of the floating-point operations
-// differs. It costs ~1.3 us a call on the Delta's 12-joint tree, against ~5.5 us.
+// differs. It costs ~1.9 us a call on the Delta's 12-joint tree, against ~5.2 us
+// (benchmarks/bench_mujoco.py).
 //
 // Spatial vectors are in world coordinates at the world origin: a motion (linear, angular) =
 // (velocity of the body point at the origin, angular velocity); a force (linear, angular) =
@@ -35,6 +36,7 @@
 #define DELTA_PIN_AXIS_TREE_HPP
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <stdexcept>
@@ -106,10 +108,12 @@ namespace dpn
     bool revolute;
     int axis;  // 0, 1, 2: x, y, z of the joint frame
     Mat3 placement_rotation;  // the joint frame in its parent's, at q = 0
+    bool placement_turns;  // placement_rotation is not the identity
     Vec3 placement_translation;
     double mass;  // the body on the joint, in the joint frame
     Vec3 com;
     Mat3 com_inertia;  // about the COM
+    bool massless;  // mass and inertia zero
   };
 
   struct PointClosure
@@ -117,6 +121,9 @@ namespace dpn
     int joints[2];  // -1 for the world
     Mat3 rotations[2];  // the anchors' frames in their joints' frames
     Vec3 translations[2];
+    // the joints that move an anchor (the two joints and their ancestors), in decreasing order:
+    // the only nonzero columns of the closure's Jacobian rows, and of their L^-T images
+    std::vector<int> support;
   };
 
   class AxisTree
@@ -145,13 +152,19 @@ namespace dpn
         joint.revolute = types[i] < 3;
         joint.axis = types[i] % 3;
         joint.placement_rotation = rowMajor(placements + 12 * i);
+        joint.placement_turns = !joint.placement_rotation.isIdentity(0.0);
         joint.placement_translation = Eigen::Map<const Vec3>(placements + 12 * i + 9);
         const double * inertia = inertias + 13 * i;
         joint.mass = inertia[0];
         joint.com = Eigen::Map<const Vec3>(inertia + 1);
         joint.com_inertia = rowMajor(inertia + 4);
+        joint.massless = joint.mass == 0.0 && joint.com_inertia.isZero(0.0);
         joints_.push_back(joint);
       }
+      for (int j = joints - 1; j >= 0; --j)
+        all_joints_.push_back(j);
+      for (const AxisJoint & joint : joints_)
+        parent_.push_back(joint.parent);
       for (int c = 0; c < closures; ++c)
       {
         PointClosure closure;
@@ -161,8 +174,25 @@ namespace dpn
           closure.rotations[side] = rowMajor(anchors + 24 * c + 12 * side);
           closure.translations[side] = Eigen::Map<const Vec3>(anchors + 24 * c + 12 * side + 9);
         }
+        std::vector<bool> moves((size_t)joints, false);
+        for (int side = 0; side < 2; ++side)
+          for (int j = closure.joints[side]; j >= 0; j = parent_[(size_t)j])
+            moves[(size_t)j] = true;
+        for (int j = joints - 1; j >= 0; --j)
+          if (moves[(size_t)j])
+            closure.support.push_back(j);
         closures_.push_back(closure);
       }
+      for (int a = 0; a < closures; ++a)  // the joints two closures share, for J M^-1 J^T
+        for (int b = 0; b <= a; ++b)
+        {
+          std::vector<int> shared;
+          for (int j : closures_[(size_t)a].support)
+            for (int k : closures_[(size_t)b].support)
+              if (j == k)
+                shared.push_back(j);
+          shared_.push_back(shared);
+        }
       const int n = joints, rows = 3 * closures;
       rotation_.resize(n);
       position_.resize(n);
@@ -173,6 +203,7 @@ namespace dpn
       composite_.resize(n);
       mass_matrix_ = Eigen::MatrixXd::Zero(n, n);
       nle_.resize(n);
+      inverse_root_d_.resize(n);
       jacobian_ = Eigen::MatrixXd::Zero(rows, n);
       rhs_.resize(rows);
       scaled_ = Eigen::MatrixXd::Zero(n, rows);
@@ -195,8 +226,10 @@ namespace dpn
     {
       if (platform_ >= 0)
       {
-        joints_[(size_t)platform_].mass = mass;
-        joints_[(size_t)platform_].com_inertia = rowMajor(rotational);
+        AxisJoint & platform = joints_[(size_t)platform_];
+        platform.mass = mass;
+        platform.com_inertia = rowMajor(rotational);
+        platform.massless = mass == 0.0 && platform.com_inertia.isZero(0.0);
       }
       forwardPass(q, v);
       backwardPass();
@@ -212,18 +245,6 @@ namespace dpn
       return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(numbers);
     }
 
-    static Mat3 axisRotation(int axis, double angle)
-    {
-      const double c = std::cos(angle), s = std::sin(angle);
-      Mat3 r = Mat3::Identity();
-      const int a = (axis + 1) % 3, b = (axis + 2) % 3;  // the plane the rotation turns
-      r(a, a) = c;
-      r(a, b) = -s;
-      r(b, a) = s;
-      r(b, b) = c;
-      return r;
-    }
-
     // Step 1: placements, axes, velocities, bias accelerations, RNEA body forces, body inertias.
     void forwardPass(const double * q, const double * v)
     {
@@ -234,13 +255,18 @@ namespace dpn
         const int p = joint.parent;
         const Mat3 parent_rotation = p < 0 ? Mat3::Identity() : rotation_[(size_t)p];
         const Vec3 parent_position = p < 0 ? Vec3::Zero() : position_[(size_t)p];
-        const Mat3 frame = parent_rotation * joint.placement_rotation;  // the joint frame at q = 0
+        // the joint frame at q = 0
+        const Mat3 frame = joint.placement_turns ? Mat3(parent_rotation * joint.placement_rotation) : parent_rotation;
         Vec3 position = parent_position + parent_rotation * joint.placement_translation;
         const Vec3 axis = frame.col(joint.axis);
         Spatial & s = axis_[i];
         if (joint.revolute)
         {
-          rotation_[i] = frame * axisRotation(joint.axis, q[i]);
+          rotation_[i] = frame;  // times the rotation about `axis`: it turns the other two columns
+          const double c = std::cos(q[i]), sn = std::sin(q[i]);
+          const int a = (joint.axis + 1) % 3, b = (joint.axis + 2) % 3;
+          rotation_[i].col(a) = c * frame.col(a) + sn * frame.col(b);
+          rotation_[i].col(b) = c * frame.col(b) - sn * frame.col(a);
           s.linear = position.cross(axis);  // the velocity at the origin of a turn about the axis
           s.angular = axis;
         }
@@ -264,6 +290,12 @@ namespace dpn
         bias_[i].angular = parent_bias.angular + coriolis.angular;
         // the body's inertia about the origin: I_O = R I_c R^T + m (|c|^2 1 - c c^T), c in world
         Inertia & body = composite_[i];
+        if (joint.massless)  // a body without mass or inertia (a cross, a slide): no force
+        {
+          body = Inertia();
+          force_[i] = Spatial();
+          continue;
+        }
         const Vec3 com = position + rotation_[i] * joint.com;
         body.mass = joint.mass;
         body.first_moment = joint.mass * com;
@@ -284,12 +316,12 @@ namespace dpn
     {
       for (int i = (int)joints_.size() - 1; i >= 0; --i)
       {
-        const int p = joints_[(size_t)i].parent;
+        const int p = parent_[(size_t)i];
         const Spatial & s = axis_[(size_t)i];
         nle_[i] = dot(s, force_[(size_t)i]);
         const Spatial f = composite_[(size_t)i].times(s);  // the subtree's momentum per unit rate
         mass_matrix_(i, i) = dot(s, f);
-        for (int j = p; j >= 0; j = joints_[(size_t)j].parent)
+        for (int j = p; j >= 0; j = parent_[(size_t)j])
           mass_matrix_(i, j) = mass_matrix_(j, i) = dot(axis_[(size_t)j], f);
         if (p >= 0)
         {
@@ -301,7 +333,7 @@ namespace dpn
     }
 
     // Step 3: M = L^T D L in place (RBDA Table 6.3): D on the diagonal, L below it, on the
-    // ancestors' entries only.
+    // ancestors' entries only; and D^-1/2.
     bool factorise()
     {
       Eigen::MatrixXd & m = mass_matrix_;
@@ -309,25 +341,27 @@ namespace dpn
       {
         if (!(m(k, k) > 0.0))
           return false;
-        for (int i = joints_[(size_t)k].parent; i >= 0; i = joints_[(size_t)i].parent)
+        for (int i = parent_[(size_t)k]; i >= 0; i = parent_[(size_t)i])
         {
           const double a = m(k, i) / m(k, k);
-          for (int j = i; j >= 0; j = joints_[(size_t)j].parent)
+          for (int j = i; j >= 0; j = parent_[(size_t)j])
             m(i, j) -= a * m(k, j);
           m(k, i) = a;
         }
+        inverse_root_d_[k] = 1.0 / std::sqrt(m(k, k));
       }
       return true;
     }
 
-    // x <- D^-1/2 L^-T x (RBDA Table 6.4's first half, then the scaling).
-    void halfSolve(double * x, Eigen::Index stride) const
+    // x <- D^-1/2 L^-T x (RBDA Table 6.4's first half, then the scaling), for x nonzero only on
+    // `support` (joints in decreasing order, closed under ancestors; the image stays on it).
+    void halfSolve(double * x, const std::vector<int> & support) const
     {
-      for (int k = (int)joints_.size() - 1; k >= 0; --k)
-        for (int i = joints_[(size_t)k].parent; i >= 0; i = joints_[(size_t)i].parent)
-          x[i * stride] -= mass_matrix_(k, i) * x[k * stride];
-      for (Eigen::Index k = 0; k < (Eigen::Index)joints_.size(); ++k)
-        x[k * stride] /= std::sqrt(mass_matrix_(k, k));
+      for (int k : support)
+        for (int i = parent_[(size_t)k]; i >= 0; i = parent_[(size_t)i])
+          x[i] -= mass_matrix_(k, i) * x[k];
+      for (int k : support)
+        x[k] *= inverse_root_d_[k];
     }
 
     // The velocity of a point of joint j's body at `point` [m], and its classical acceleration
@@ -371,7 +405,7 @@ namespace dpn
         for (int side = 0; side < 2; ++side)
         {
           const double sign = side == 0 ? 1.0 : -1.0;
-          for (int j = closure.joints[side]; j >= 0; j = joints_[(size_t)j].parent)
+          for (int j = closure.joints[side]; j >= 0; j = parent_[(size_t)j])
           {
             const Spatial & s = axis_[(size_t)j];
             jacobian_.block<3, 1>(row, j) += sign * (frame.transpose() * (s.linear + s.angular.cross(points[side])));
@@ -389,17 +423,29 @@ namespace dpn
       const Eigen::Index n = (Eigen::Index)joints_.size(), rows = rhs_.size();
       for (Eigen::Index i = 0; i < n; ++i)
         free_[i] = tau[i] - nle_[i];
-      halfSolve(free_.data(), 1);  // u
+      halfSolve(free_.data(), all_joints_);  // u
       scaled_ = jacobian_.transpose();
       for (Eigen::Index r = 0; r < rows; ++r)
-        halfSolve(scaled_.col(r).data(), 1);  // V
+        halfSolve(scaled_.col(r).data(), closures_[(size_t)(r / 3)].support);  // V
+      // V^T u and V^T V, each column of V on its closure's support
       for (Eigen::Index i = 0; i < rows; ++i)
       {
-        multipliers_[i] = rhs_[i] - scaled_.col(i).dot(free_);
+        const double * vi = scaled_.col(i).data();
+        double product = 0.0;
+        for (int k : closures_[(size_t)(i / 3)].support)
+          product += vi[k] * free_[k];
+        multipliers_[i] = rhs_[i] - product;
         for (Eigen::Index j = 0; j <= i; ++j)
-          delassus_(i, j) = scaled_.col(i).dot(scaled_.col(j));
+        {
+          const double * vj = scaled_.col(j).data();
+          const size_t a = (size_t)(i / 3), b = (size_t)(j / 3);
+          double entry = 0.0;
+          for (int k : shared_[a * (a + 1) / 2 + b])
+            entry += vi[k] * vj[k];
+          delassus_(i, j) = entry;
+        }
       }
-      // Cholesky of the Delassus matrix (lower triangle), then lambda
+      // Cholesky of the Delassus matrix (lower triangle; the diagonal keeps 1 / L_jj), then lambda
       for (Eigen::Index j = 0; j < rows; ++j)
       {
         double diagonal = delassus_(j, j);
@@ -407,14 +453,14 @@ namespace dpn
           diagonal -= delassus_(j, m) * delassus_(j, m);
         if (!(diagonal > 0.0))
           return false;
-        diagonal = std::sqrt(diagonal);
-        delassus_(j, j) = diagonal;
+        const double inverse = 1.0 / std::sqrt(diagonal);
+        delassus_(j, j) = inverse;
         for (Eigen::Index i = j + 1; i < rows; ++i)
         {
           double value = delassus_(i, j);
           for (Eigen::Index m = 0; m < j; ++m)
             value -= delassus_(i, m) * delassus_(j, m);
-          delassus_(i, j) = value / diagonal;
+          delassus_(i, j) = value * inverse;
         }
       }
       for (Eigen::Index i = 0; i < rows; ++i)
@@ -422,23 +468,28 @@ namespace dpn
         double value = multipliers_[i];
         for (Eigen::Index m = 0; m < i; ++m)
           value -= delassus_(i, m) * multipliers_[m];
-        multipliers_[i] = value / delassus_(i, i);
+        multipliers_[i] = value * delassus_(i, i);
       }
       for (Eigen::Index i = rows - 1; i >= 0; --i)
       {
         double value = multipliers_[i];
         for (Eigen::Index m = i + 1; m < rows; ++m)
           value -= delassus_(m, i) * multipliers_[m];
-        multipliers_[i] = value / delassus_(i, i);
+        multipliers_[i] = value * delassus_(i, i);
       }
       // ddq = L^-1 D^-1/2 (u + V lambda)
-      free_.noalias() += scaled_ * multipliers_;
+      for (Eigen::Index r = 0; r < rows; ++r)
+      {
+        const double * vr = scaled_.col(r).data();
+        for (int k : closures_[(size_t)(r / 3)].support)
+          free_[k] += vr[k] * multipliers_[r];
+      }
       for (Eigen::Index k = 0; k < n; ++k)
-        free_[k] /= std::sqrt(mass_matrix_(k, k));
+        free_[k] *= inverse_root_d_[k];
       for (Eigen::Index k = 0; k < n; ++k)
       {
         double value = free_[k];
-        for (int i = joints_[(size_t)k].parent; i >= 0; i = joints_[(size_t)i].parent)
+        for (int i = parent_[(size_t)k]; i >= 0; i = parent_[(size_t)i])
           value -= mass_matrix_(k, i) * free_[i];
         free_[k] = value;
         ddq[k] = value;
@@ -448,6 +499,9 @@ namespace dpn
 
     std::vector<AxisJoint> joints_;
     std::vector<PointClosure> closures_;
+    std::vector<int> parent_;  // joints_[j].parent, packed: the hot loops walk ancestors through it
+    std::vector<int> all_joints_;  // n - 1, ..., 0
+    std::vector<std::vector<int>> shared_;  // the joints closures a >= b share, at a (a + 1) / 2 + b
     Vec3 gravity_;
     double kp_, kd_;
     int platform_;  // the 0-based joint whose body the payload changes, -1 for none
@@ -457,7 +511,7 @@ namespace dpn
     std::vector<Spatial> axis_, velocity_, bias_, force_;
     std::vector<Inertia> composite_;
     Eigen::MatrixXd mass_matrix_, jacobian_, scaled_, delassus_;
-    Eigen::VectorXd nle_, rhs_, free_, multipliers_;
+    Eigen::VectorXd nle_, inverse_root_d_, rhs_, free_, multipliers_;
   };
 } // namespace dpn
 
