@@ -24,15 +24,16 @@ max |r| over the last 5 s and the RMS torque increment ||tau_k - tau_{k-1}|| the
 ==========================  ======================  ======================
 exact state, no delay       5.0e-4 rad, 0.017 N m   7.7e-4 rad, 0.015 N m
 17-bit encoder, no delay    4.3e-4 rad, 1.15 N m    6.2e-4 rad, 1.59 N m
-17-bit encoder, delay 1     8.6e-4 rad, 23.1 N m    1.1e-3 rad, 1.54 N m
+17-bit encoder, delay 1     8.6e-4 rad, 23-38 N m   1.1e-3 rad, 1.54 N m
 ==========================  ======================  ======================
 
 The textbook pairing tracks best but, with one sample of delay, its estimate lags the torque by a
-sample and the torque alternates from sample to sample (23 N m RMS increments); the mean pairing
-stays smooth. Either way the estimate is only as good as the second difference of the measured
-angles: quantisation enters it amplified by 4/T^2, hence the ~1 N m increments with 17-bit
-encoders (docs/architecture.md section 6). M̄ is the nominal model's inertia at the measured
-angles. Before three past samples exist, N̂ is the nominal model's C̄ alpha_dot + Ḡ + F̄.
+sample and the torque alternates from sample to sample (its RMS increment is not stable to rounding:
+23 and 38 N m on the analytic plant, 45-49 N m on the Pinocchio plant, in the realisations
+measured); the mean pairing stays smooth. Either way the estimate is only as good as the second
+difference of the measured angles: quantisation enters it amplified by 4/T^2, hence the ~1 N m
+increments with 17-bit encoders (docs/architecture.md section 6). M̄ is the nominal model's
+inertia at the measured angles. Before three past samples exist, N̂ is the nominal model's C̄ alpha_dot + Ḡ + F̄.
 
 The law's state is discrete (updated once per sample): [alpha_{k-1}, alpha_{k-2}, the last d + 2
 commands, samples seen].

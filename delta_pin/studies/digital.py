@@ -48,7 +48,7 @@ MAIN_GAINS = {
 }
 # fixed options of a design in this study: TDC pairs the second difference with the mean of the two
 # torques that acted over it, the form for a drive with a delay (the textbook pairing alternates by
-# 23 N m per sample at 1 kHz and by 2e4 N m at 10 kHz, where the tree then needs a projection at
+# 45-49 N m RMS per sample at 1 kHz and by 2e4 N m at 10 kHz, where the tree then needs a projection at
 # every step: docs/architecture.md section 6)
 FIXED_GAINS = {"tdc": {"pairing": "mean"}}
 ENCODER_BITS = 17
