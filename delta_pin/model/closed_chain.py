@@ -26,6 +26,23 @@ Delta, docs/architecture.md section 5):
 with v = S alpha_dot. C so built keeps M_dot - 2 C skew-symmetric (the property designs I/II
 rely on). Redundant closure equations (a planar loop closed by a point or a weld) are allowed:
 J_p^+ is the least-squares solve of a consistent system.
+
+Mobility. The mechanism's degrees of freedom nv - rank(J_c) are classified at load:
+
+* the actuated joints (alpha) and the *passive* joints the user names (``passive=``: joints no
+  motor drives that the closures leave free, e.g. a gripper's spring links) are the
+  independent coordinates; the rest (J_p's columns, ``dependent_indices``) follow from them;
+* *idle* motions are what is left: velocities the closures allow that move no independent joint
+  and not the end effector's origin (a rod spinning between two ball joints, two coaxial
+  revolutes welded together), ``idle_dof`` of them, the null space N of J_p. A motion that
+  moves no independent joint but does move the end effector is a missing actuator (an error).
+
+With idle motions S is not unique; the reduced model takes the map of least kinetic energy,
+S = P S0 with S0 = [I; -J_p^+ J_a] and P = I - N (N^T M N)^-1 N^T M, so N^T M S = 0: at zero
+idle momentum the actuated equations M_r alpha_ddot + C alpha_dot + G = tau hold exactly, and
+idle motions that are dynamically decoupled (a symmetric rod's spin) never enter them. The
+plant simulates the idle motions with their inertia in full coordinates; a robot with passive
+joints (underactuated) has no reduced model, and controllers refuse it.
 """
 
 from __future__ import annotations
@@ -79,6 +96,10 @@ class ClosedChainRobot:
         model: the tree (a ``pin.Model``, gravity included; copied).
         closures: its loop closures.
         actuated: names of the actuated joints, in the order of alpha (1-DOF joints).
+        passive: names of joints that no motor drives and that the closures do not determine
+            (an underactuated mechanism: a spring link of a gripper); they are independent
+            coordinates beside alpha, the plant simulates them (with ``passive_stiffness``) and
+            no controller takes the robot (module docstring, "Mobility").
         name: the robot's name.
         reference_configuration: a configuration q (nq,) near an assembled one; its actuated
             coordinates are the robot's ``home`` and it starts the first assembly (default: the
@@ -103,6 +124,7 @@ class ClosedChainRobot:
         closures: Sequence[Closure],
         actuated: Sequence[str],
         *,
+        passive: Sequence[str] = (),
         name: str = "",
         reference_configuration: np.ndarray | None = None,
         end_effector: str | None = None,
@@ -126,29 +148,35 @@ class ClosedChainRobot:
         self.actuated_joints = tuple(actuated)
         if not self.actuated_joints:
             raise InvalidParameterError(f"{self._label}names no actuated joint")
-        ids = []
-        for joint in self.actuated_joints:
-            if not self.model.existJointName(joint):
-                known = ", ".join(self.model.names[1:])
-                raise InvalidParameterError(
-                    f"{self._label}actuated joint {joint!r} is not in the model (joints: {known})"
-                )
-            jid = self.model.getJointId(joint)
-            if self.model.nqs[jid] != 1 or self.model.nvs[jid] != 1:
-                raise InvalidParameterError(
-                    f"{self._label}actuated joint {joint!r} has {self.model.nvs[jid]} degrees of freedom; "
-                    "an actuator "
-                    "drives one revolute or prismatic joint"
-                )
-            ids.append(jid)
+        ids = [self._joint_id(joint, "actuated") for joint in self.actuated_joints]
         if len(set(ids)) != len(ids):
             raise InvalidParameterError(
                 f"{self._label}an actuated joint is named twice: {list(self.actuated_joints)}"
             )
+        self.passive_joints = tuple(passive)
+        for joint in self.passive_joints:
+            if joint in self.actuated_joints:
+                raise InvalidParameterError(
+                    f"{self._label}joint {joint!r} is named both actuated and passive: a joint is driven by "
+                    "a motor (actuated) or by nothing (passive), not both"
+                )
+        passive_ids = [self._joint_id(joint, "passive") for joint in self.passive_joints]
+        if len(set(passive_ids)) != len(passive_ids):
+            raise InvalidParameterError(f"{self._label}a passive joint is named twice: {list(passive)}")
         self.dof = len(ids)
         self.actuated_indices = np.array([self.model.idx_vs[j] for j in ids])  # in v
         self.actuated_q_indices = np.array([self.model.idx_qs[j] for j in ids])  # in q
-        self.passive_indices = np.setdiff1d(np.arange(self.model.nv), self.actuated_indices)
+        self.passive_joint_indices = np.array([self.model.idx_vs[j] for j in passive_ids], dtype=int)
+        self.passive_joint_q_indices = np.array([self.model.idx_qs[j] for j in passive_ids], dtype=int)
+        # the independent coordinates (actuated, then the named passive joints) and the ones the
+        # closures determine (up to idle motions); passive_indices is the older name of the latter
+        self.independent_indices = np.concatenate([self.actuated_indices, self.passive_joint_indices])
+        self.dependent_indices = np.setdiff1d(np.arange(self.model.nv), self.independent_indices)
+        self.passive_indices = self.dependent_indices
+        self.idle_dof = None  # set by the mobility classification below
+        # joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m], damping
+        # [N m s/rad or N s/m]): the plant applies -k (q - q_ref) - d v there (MJCF stiffness/damping)
+        self.joint_springs: dict[str, tuple[float, float, float]] = {}
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
         self._frames = []  # (frame id 1, frame id 2, kind) per closure
@@ -158,7 +186,7 @@ class ClosedChainRobot:
                 ("1", closure.joint1, closure.placement1),
                 ("2", closure.joint2, closure.placement2),
             ):
-                if not 0 < joint < self.model.njoints:
+                if not 0 <= joint < self.model.njoints:
                     raise InvalidParameterError(
                         f"closure {closure.name!r}{closure.where}: joint id {joint} is not in the model"
                     )
@@ -181,18 +209,19 @@ class ClosedChainRobot:
             )
         self.home = q0[self.actuated_q_indices].copy()
         self._last_q = q0.copy()
+        self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
         try:
             self.reference_configuration = self.configuration(self.home, initial_guess=q0)
         except AssemblyError:
             # a wrong actuator count is the likelier cause; the rank at a generic (perturbed)
             # configuration is the mechanism's, whatever singular pose q0 may be in
             generic = pin.integrate(self.model, q0, np.random.default_rng(0).normal(0.0, 0.1, self.model.nv))
-            self._check_mobility(generic, assembled=False)
+            self._classify_mobility(generic, assembled=False)
             raise
-        self._check_mobility(self.reference_configuration)
-        self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
+        self._classify_mobility(self.reference_configuration)
         self._options = {
             "name": name, "source": source, "urdf": urdf, "base_dir": base_dir, "visual_model": visual_model,
+            "passive": self.passive_joints,
         }  # fmt: skip
 
     # ------------------------------------------------------------------------------ naming
@@ -201,6 +230,22 @@ class ClosedChainRobot:
         name = getattr(self, "name", "")
         source = getattr(self, "source", "")
         return f"robot {name!r}{f' ({source})' if source else ''}: " if name or source else ""
+
+    def _joint_id(self, joint: str, role: str) -> int:
+        """Id of a 1-DOF joint named as ``role`` (actuated or passive)."""
+        if not isinstance(joint, str) or not self.model.existJointName(joint):
+            known = ", ".join(self.model.names[1:])
+            raise InvalidParameterError(
+                f"{self._label}{role} joint {joint!r} is not in the model (joints: {known})"
+            )
+        jid = self.model.getJointId(joint)
+        if self.model.nqs[jid] != 1 or self.model.nvs[jid] != 1:
+            what = "an actuator drives" if role == "actuated" else "a passive joint is"
+            raise InvalidParameterError(
+                f"{self._label}{role} joint {joint!r} has {self.model.nvs[jid]} degrees of freedom; "
+                f"{what} one revolute or prismatic joint"
+            )
+        return jid
 
     def frame_id(self, frame: str) -> int:
         """Id of a named frame (a link, joint, site or closure frame).
@@ -238,8 +283,20 @@ class ClosedChainRobot:
         return name
 
     def set_end_effector(self, frame: str) -> None:
-        """Make ``frame`` the one :meth:`forward_kinematics` and the runs report."""
-        self.end_effector = self.frame_id(frame)
+        """Make ``frame`` the one :meth:`forward_kinematics` and the runs report.
+
+        Raises:
+            InvalidParameterError: an idle motion moves the frame's origin (the actuated joints
+                would not determine where it is).
+        """
+        previous, self.end_effector = self.end_effector, self.frame_id(frame)
+        if self.idle_dof and self._idle_motions_moving_end_effector(self.reference_configuration):
+            self.end_effector = previous
+            idle_joints = sorted({j for motion in self.classification()["idle"] for j in motion})
+            raise InvalidParameterError(
+                f"{self._label}frame {frame!r} moves with the idle motions ({', '.join(idle_joints)}), so "
+                "the actuated joints do not determine where it is: choose a frame the motors place"
+            )
 
     @property
     def params(self):
@@ -250,6 +307,12 @@ class ClosedChainRobot:
     def closure_frames(self) -> list[tuple[int, int, int]]:
         """(frame id 1, frame id 2, equations) of each closure, in order."""
         return list(self._frames)
+
+    @property
+    def has_unactuated_motion(self) -> bool:
+        """Whether the mechanism moves more than the actuated joints carry (idle motions or
+        passive joints): then a plant's state must be the full (q, v), not (alpha, alpha_dot)."""
+        return bool(self.idle_dof or self.passive_joints)
 
     @property
     def end_effector_name(self) -> str:
@@ -345,13 +408,14 @@ class ClosedChainRobot:
             if np.abs(residual).max() <= tol:
                 self._last_q = q.copy()
                 return q
-            J = self.closure_jacobian(q, kinematics_done=True)[:, self.passive_indices]
-            step = least_squares(J, residual)
+            J = self.closure_jacobian(q, kinematics_done=True)[:, self.dependent_indices]
+            # with idle motions J has a null space: the minimum-norm step leaves them where they are
+            step = least_squares(J, residual) if self.idle_dof == 0 else self._pseudo_inverse(J)[0] @ residual
             largest = np.abs(step).max()
             if largest > 0.5:
                 step *= 0.5 / largest
             dv = np.zeros(model.nv)
-            dv[self.passive_indices] = -step
+            dv[self.dependent_indices] = -step
             q = pin.integrate(model, q, dv)
             if not np.isfinite(q).all():
                 break
@@ -373,33 +437,137 @@ class ClosedChainRobot:
             start += closure.size
         return f"{worst.name!r}{worst.where}"
 
-    def _check_mobility(self, q: np.ndarray, assembled: bool = True) -> None:
+    # ------------------------------------------------------------------------------ mobility
+    def _classify_mobility(self, q: np.ndarray, assembled: bool = True) -> None:
+        """Split the mechanism's mobility nv - rank(J_c) into the actuated joints, the named
+        passive joints and the idle motions (module docstring, "Mobility"); sets ``idle_dof``.
+
+        Raises:
+            AssemblyError: the actuated and passive joints are not independent (a redundant or
+                singular actuation), or motions that move none of them move the end effector
+                (a missing actuator), each named.
+        """
         J = self.closure_jacobian(q)
         rank = _rank(J)
         mobility = self.model.nv - rank
-        if mobility != self.dof:
+        named = len(self.independent_indices)
+        counts = (
+            f"{self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
+            f"actuator(s) ({', '.join(self.actuated_joints)})"
+            + (f" and {len(self.passive_joints)} passive joint(s)" if self.passive_joints else "")
+        )
+        where = f"at its reference configuration{'' if assembled else ' (a generic pose near it)'}"
+        if not assembled:
+            if mobility < named:
+                raise AssemblyError(
+                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}): "
+                    "name one actuator per degree of freedom"
+                )
+            return
+        dependent = J[:, self.dependent_indices]
+        dependent_rank = _rank(dependent)
+        if dependent_rank != rank or mobility < named:
             raise AssemblyError(
-                f"{self._label}the mechanism has {mobility} degree(s) of freedom at its reference "
-                f"configuration{'' if assembled else ' (a generic pose near it)'} "
-                f"({self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
-                f"actuator(s) ({', '.join(self.actuated_joints)}): name one actuator per degree of freedom"
+                f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}): the "
+                "actuated joints do not move independently (a singular or redundant actuation); drop an "
+                "actuator or start from another configuration"
             )
-        if assembled and _rank(J[:, self.passive_indices]) != len(self.passive_indices):
-            raise AssemblyError(
-                f"{self._label}the actuated joints ({', '.join(self.actuated_joints)}) do not determine "
-                "the passive "
-                "joints at the reference configuration (a singular or redundant actuation)"
-            )
+        self.idle_dof = len(self.dependent_indices) - dependent_rank
+        if self.idle_dof:
+            moving = self._idle_motions_moving_end_effector(q)
+            if moving:
+                raise AssemblyError(
+                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}); "
+                    f"{len(moving)} of the {self.idle_dof} motion(s) that move none of them move the end "
+                    f"effector {self.end_effector_name!r} (joints {', '.join(moving[0])}): a missing "
+                    "actuator: name one more actuated (actuated=) or passive (passive=) joint per motion, "
+                    "or choose another end effector (end_effector=)"
+                )
 
+    def _idle_motions_moving_end_effector(self, q: np.ndarray) -> list[list[str]]:
+        """The joints of each motion that moves no independent joint but moves the end effector's
+        origin (an empty list where every such motion is idle)."""
+        basis = self.idle_motions(q)
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        J_ee = pin.getFrameJacobian(self.model, self.data, self.end_effector, _WORLD)[:3]
+        scale = max(1.0, float(np.abs(J_ee).max()))
+        moved = J_ee @ basis
+        _, singular, vt = np.linalg.svd(moved)
+        offending = vt[: int((singular > 1e-8 * scale).sum())]
+        return [self._joints_of_motion(basis @ direction) for direction in offending]
+
+    def _joints_of_motion(self, v: np.ndarray) -> list[str]:
+        """Names of the joints a velocity (nv,) moves (components above 1e-6 of the largest)."""
+        largest = np.abs(v).max()
+        return [
+            self.model.names[j]
+            for j in range(1, self.model.njoints)
+            if self.model.nvs[j]
+            and np.abs(v[self.model.idx_vs[j] : self.model.idx_vs[j] + self.model.nvs[j]]).max()
+            > 1e-6 * largest
+        ]
+
+    def _pseudo_inverse(self, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A^+, N): the pseudo-inverse of the dependent columns A of J_c and an orthonormal basis
+        N (columns) of their null space, of dimension ``idle_dof`` (by numeric rank until the
+        classification has set it)."""
+        U, singular, Vt = np.linalg.svd(A, full_matrices=True)
+        if self.idle_dof is None:
+            rank = int((singular > _RANK_TOLERANCE * max(singular[0] if singular.size else 0.0, 1.0)).sum())
+        else:
+            rank = A.shape[1] - self.idle_dof
+        return (Vt[:rank].T / singular[:rank]) @ U[:, :rank].T, Vt[rank:].T
+
+    def idle_motions(self, q: np.ndarray) -> np.ndarray:
+        """The idle motions at q (nv, ``idle_dof``): velocities the closures allow that move no
+        actuated or passive joint, one column each, localised (each column is 1 at a joint of
+        its own and 0 at the others' ones, so independent spins come apart)."""
+        from scipy.linalg import qr
+
+        _, N_dependent = self._pseudo_inverse(self.closure_jacobian(q)[:, self.dependent_indices])
+        basis = np.zeros((self.model.nv, N_dependent.shape[1]))
+        if N_dependent.shape[1]:
+            pivots = qr(N_dependent.T, pivoting=True)[2][: N_dependent.shape[1]]
+            N_dependent = N_dependent @ np.linalg.inv(N_dependent[pivots])
+            basis[self.dependent_indices] = N_dependent
+        return basis
+
+    # ------------------------------------------------------------------------------ velocities
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
-        """S = dq/dalpha (nv, dof): v = S alpha_dot satisfies the closures' velocity constraint."""
-        return self._velocity_map(self.closure_jacobian(q))
+        """S = dq/dalpha (nv, dof): v = S alpha_dot satisfies the closures' velocity constraint
+        (named passive joints at rest; with idle motions, the one of least kinetic energy:
+        module docstring, "Mobility")."""
+        return self._velocity_map(self.closure_jacobian(q), q)[:, : self.dof]
 
-    def _velocity_map(self, J: np.ndarray) -> np.ndarray:
-        S = np.zeros((self.model.nv, self.dof))
-        S[self.actuated_indices] = np.eye(self.dof)
-        S[self.passive_indices] = -least_squares(J[:, self.passive_indices], J[:, self.actuated_indices])
-        return S
+    def _velocity_map(self, J: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """S (nv, independent coordinates) from J_c at q."""
+        count = len(self.independent_indices)
+        S = np.zeros((self.model.nv, count))
+        S[self.independent_indices] = np.eye(count)
+        A, B = J[:, self.dependent_indices], J[:, self.independent_indices]
+        if self.idle_dof == 0:
+            S[self.dependent_indices] = -least_squares(A, B)
+            return S
+        A_pinv, N_dependent = self._pseudo_inverse(A)
+        S[self.dependent_indices] = -A_pinv @ B
+        M = self.mass_matrix(q)
+        N = np.zeros((self.model.nv, self.idle_dof))
+        N[self.dependent_indices] = N_dependent
+        return S - N @ np.linalg.solve(N.T @ M @ N, N.T @ M @ S)
+
+    def project_state(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest closure-consistent (q, v) keeping the actuated and passive joints' values
+        and the idle motions' state: Newton from q over the dependent coordinates (minimum-norm
+        steps), then v's dependent part corrected by the minimum-norm velocity that closes the loops."""
+        q = np.array(q, dtype=float)
+        v = np.array(v, dtype=float)
+        q = self.configuration(q[self.actuated_q_indices], initial_guess=q)
+        J = self.closure_jacobian(q)
+        A = J[:, self.dependent_indices]
+        A_pinv = least_squares if self.idle_dof == 0 else (lambda A, b: self._pseudo_inverse(A)[0] @ b)
+        v[self.dependent_indices] -= A_pinv(A, J @ v)
+        return q, v
 
     def state(self, alpha: np.ndarray, alpha_dot: np.ndarray, **options) -> tuple[np.ndarray, np.ndarray]:
         """Closure-consistent (q, v) for actuated positions and velocities; ``options`` as
@@ -436,7 +604,10 @@ class ClosedChainRobot:
         """Closed-loop Jacobian (6, dof) of a frame: its [linear; angular] velocity
         (LOCAL_WORLD_ALIGNED) per actuated velocity, J_frame S."""
         fid = self._frame(frame)
-        S = self.velocity_map(q)  # leaves the joint Jacobians computed at q
+        S = self.velocity_map(q)
+        if self.idle_dof:  # the kinetic metric's CRBA came after the joint Jacobians
+            pin.computeJointJacobians(self.model, self.data, q)
+            pin.updateFramePlacements(self.model, self.data)
         return pin.getFrameJacobian(self.model, self.data, fid, _WORLD) @ S
 
     def frame_acceleration_drift(
@@ -445,10 +616,17 @@ class ClosedChainRobot:
         """The frame's classical linear acceleration (3,) [m/s^2] at zero actuated acceleration:
         x_ddot = J_x alpha_ddot + this (the J_dot alpha_dot of a task-space reference)."""
         fid = self._frame(frame)
-        J = self.closure_jacobian(q)
-        v = self._velocity_map(J) @ alpha_dot
-        rate = np.zeros(self.model.nv)  # S_dot alpha_dot
-        rate[self.passive_indices] = -least_squares(J[:, self.passive_indices], self.closure_drift(q, v))
+        alpha_dot = self._joint_vector(alpha_dot, "alpha_dot")
+        if self.idle_dof:
+            projection = self._idle_projection(q, alpha_dot)
+            v, rate = projection["v"], projection["S_dot"] @ alpha_dot
+        else:
+            J = self.closure_jacobian(q)
+            v = self._velocity_map(J, q)[:, : self.dof] @ alpha_dot
+            rate = np.zeros(self.model.nv)  # S_dot alpha_dot
+            rate[self.dependent_indices] = -least_squares(
+                J[:, self.dependent_indices], self.closure_drift(q, v)
+            )
         pin.forwardKinematics(self.model, self.data, q, v, rate)
         return pin.getFrameClassicalAcceleration(self.model, self.data, fid, _WORLD).linear.copy()
 
@@ -523,19 +701,32 @@ class ClosedChainRobot:
             q: the closure-consistent configuration of ``alpha`` if already known.
         """
         alpha_dot = self._joint_vector(alpha_dot, "alpha_dot")
+        self._require_full_actuation()
         q = self.configuration(alpha) if q is None else q
+        if self.idle_dof:
+            p = self._idle_projection(q, alpha_dot)
+            S, S_dot, M, C_tree, v = p["S"], p["S_dot"], p["M"], p["C_tree"], p["v"]
+            gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
+            nle = pin.nonLinearEffects(self.model, self.data, q, v)
+            M_red = S.T @ M @ S
+            return (
+                0.5 * (M_red + M_red.T),
+                S.T @ C_tree @ S + S.T @ M @ S_dot,
+                S.T @ gravity,
+                S.T @ (nle - gravity) + S.T @ (M @ (S_dot @ alpha_dot)),
+            )
         pin.framesForwardKinematics(self.model, self.data, q)
         J = self.closure_jacobian(q, kinematics_done=True)
-        S = self._velocity_map(J)
+        S = self._velocity_map(J, q)
         v = S @ alpha_dot
-        passive = J[:, self.passive_indices]
+        passive = J[:, self.dependent_indices]
         S_dot = np.zeros_like(S)
-        S_dot[self.passive_indices] = -least_squares(passive, self.closure_jacobian_derivative(q, v) @ S)
+        S_dot[self.dependent_indices] = -least_squares(passive, self.closure_jacobian_derivative(q, v) @ S)
         M = self.mass_matrix(q)
         gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
         C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
         rate = np.zeros(self.model.nv)  # S_dot alpha_dot, from the drift (exact classical accelerations)
-        rate[self.passive_indices] = -least_squares(passive, self.closure_drift(q, v))
+        rate[self.dependent_indices] = -least_squares(passive, self.closure_drift(q, v))
         nle = pin.nonLinearEffects(self.model, self.data, q, v)
         M_red = S.T @ M @ S
         return (
@@ -544,6 +735,55 @@ class ClosedChainRobot:
             S.T @ gravity,
             S.T @ (nle - gravity) + S.T @ (M @ rate),
         )
+
+    def _require_full_actuation(self) -> None:
+        if self.passive_joints:
+            raise InvalidParameterError(
+                f"{self._label}is underactuated: its passive joint(s) {', '.join(self.passive_joints)} are "
+                "driven by no motor, so the actuated joints do not determine its motion and it has no "
+                "reduced model for a controller; simulate it with a plant and torques of your own, or "
+                "name those joints actuated"
+            )
+
+    def _idle_projection(self, q: np.ndarray, alpha_dot: np.ndarray) -> dict:
+        """S, its time derivative S_dot along v = S alpha_dot, M, C_tree(q, v) and v for a robot
+        with idle motions (module docstring, "Mobility"): S = P S0 with S0 the minimum-norm map,
+        N the idle basis and P = I - N (N^T M N)^-1 N^T M, differentiated in closed form
+        (d(A^+) of the pseudo-inverse, N_dot = -A^+ A_dot N, M_dot = C_tree + C_tree^T)."""
+        nv, dependent, independent = self.model.nv, self.dependent_indices, self.independent_indices
+        J = self.closure_jacobian(q)
+        A, B = J[:, dependent], J[:, independent]
+        A_pinv, N_dependent = self._pseudo_inverse(A)
+        M = self.mass_matrix(q)
+        S0 = np.zeros((nv, len(independent)))
+        S0[independent] = np.eye(len(independent))
+        S0[dependent] = -A_pinv @ B
+        N = np.zeros((nv, self.idle_dof))
+        N[dependent] = N_dependent
+        W = N.T @ M @ N
+        K = np.linalg.solve(W, N.T @ M)
+        P = np.eye(nv) - N @ K
+        S = (P @ S0)[:, : self.dof]
+        v = S @ alpha_dot
+        J_dot = self.closure_jacobian_derivative(q, v)
+        A_dot, B_dot = J_dot[:, dependent], J_dot[:, independent]
+        rows, columns = A.shape
+        pinv_dot = (
+            -A_pinv @ A_dot @ A_pinv
+            + A_pinv @ A_pinv.T @ A_dot.T @ (np.eye(rows) - A @ A_pinv)
+            + (np.eye(columns) - A_pinv @ A) @ A_dot.T @ A_pinv.T @ A_pinv
+        )
+        S0_dot = np.zeros_like(S0)
+        S0_dot[dependent] = -(pinv_dot @ B + A_pinv @ B_dot)
+        N_dot = np.zeros_like(N)
+        N_dot[dependent] = -A_pinv @ A_dot @ N_dependent
+        C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
+        M_dot = C_tree + C_tree.T
+        W_dot = N_dot.T @ M @ N + N.T @ M_dot @ N + N.T @ M @ N_dot
+        K_dot = np.linalg.solve(W, N_dot.T @ M + N.T @ M_dot - W_dot @ K)
+        P_dot = -(N_dot @ K + N @ K_dot)
+        S_dot = (P_dot @ S0 + P @ S0_dot)[:, : self.dof]
+        return {"S": S, "S_dot": S_dot, "M": M, "C_tree": C_tree, "v": v}
 
     def reduced_dynamics(
         self, alpha: np.ndarray, alpha_dot: np.ndarray, q: np.ndarray | None = None
@@ -566,6 +806,7 @@ class ClosedChainRobot:
             tree, self.closures, self.actuated_joints, reference_configuration=self.reference_configuration,
             end_effector=self.model.frames[self.end_effector].name, **self._options,
         )  # fmt: skip
+        robot.joint_springs = dict(self.joint_springs)
         robot.delta = self.delta
         return robot
 
@@ -578,7 +819,52 @@ class ClosedChainRobot:
             "actuated_joints": list(self.actuated_joints),
             "closures": [{"name": c.name, "kind": c.kind} for c in self.closures],
             "end_effector": self.end_effector_name,
+            "passive_joints": list(self.passive_joints),
+            "idle_dof": self.idle_dof,
         }
+
+    def classification(self, q: np.ndarray | None = None) -> dict:
+        """The mobility classification (module docstring, "Mobility") at q (default: the
+        reference configuration): joint counts, closure equations and their rank, the actuated
+        and passive joints, each idle motion's joints, and cond(J_p) (J_p restricted to its rank)."""
+        q = self.reference_configuration if q is None else np.asarray(q, dtype=float)
+        J = self.closure_jacobian(q)
+        singular = np.linalg.svd(J[:, self.dependent_indices], compute_uv=False)
+        rank = len(self.dependent_indices) - self.idle_dof
+        return {
+            "joint_velocities": self.model.nv,
+            "closure_equations": self.closure_size,
+            "independent_closure_equations": _rank(J),
+            "mobility": self.model.nv - _rank(J),
+            "actuated": list(self.actuated_joints),
+            "passive": list(self.passive_joints),
+            "idle": [self._joints_of_motion(column) for column in self.idle_motions(q).T],
+            "fully_actuated": not self.passive_joints,
+            "cond_J_p": float(singular[0] / singular[rank - 1]) if rank else 1.0,
+        }
+
+    def summary(self, q: np.ndarray | None = None) -> str:
+        """A few lines a person reads: the robot, its closures and its mobility classification."""
+        c = self.classification(q)
+        kinds = ", ".join(
+            f"{sum(x.kind == k for x in self.closures)} {'point' if k == '3d' else 'weld'}"
+            for k in ("3d", "6d")
+            if any(x.kind == k for x in self.closures)
+        )
+        idle = "; ".join(" + ".join(joints) for joints in c["idle"]) or "none"
+        lines = [
+            f"robot {self.name!r}{f' ({self.source})' if self.source else ''}",
+            f"  joints: {c['joint_velocities']} velocities; closures: {kinds} "
+            f"({c['closure_equations']} equations, {c['independent_closure_equations']} independent)",
+            f"  mobility: {c['mobility']} = {self.dof} actuated + {len(self.passive_joints)} passive + "
+            f"{self.idle_dof} idle",
+            f"  actuated: {', '.join(self.actuated_joints)}",
+            f"  passive: {', '.join(self.passive_joints) or 'none'}"
+            + ("" if c["fully_actuated"] else " (underactuated: no controller takes it)"),
+            f"  idle motions: {idle}",
+            f"  end effector: {self.end_effector_name}; cond(J_p) = {c['cond_J_p']:.3g} here",
+        ]
+        return "\n".join(lines)
 
     def __repr__(self) -> str:
         kinds = ", ".join(
@@ -586,7 +872,10 @@ class ClosedChainRobot:
             for k in ("3d", "6d")
             if any(c.kind == k for c in self.closures)
         )
+        extra = (f", {len(self.passive_joints)} passive" if self.passive_joints else "") + (
+            f", {self.idle_dof} idle" if self.idle_dof else ""
+        )
         return (
             f"ClosedChainRobot({self.name!r}: {self.model.nv} joints, {self.dof} actuated "
-            f"[{', '.join(self.actuated_joints)}], closures: {kinds})"
+            f"[{', '.join(self.actuated_joints)}]{extra}, closures: {kinds})"
         )

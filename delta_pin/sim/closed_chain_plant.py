@@ -78,9 +78,16 @@ class ClosedChainPlant(Plant):
         self.uncertainty = None
         full_possible = robot.model.nq == robot.model.nv
         if coordinates is None:
-            coordinates = "full" if full_possible else "active"
+            coordinates = "full" if full_possible or robot.has_unactuated_motion else "active"
         if coordinates not in ("full", "active"):
             raise InvalidParameterError(f"coordinates={coordinates!r} must be 'full' or 'active'")
+        carried = robot.has_unactuated_motion
+        if coordinates == "active" and carried:
+            raise InvalidParameterError(
+                f"coordinates='active' carries only the actuated joints, and {robot.name!r} also moves "
+                f"{robot.idle_dof} idle motion(s) and {len(robot.passive_joints)} passive joint(s) that no "
+                "motor drives: use coordinates='full'"
+            )
         if coordinates == "full" and not full_possible:
             raise InvalidParameterError(
                 f"coordinates='full' needs 1-DOF joints (nq == nv); {robot.name!r} has nq={robot.model.nq}, "
@@ -127,6 +134,15 @@ class ClosedChainPlant(Plant):
         self.projection_tolerance = projection_tolerance
         self.projections = 0
         self._last_q = robot.reference_configuration.copy()
+        # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v
+        springs = [(robot.model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
+        self._spring_q = np.array([robot.model.idx_qs[j] for j, *_ in springs], dtype=int)
+        self._spring_v = np.array([robot.model.idx_vs[j] for j, *_ in springs], dtype=int)
+        self._spring_k = np.array([k for _, k, _, _ in springs], dtype=float)
+        self._spring_ref = np.array([r for _, _, r, _ in springs], dtype=float)
+        self._spring_d = np.array([d for *_, d in springs], dtype=float)
+        # idle motions and passive joints are state of their own: a projection keeps them
+        self._keeps_unactuated_state = bool(carried)
 
     def _set_friction(self, friction) -> None:
         delta = getattr(self.robot, "delta", None)
@@ -169,6 +185,10 @@ class ClosedChainPlant(Plant):
         self._set_payload(t)
         self._tau[:] = 0.0
         self._tau[self.active] = tau - self.joint_friction(v[self.active])
+        if self._spring_v.size:
+            self._tau[self._spring_v] -= self._spring_k * (q[self._spring_q] - self._spring_ref) + (
+                self._spring_d * v[self._spring_v]
+            )
         return pin.constraintDynamics(
             self.model,
             self.data,
@@ -216,6 +236,11 @@ class ClosedChainPlant(Plant):
             return self.complete(x[: self.dof], x[self.dof :], math.nan)[0]
         return x[: self.nq]
 
+    def configuration_state(self, x):
+        if self.coordinates == "active":
+            return self.complete(x[: self.dof], x[self.dof :], math.nan)
+        return x[: self.nq].copy(), x[self.nq :].copy()
+
     def platform_position(self, x):
         """Position [m] of the robot's end-effector frame."""
         return self.robot.frame_placement(self._configuration(x)).translation.copy()
@@ -235,7 +260,15 @@ class ClosedChainPlant(Plant):
         if not (math.isfinite(gap) and np.isfinite(x).all()):
             raise SimulationError(f"the loop-closure gap is {gap:.3e}: the state is no longer finite", t)
         self._last_q = x[: self.nq].copy()
-        x = self.initial_state(*self.joint_state(x))
+        if self._keeps_unactuated_state:
+            try:
+                q, v = self.robot.project_state(x[: self.nq], x[self.nq :])
+            except AssemblyError as exc:
+                raise SimulationError(f"cannot close the loops: {exc}", t) from None
+            self._last_q = q
+            x = np.concatenate([q, v])
+        else:
+            x = self.initial_state(*self.joint_state(x))
         self.projections += 1
         return x, self.closure_residual(x)
 
@@ -249,6 +282,9 @@ class ClosedChainPlant(Plant):
             "payload_frame": self.model.frames[self.payload_frame].name,
             "payload": getattr(self.payload_mass, "__name__", None),
             "redundant_closure_equations": self.redundant,
+            "idle_dof": self.robot.idle_dof,
+            "passive_joints": list(self.robot.passive_joints),
+            "joint_springs": {name: list(values) for name, values in self.robot.joint_springs.items()},
             "closure_projections": self.projections,
             "uncertainty": None,
         }

@@ -62,6 +62,8 @@ class LoopRecord:
     xyz: np.ndarray
     closure_residual: np.ndarray
     internals: dict[str, np.ndarray] = field(default_factory=dict)
+    q: np.ndarray | None = None  # the plant's full configuration (N, nq), where it has one
+    v: np.ndarray | None = None  # and its velocity (N, nv)
 
 
 def run_python_loop(
@@ -141,6 +143,11 @@ def run_python_loop(
             tau = drive.apply(tau)
         taus[k] = tau
         xyzs[k] = plant.platform_position(x)
+        full = plant.configuration_state(x)
+        if full is not None:
+            if record.q is None:
+                record.q, record.v = np.zeros((len(t), len(full[0]))), np.zeros((len(t), len(full[1])))
+            record.q[k], record.v[k] = full
         gaps[k] = plant.closure_residual(x) if gap is None else gap
         for name, value in out.internals.items():
             values = internals.get(name)

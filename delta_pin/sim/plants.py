@@ -147,6 +147,11 @@ class Plant(ABC):
     def platform_position(self, x: np.ndarray) -> np.ndarray:
         """Platform position xyz [m] of a plant state."""
 
+    def configuration_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The multibody's full (q (nq,), v (nv,)) at plant state x, where the plant has one
+        (a run records it at every sample, so drawings and energies need no re-assembly)."""
+        return None
+
     def closure_residual(self, x: np.ndarray) -> float:
         """Largest loop-closure gap [m] (0 for plants without closures)."""
         return 0.0

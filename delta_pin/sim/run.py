@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 __all__ = ["ARRAYS", "Run", "load_run", "run_metadata"]
 
 ARRAYS = ("t", "alpha", "alpha_dot", "alpha_d", "alpha_dot_d", "xyz", "xyz_d", "tau", "closure_residual")
+OPTIONAL_ARRAYS = ("q", "v")  # absent from runs of plants without a full state, and from older runs
 
 
 @dataclass
@@ -40,6 +41,9 @@ class Run:
         closure_residual: largest loop-closure gap (N,) [m] (zeros on the analytic plant).
         internals: controller quantities by name (e.g. ``rho_hat``), each (N, ...).
         metadata: every parameter of the run, seed and versions (JSON-serialisable).
+        q, v: the plant's full configuration (N, nq) and velocity (N, nv) at every sample, where
+            the plant has them (``None`` otherwise, and in runs saved before they were kept):
+            idle motions and the assembly mode are in q, not in alpha.
     """
 
     t: np.ndarray
@@ -53,6 +57,8 @@ class Run:
     closure_residual: np.ndarray
     internals: dict[str, np.ndarray] = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
+    q: np.ndarray | None = None
+    v: np.ndarray | None = None
 
     @property
     def error(self) -> np.ndarray:
@@ -80,6 +86,9 @@ class Run:
     def save(self, path: str | Path) -> Path:
         """Write the run to ``path`` (``.npz``) atomically: a temporary file, then a rename."""
         arrays = {name: getattr(self, name) for name in ARRAYS}
+        arrays.update(
+            {name: getattr(self, name) for name in OPTIONAL_ARRAYS if getattr(self, name) is not None}
+        )
         arrays.update({f"internal__{name}": value for name, value in self.internals.items()})
         arrays["metadata_json"] = np.array(json.dumps(self.metadata, default=_json_default))
         with atomic_open(path, "wb") as handle:
@@ -106,6 +115,7 @@ def load_run(path: str | Path) -> Run:
                 arrays = {name: data[name] for name in ARRAYS}
             except KeyError as exc:
                 raise DeltaPinError(f"{str(path)!r} is not a delta-pin run: missing {exc}") from None
+            arrays.update({name: data[name] for name in OPTIONAL_ARRAYS if name in data.files})
             internals = {
                 key.removeprefix("internal__"): data[key]
                 for key in data.files

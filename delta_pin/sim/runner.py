@@ -115,7 +115,8 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
             "'rk4' (sampled) or 'lsoda' (continuous)"
         )
     if isinstance(plant, str):
-        coordinates = "active" if mode == "continuous" else None  # LSODA's small state
+        # LSODA's small state, where the actuated joints carry the whole motion
+        coordinates = "active" if mode == "continuous" and not robot.has_unactuated_motion else None
         plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
     return False, plant
 
@@ -297,5 +298,7 @@ def simulate(
         tau=record.tau,
         closure_residual=record.closure_residual,
         internals=record.internals,
+        q=record.q,
+        v=record.v,
         metadata=metadata,
     )

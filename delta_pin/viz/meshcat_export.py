@@ -758,13 +758,18 @@ def _configurations(robot, alphas: np.ndarray) -> list[np.ndarray]:
     return configurations
 
 
-def _placements(robot, geometry_model: pin.GeometryModel, alphas: np.ndarray) -> np.ndarray:
-    """(F, V, 7) world placements (xyz, quaternion xyzw) of every visual at q(alpha) per frame."""
+def _placements(
+    robot, geometry_model: pin.GeometryModel, alphas: np.ndarray, configurations: list | None = None
+) -> np.ndarray:
+    """(F, V, 7) world placements (xyz, quaternion xyzw) of every visual at q(alpha) per frame
+    (or at the given ``configurations``, one per frame: a run's recorded q)."""
     model = _robot_model(robot)
     data = model.createData()
     geometry_data = pin.GeometryData(geometry_model)
-    poses = np.empty((len(alphas), geometry_model.ngeoms, 7))
-    for k, q in enumerate(_configurations(robot, alphas)):
+    if configurations is None:
+        configurations = _configurations(robot, alphas)
+    poses = np.empty((len(configurations), geometry_model.ngeoms, 7))
+    for k, q in enumerate(configurations):
         pin.updateGeometryPlacements(model, data, geometry_model, geometry_data, q)
         for j in range(geometry_model.ngeoms):
             poses[k, j] = pin.SE3ToXYZQUAT(geometry_data.oMg[j])
@@ -804,6 +809,27 @@ def _check_assembly(run: Run, robot, alpha0: np.ndarray) -> None:
         )
 
 
+def _recorded_configurations(run: Run, robot, times: np.ndarray) -> list[np.ndarray] | None:
+    """The run's recorded configurations q at the frame times (from the run's start),
+    interpolated on the configuration manifold between the two samples around each
+    (``pin.interpolate``), where the run has them for this robot's model; ``None`` otherwise
+    (then q(alpha) is assembled frame by frame, which cannot tell idle motions apart and may
+    change assembly mode)."""
+    q = getattr(run, "q", None)
+    model = _robot_model(robot)
+    if q is None or not _is_closed_chain(robot) or np.ndim(q) != 2 or np.shape(q)[1] != model.nq:
+        return None
+    q = np.asarray(q, dtype=float)
+    t = np.asarray(run.t, dtype=float)
+    _check_finite("q", t, q)
+    at = np.clip(t[0] + times, t[0], t[-1])
+    after = np.clip(np.searchsorted(t, at, side="right"), 1, len(t) - 1)
+    before = after - 1
+    span = t[after] - t[before]
+    weight = np.where(span > 0, (at - t[before]) / np.where(span > 0, span, 1.0), 0.0)
+    return [pin.interpolate(model, q[i], q[j], float(u)) for i, j, u in zip(before, after, weight)]
+
+
 def _build_scene(run: Run, robot, fps: float, show_desired_ghost: bool) -> _Scene:
     t = np.asarray(run.t, dtype=float)
     dof = robot.dof if _is_closed_chain(robot) else 3
@@ -818,7 +844,9 @@ def _build_scene(run: Run, robot, fps: float, show_desired_ghost: bool) -> _Scen
         _check_assembly(run, robot, alpha[0])
     times = _frame_times(t, fps)
     geometry_model, visuals = _visuals(robot)
-    poses = _placements(robot, geometry_model, _resample(t, alpha, times))
+    poses = _placements(
+        robot, geometry_model, _resample(t, alpha, times), _recorded_configurations(run, robot, times)
+    )
     ghost = None
     if show_desired_ghost:
         alpha_d = np.asarray(run.alpha_d, dtype=float).reshape(len(t), dof)
