@@ -83,6 +83,13 @@ def least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.linalg.lstsq(A, b, rcond=None)[0]
 
 
+def _quaternion_rate(quaternion: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """d/dt of a unit quaternion (x, y, z, w) turning at omega (3,) [rad/s] in its own frame:
+    0.5 quat * (omega, 0)."""
+    u, w = quaternion[:3], quaternion[3]
+    return 0.5 * np.concatenate([w * omega + np.cross(u, omega), [-u @ omega]])
+
+
 def closure_rank(robot: ClosedChainRobot, q: np.ndarray) -> int:
     """Number of independent closure equations at q (``robot.closure_size`` when none is redundant)."""
     return _rank(robot.closure_jacobian(q))
@@ -177,6 +184,7 @@ class ClosedChainRobot:
         # joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m], damping
         # [N m s/rad or N s/m]): the plant applies -k (q - q_ref) - d v there (MJCF stiffness/damping)
         self.joint_springs: dict[str, tuple[float, float, float]] = {}
+        self._rates = None  # per joint, how its configuration coefficients move (configuration_rate)
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
         self._frames = []  # (frame id 1, frame id 2, kind) per closure
@@ -398,7 +406,26 @@ class ClosedChainRobot:
             AssemblyError: the loops do not close to ``tol``; names the worst closure.
         """
         alpha = self._joint_vector(alpha, "alpha")
-        q = np.array(self._last_q if initial_guess is None else initial_guess, dtype=float)
+        starts = [self._last_q] if initial_guess is None else [initial_guess]
+        if initial_guess is None and hasattr(self, "reference_configuration"):
+            starts.append(self.reference_configuration)  # the last one may be far (a diverged run)
+        for start in starts:
+            q, residual = self._newton(np.array(start, dtype=float), alpha, tol, max_iterations)
+            if q is not None:
+                self._last_q = q.copy()
+                return q
+        worst = self._worst_closure(residual)
+        raise AssemblyError(
+            f"{self._label}the loops do not close at alpha={np.round(alpha, 6).tolist()}: closure {worst} "
+            f"is still {np.abs(residual).max():.3e} (m or rad) apart after {max_iterations} Newton steps; "
+            "start nearer (initial_guess=) or choose reachable actuated coordinates"
+        )
+
+    def _newton(
+        self, q: np.ndarray, alpha: np.ndarray, tol: float, max_iterations: int
+    ) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Newton on the closures from q with the actuated joints at alpha: (q, residual), q
+        ``None`` where it does not converge."""
         q[self.actuated_q_indices] = alpha
         model, data = self.model, self.data
         residual = None
@@ -406,8 +433,7 @@ class ClosedChainRobot:
             pin.framesForwardKinematics(model, data, q)
             residual = self._residual()
             if np.abs(residual).max() <= tol:
-                self._last_q = q.copy()
-                return q
+                return q, residual
             J = self.closure_jacobian(q, kinematics_done=True)[:, self.dependent_indices]
             # with idle motions J has a null space: the minimum-norm step leaves them where they are
             step = least_squares(J, residual) if self.idle_dof == 0 else self._pseudo_inverse(J)[0] @ residual
@@ -419,12 +445,7 @@ class ClosedChainRobot:
             q = pin.integrate(model, q, dv)
             if not np.isfinite(q).all():
                 break
-        worst = self._worst_closure(residual)
-        raise AssemblyError(
-            f"{self._label}the loops do not close at alpha={np.round(alpha, 6).tolist()}: closure {worst} "
-            f"is still {np.abs(residual).max():.3e} (m or rad) apart after {max_iterations} Newton steps; "
-            "start nearer (initial_guess=) or choose reachable actuated coordinates"
-        )
+        return None, residual
 
     def _worst_closure(self, residual: np.ndarray | None) -> str:
         if residual is None or not np.isfinite(residual).all():
@@ -534,6 +555,62 @@ class ClosedChainRobot:
         return basis
 
     # ------------------------------------------------------------------------------ velocities
+    def configuration_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """dq/dt (nq,) of the configuration's coefficients for the velocity v (nv,): the
+        identity on 1-DOF axis joints, 0.5 quat * (omega, 0) on a ball joint's quaternion
+        (x, y, z, w; omega in the joint's frame), R v_linear and the quaternion rate on a free
+        joint, the unit-complex rate of a continuous (RUBX) or planar joint. With it, a
+        configuration with quaternions integrates as a plain ODE; renormalise after each step
+        (``pin.normalize``).
+
+        Raises:
+            InvalidParameterError: a joint type without such a rate (named).
+        """
+        if self._rates is None:
+            self._rates = [self._joint_rate_kind(j) for j in range(1, self.model.njoints)]
+        q_dot = np.empty(self.model.nq)
+        for j, kind in enumerate(self._rates, 1):
+            iq, iv, nq = self.model.idx_qs[j], self.model.idx_vs[j], self.model.nqs[j]
+            if kind == "axis":
+                q_dot[iq : iq + nq] = v[iv : iv + nq]
+            elif kind == "ball":
+                q_dot[iq : iq + 4] = _quaternion_rate(q[iq : iq + 4], v[iv : iv + 3])
+            elif kind == "free":
+                quaternion = q[iq + 3 : iq + 7]
+                q_dot[iq : iq + 3] = pin.Quaternion(quaternion).matrix() @ v[iv : iv + 3]
+                q_dot[iq + 3 : iq + 7] = _quaternion_rate(quaternion, v[iv + 3 : iv + 6])
+            elif kind == "unit_complex":
+                c, s = q[iq], q[iq + 1]
+                q_dot[iq : iq + 2] = (-s * v[iv], c * v[iv])
+            else:  # planar: x, y, cos, sin; v = (vx, vy) in the joint frame, omega
+                c, s = q[iq + 2], q[iq + 3]
+                vx, vy, w = v[iv : iv + 3]
+                q_dot[iq : iq + 4] = (c * vx - s * vy, s * vx + c * vy, -s * w, c * w)
+        return q_dot
+
+    def _joint_rate_kind(self, j: int) -> str:
+        name = self.model.joints[j].shortname()
+        if self.model.nqs[j] == self.model.nvs[j] and (
+            (name.startswith(("JointModelR", "JointModelP")) and not name.startswith("JointModelPlanar"))
+            or name == "JointModelTranslation"
+        ):
+            return "axis"
+        kinds = {
+            "JointModelSpherical": "ball",
+            "JointModelFreeFlyer": "free",
+            "JointModelRUBX": "unit_complex",
+            "JointModelRUBY": "unit_complex",
+            "JointModelRUBZ": "unit_complex",
+            "JointModelRevoluteUnboundedUnaligned": "unit_complex",
+            "JointModelPlanar": "planar",
+        }
+        if name not in kinds:
+            raise InvalidParameterError(
+                f"{self._label}joint {self.model.names[j]!r} ({name}) has no configuration rate here: full "
+                "coordinates take axis, ball, free, continuous and planar joints (use coordinates='active')"
+            )
+        return kinds[name]
+
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
         """S = dq/dalpha (nv, dof): v = S alpha_dot satisfies the closures' velocity constraint
         (named passive joints at rest; with idle motions, the one of least kinetic energy:

@@ -6,7 +6,9 @@ The same physics as the Delta's :class:`~delta_pin.sim.plants.PinocchioPlant`, f
 * ``coordinates="full"`` -- x = [q, v]: the whole tree is integrated with Baumgarte
   stabilisation (omega = 20 rad/s), and a step whose closure gap exceeds
   ``projection_tolerance`` is projected back onto the loops (Newton from the actuated
-  coordinates, velocities through the null space). Needs nq == nv (1-DOF joints);
+  coordinates, velocities through the null space). Ball, free and continuous joints integrate
+  their configuration coefficients (``ClosedChainRobot.configuration_rate``), renormalised after
+  every step; idle motions and passive joints need this representation;
 * ``coordinates="active"`` -- x = [alpha, alpha_dot]: every evaluation assembles q(alpha)
   (warm-started) and v = S alpha_dot, then reads alpha_ddot from ``constraintDynamics``; the
   loops are closed by construction, and any joint type works (what LSODA needs).
@@ -48,7 +50,8 @@ class ClosedChainPlant(Plant):
             recognised Delta's defaults, or ``None``.
         payload_mass: m(t) [kg] as a function of time, a constant, or ``None``.
         payload_frame: the frame the payload rides at (default: the end effector).
-        coordinates: ``"full"`` or ``"active"`` (default: full where nq == nv).
+        coordinates: ``"full"`` or ``"active"`` (default: full where nq == nv or where the robot
+            has idle motions or passive joints).
         baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
         projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
     """
@@ -89,10 +92,10 @@ class ClosedChainPlant(Plant):
                 "motor drives: use coordinates='full'"
             )
         if coordinates == "full" and not full_possible:
-            raise InvalidParameterError(
-                f"coordinates='full' needs 1-DOF joints (nq == nv); {robot.name!r} has nq={robot.model.nq}, "
-                f"nv={robot.model.nv}: use coordinates='active'"
-            )
+            robot.configuration_rate(robot.reference_configuration, np.zeros(robot.model.nv))  # a named error
+        # ball, free or continuous joints: their coefficients move at dq/dt = rate(q, v) and are
+        # renormalised after every step (pin.normalize)
+        self._coefficient_rates = not full_possible
         self.coordinates = coordinates
         self._set_friction(friction)
         self.model = pin.Model(robot.model)  # own copy: the payload changes the inertias
@@ -224,7 +227,8 @@ class ClosedChainPlant(Plant):
             q, v = self.complete(x[: self.dof], x[self.dof :], t)
             return np.concatenate([x[self.dof :], self.accelerations(t, q, v, tau)[self.active]])
         q, v = x[: self.nq], x[self.nq :]
-        return np.concatenate([v, self.accelerations(t, q, v, tau)])
+        rate = self.robot.configuration_rate(q, v) if self._coefficient_rates else v
+        return np.concatenate([rate, self.accelerations(t, q, v, tau)])
 
     def joint_state(self, x):
         if self.coordinates == "active":
@@ -254,6 +258,8 @@ class ClosedChainPlant(Plant):
     def finish_step_residual(self, x, t):
         if self.coordinates == "active":
             return x, self.closure_residual(x)
+        if self._coefficient_rates:
+            x = np.concatenate([pin.normalize(self.model, x[: self.nq]), x[self.nq :]])
         gap = self.robot.closure_gap(x[: self.nq])
         if gap <= self.projection_tolerance:
             return x, gap
