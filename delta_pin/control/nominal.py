@@ -187,6 +187,10 @@ class ClosedChainNominalModel(NominalModel):
         friction: nominal friction on the actuated joints (a
             :class:`~delta_pin.model.friction.Friction` with its ``stribeck``; ``True`` takes a
             recognised Delta's), or ``None``.
+
+    Attributes:
+        stribeck: the Stribeck parameters in force (``None`` without friction).
+        normal_force: nominal F̄_n per actuated joint (dof,) [N] (zeros without friction).
     """
 
     def __init__(
@@ -217,12 +221,13 @@ class ClosedChainNominalModel(NominalModel):
         self.friction_model = friction or None
         self._friction_table = as_table(kernel_friction(None))
         self.normal_force = np.zeros(self.dof)
+        self.stribeck = None  # the Stribeck parameters in force (None without friction)
         if self.friction_model is not None:
-            stribeck = self.friction_model.stribeck_for(
+            self.stribeck = self.friction_model.stribeck_for(
                 None if robot.delta is None else robot.delta.params.friction
             )
             self._friction_table = as_table(
-                kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
+                kernel_friction(self.stribeck, self.friction_model.sign_velocity_scale)
             )
             self.normal_force = np.full(self.dof, float(self.friction_model.normal_force))
 

@@ -13,10 +13,12 @@ motors (docs/architecture.md section 13)::
 A frame name is any frame of the Pinocchio model built from the URDF: a link, or a fixed
 joint's child link or the fixed joint itself (Gepetto's files add massless child links, e.g.
 ``closedloop1_A``, at the closure points). ``type`` defaults to 6D for every pair, as in
-Gepetto's loader; ``3d``/``6d`` in lower case are accepted. The joint replacements follow
-Gepetto's ``completeRobotLoader``: SPHERICAL makes the joint a ball joint at the same placement,
-CARDAN a revolute about x (``<name>_X``) followed by one about y (``<name>_Y``, which carries
-the link), FIXED locks the joint at its neutral value. Units: SI, as the URDF's.
+Gepetto's loader; ``3d``/``6d`` in lower case are accepted. A frame on the root link (or on a
+link fixed to it) rides on joint 0: that closure holds a moving part to the ground. The joint
+replacements follow Gepetto's ``completeRobotLoader``: SPHERICAL makes the joint a ball joint at
+the same placement, CARDAN a revolute about x (``<name>_X``) followed by one about y
+(``<name>_Y``, which carries the link), FIXED locks the joint at its neutral value. Units: SI, as
+the URDF's.
 """
 
 from __future__ import annotations
@@ -236,9 +238,12 @@ def read_gepetto(
             frames.append(frame)
         (f1, f2) = frames
         if f1.parentJoint == f2.parentJoint:
+            joint = f1.parentJoint
+            body = "the ground (the root link)" if joint == 0 else f"joint {model.names[joint]!r}"
             raise URDFConventionError(
-                f"{where('closed_loop', i)}: frames {name1!r} and {name2!r} move together (the same joint): "
-                "the pair closes no loop"
+                f"{where('closed_loop', i)}: frames {name1!r} and {name2!r} move together (one rigid body, "
+                f"both on {body}), so closed_loop pair {i} closes no loop; pair frames of two different "
+                "bodies"
             )
         closures.append(
             Closure(

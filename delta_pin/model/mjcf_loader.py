@@ -27,8 +27,11 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
   ``relpose`` quaternion), the one on body 2 is (``anchor``, identity): MuJoCo's weld holds
   exactly these two frames together (its error is ``neg(q2) q1 relquat`` and
   ``x1 + R1 relpos - x2 - R2 anchor``). ``torquescale`` only weighs MuJoCo's soft constraint and
-  does not change which poses satisfy it. Any other equality (``joint``, ``tendon``, ``flex``), a
-  disabled one, or one attached to the world body is an error naming it and its line;
+  does not change which poses satisfy it. An equality on the world body (``body2`` left out, or
+  ``body1="world"``), or on a body without joints fixed to the world, holds the other body to the
+  ground: that frame is on joint 0, placed in the world. Any other equality (``joint``,
+  ``tendon``, ``flex``), a disabled one, or one between two parts of one rigid body is an error
+  naming it and its line;
 * actuators: ``motor`` (and ``general`` without dynamics or bias, i.e. a torque/force source) on a
   hinge or slide joint give the actuated joints, in actuator order (``gear`` only scales the
   control and is not part of the model); position/velocity servos, or transmissions other than
@@ -251,13 +254,17 @@ def _closures(mujoco, m, bodies, path: Path, source: str) -> list[Closure]:
                 p1, p2 = b1 * _translation(data[0:3]), b2 * _translation(data[3:6])
             else:  # x1 + R1 relpos == x2 + R2 anchor and R1 relquat == R2
                 p1, p2 = b1 * _se3(data[3:6], data[6:10]), b2 * _translation(data[0:3])
-        if 0 in (j1, j2):
-            raise URDFConventionError(
-                f"equality {label} ({where}) holds a body to the world (or to a body welded to it); "
-                "delta-pin's closures join two moving bodies: add the ground link as a body of the robot"
-            )
+        # the world body and the bodies without joints above every joint ride on joint 0 (the
+        # ground), placed in the world: such an equality holds a moving part to the ground
         if j1 == j2:
-            raise URDFConventionError(f"equality {label} ({where}) joins two bodies that move together")
+            site = int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE)
+            b1, b2 = (int(m.site_bodyid[i]) if site else i for i in (id1, id2))
+            n1, n2 = (_name(mujoco, m, mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in (b1, b2))
+            how = "fixed to the world" if j1 == 0 else "moved by the same joint"
+            raise URDFConventionError(
+                f"equality {label} ({where}) joins bodies {n1!r} and {n2!r}, which are one rigid body (both "
+                f"{how}): it closes no loop; join bodies that move relative to each other"
+            )
         closure_name = name or f"equality_{e}"
         closure_kind = "3d" if kind == int(mujoco.mjtEq.mjEQ_CONNECT) else "6d"
         closures.append(Closure(closure_name, closure_kind, j1, p1, j2, p2, source=where))

@@ -11,6 +11,9 @@ A mesh filename may be
 * ``package://<package>/<path>``: ``<package>`` is an importable Python package (so
   ``package://delta_pin/urdf/meshes/forearm.stl`` is the installed copy) or a folder of that name
   above the URDF's folder (the ROS layout ``<package>/urdf/robot.urdf``);
+* ``package:///<path>`` (three slashes: an empty package name, as Onshape exports write and
+  Gepetto's example-parallel-robots ship): relative to the URDF's folder, as Gepetto's loader
+  reads them (Pinocchio given the robot's folder as its package directory);
 * ``file://<absolute path>`` or an absolute path;
 * a path relative to the folder of the URDF (``DeltaDescription.base_dir``), with or without
   ``file://`` (xacrodoc writes relative filenames as ``file://<relative path>``).
@@ -41,7 +44,11 @@ __all__ = [
 ]
 
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
-_FORMS = "a path relative to the URDF's folder, an absolute path, or package://<python package>/<path>"
+_FORMS = (
+    "a path relative to the URDF's folder (or package:///<path>), an absolute path, or "
+    "package://<python package>/<path>"
+)
+_EMPTY_PACKAGE = "package:///"  # Gepetto's (Onshape's) meshes: relative to the URDF's folder
 
 
 @dataclass(frozen=True)
@@ -100,7 +107,15 @@ def resolve_mesh_path(filename: str, base_dir: str | Path | None, where: str = "
             message names the filename and the forms that work.
     """
     base = None if base_dir is None else Path(base_dir)
-    if filename.startswith("package://"):
+    if filename.startswith(_EMPTY_PACKAGE):
+        if base is None:
+            raise MeshFileError(
+                f"mesh {filename!r} ({where}) is relative to the URDF's folder (package:/// names no "
+                f"package) but that folder is unknown (URDF given as text); load the robot from its file, "
+                f"or use {_FORMS}"
+            )
+        path = base / filename[len(_EMPTY_PACKAGE) :]
+    elif filename.startswith("package://"):
         package, _, rest = filename[len("package://") :].partition("/")
         candidates = []
         spec = importlib.util.find_spec(package) if package.isidentifier() else None
@@ -136,14 +151,14 @@ def resolve_mesh_path(filename: str, base_dir: str | Path | None, where: str = "
 def check_mesh_files(urdf: str, base_dir: str | Path | None) -> None:
     """Check that every mesh visual's file exists (lxml only: neither yourdfpy nor trimesh is imported).
 
-    Relative filenames are checked only when ``base_dir`` is known.
+    Relative filenames (``package:///<path>`` included) are checked only when ``base_dir`` is known.
 
     Raises:
         MeshFileError: the first mesh visual whose file is missing (named in the message).
     """
     for link, index, mesh in _mesh_elements(_parse(urdf)):
         filename = mesh.get("filename", "")
-        relative = (
+        relative = filename.startswith(_EMPTY_PACKAGE) or (
             not filename.startswith("package://") and not Path(filename.removeprefix("file://")).is_absolute()
         )
         if relative and base_dir is None:

@@ -330,13 +330,90 @@ def test_armature_is_refused_and_damping_is_reported(tmp_path):
         load_robot(path, recognise=False)
 
 
-def test_closure_to_the_world_is_an_error(tmp_path):
+TO_THE_WORLD = """
+<mujoco model="to_the_world">
+  <worldbody>
+    <site name="s_world" pos="0.05 0.1 -0.3" quat="0.7 0.1 0.6 0.2"/>
+    <body name="ground" pos="0.2 -0.1 0.05" quat="0.9 0.2 -0.1 0.3">
+      <site name="s_ground" pos="0.01 0 -0.02"/>
+    </body>
+    <body name="l1" pos="0 0 0"><joint name="j1" axis="0 1 0"/>
+      <inertial pos="0 0 -0.1" mass="0.1" diaginertia="1e-3 1e-3 1e-5"/>
+      <body name="l1b" pos="0 0 -0.2"><joint name="j1b" type="ball"/>
+        <inertial pos="0 0 -0.1" mass="0.1" diaginertia="1e-3 1e-3 1e-5"/>
+        <site name="s1" pos="0.02 0.01 -0.2" quat="0.9 0.3 0.1 0.2"/></body>
+    </body>
+  </worldbody>
+  <equality>
+    <connect name="c_world" body1="l1b" anchor="0.01 0.02 -0.2"/>
+    <connect name="c_world_first" body1="world" body2="l1b" anchor="0.1 0.02 -0.3"/>
+    <connect name="c_ground" body1="l1b" body2="ground" anchor="0 0.01 -0.1"/>
+    <connect name="c_sites" site1="s1" site2="s_world"/>
+    <weld name="w_world" body1="l1b" relpose="0.1 0 -0.2 0.9 0.1 0.3 0.2"/>
+    <weld name="w_ground_first" body1="ground" body2="l1b" anchor="0.03 0 -0.1"/>
+    <weld name="w_sites" site1="s_ground" site2="s1"/>
+  </equality>
+</mujoco>
+"""
+
+
+def test_closures_to_the_world_match_mujocos(tmp_path):
+    """An equality on the world body (body2 left out, or body1="world"), on a jointless body fixed
+    to the world, or on a site of either, is a closure with one frame on joint 0: its gap equals
+    MuJoCo's equality residual at random configurations (the tolerances of the test above)."""
+    path = _write(tmp_path, TO_THE_WORLD)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    model, bodies, q_maps = mjcf_to_pinocchio(m)
+    data = model.createData()
+    closures = _closures(mujoco, m, bodies, path, path.name)
+    assert [(c.name, c.kind) for c in closures] == [
+        ("c_world", "3d"), ("c_world_first", "3d"), ("c_ground", "3d"), ("c_sites", "3d"),
+        ("w_world", "6d"), ("w_ground_first", "6d"), ("w_sites", "6d"),
+    ]  # fmt: skip
+    assert [(c.joint1 == 0, c.joint2 == 0) for c in closures] == [
+        (False, True),
+        (True, False),
+        (False, True),
+        (False, True),
+        (False, True),
+        (True, False),
+        (True, False),
+    ]
+    rng = np.random.default_rng(12)
+    for _ in range(3):
+        qpos = _random_qpos(m, rng)
+        d.qpos[:] = qpos
+        mujoco.mj_forward(m, d)
+        q = _to_pinocchio_q(model, q_maps, qpos)
+        pin.forwardKinematics(model, data, q)
+        row = 0
+        for e, closure in enumerate(closures):
+            M1 = data.oMi[closure.joint1] * closure.placement1
+            M2 = data.oMi[closure.joint2] * closure.placement2
+            theirs = d.efc_pos[row : row + closure.size]
+            np.testing.assert_allclose(M1.translation - M2.translation, theirs[:3], atol=1e-12)
+            if closure.size == 6:  # MuJoCo: torquescale * sin(theta / 2) * axis
+                angle = np.linalg.norm(pin.log3(M1.rotation.T @ M2.rotation))
+                half = np.linalg.norm(theirs[3:]) / m.eq_data[e, 10]
+                assert 2 * np.arcsin(min(half, 1.0)) == pytest.approx(angle, abs=1e-10)
+            row += closure.size
+
+
+def test_equality_within_the_ground_is_refused(tmp_path):
     path = _delta_with(
         tmp_path,
-        "  </equality>",
-        '    <connect name="pin_down" body1="platform_x" anchor="0 0 -0.3"/>\n  </equality>',
+        "  </worldbody>",
+        '    <body name="ground" pos="0 0 0.1"/>\n  </worldbody>',
     )
+    text = path.read_text().replace(
+        "  </equality>", '    <connect name="pin_down" body1="ground" anchor="0 0 -0.3"/>\n  </equality>'
+    )
+    path.write_text(text)
     with pytest.raises(
-        URDFConventionError, match=r"equality 'pin_down' \(robot.xml line \d+\) holds a body to the world"
-    ):
+        URDFConventionError,
+        match=r"equality 'pin_down' \(robot.xml line \d+\) joins bodies 'ground' and 'world', which are one "
+        r"rigid body \(both fixed to the world\)",
+    ) as error:
         load_robot(path)
+    assert "\n" not in str(error.value)
