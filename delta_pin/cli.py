@@ -172,6 +172,18 @@ def _robot_file_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--actuated", default=None, metavar="A,B,...", help="the actuated joints (default: from the file)"
     )
+    group.add_argument(
+        "--passive",
+        default=None,
+        metavar="A,B,...",
+        help="joints no motor drives that the loops leave free, an underactuated robot (default: from the "
+        "file: robot.yaml name_passive, MJCF sprung joints)",
+    )
+    group.add_argument(
+        "--free-flyer",
+        action="store_true",
+        help="URDF: put the robot on a free-flyer base (Gepetto's freeflyer=True); controllers refuse it",
+    )
 
 
 def _closed_chain_robot(args: argparse.Namespace):
@@ -179,22 +191,41 @@ def _closed_chain_robot(args: argparse.Namespace):
 
     if getattr(args, "urdf", None) is not None or args.settings:
         raise InvalidParameterError("--robot replaces --urdf and --set: give one of them")
-    actuated = (
-        None if args.actuated is None else [name.strip() for name in args.actuated.split(",") if name.strip()]
-    )
-    return load_robot(args.robot, actuated=actuated, end_effector=getattr(args, "frame", None))
+
+    def names(text: str | None) -> list[str] | None:
+        return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
+
+    return load_robot(
+        args.robot, actuated=names(args.actuated), passive=names(getattr(args, "passive", None)),
+        free_flyer=bool(getattr(args, "free_flyer", False)), end_effector=getattr(args, "frame", None),
+    )  # fmt: skip
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
     if args.robot is not None:
         from delta_pin.sim.closed_chain_validation import validate_closed_chain
 
-        report = validate_closed_chain(_closed_chain_robot(args), samples=args.samples, seed=args.seed)
+        robot = _closed_chain_robot(args)
+        report = validate_closed_chain(
+            robot,
+            samples=args.samples,
+            seed=args.seed,
+            tol=args.tol,
+            dt=args.dt,
+            **({} if args.duration is None else {"energy_duration": args.duration}),
+        )
         print(report.table())
         return 0 if report.passed else 1
+    for flag, value in (("--dt", args.dt), ("--duration", args.duration)):
+        if value is not None:
+            raise InvalidParameterError(
+                f"{flag} {value:g} sets the energy check of validate --robot; the packaged Delta's "
+                "validation (analytic model vs Pinocchio) integrates nothing: give --robot or drop it"
+            )
     from delta_pin.model.validation import validate
 
-    report = validate(_load_robot(args), samples=args.samples, seed=args.seed, tol=args.tol)
+    tol = 1e-10 if args.tol is None else args.tol
+    report = validate(_load_robot(args), samples=args.samples, seed=args.seed, tol=tol)
     print(report.table())
     return 0 if report.passed else 1
 
@@ -565,7 +596,24 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--samples", type=_integer(1), default=100, help="random states")
     validate.add_argument("--seed", type=int, default=0, help="random seed")
     validate.add_argument(
-        "--tol", type=float, default=1e-10, help="relative tolerance of the M, C a_dot, G agreement"
+        "--tol",
+        type=float,
+        default=None,
+        help="relative tolerance of the M, C a_dot, G agreement (None: 1e-10); with --robot, of the "
+        "gravity, Coriolis and energy checks (None: 1e-6)",
+    )
+    validate.add_argument(
+        "--dt",
+        type=float,
+        default=None,
+        help="with --robot: integrate the energy check's free motion by RK4 at this fixed step [s] "
+        "(None: DOP853 with error control)",
+    )
+    validate.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="with --robot: length of the energy check's free motion [s] (None: 0.5)",
     )
     _robot_file_arguments(validate)
     validate.set_defaults(func=_cmd_validate)

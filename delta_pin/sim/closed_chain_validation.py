@@ -6,62 +6,336 @@ Five checks, each against an independent reference (docs/architecture.md section
 1. **closure** -- the largest closure residual of the assembled random states [m or rad];
 2. **plant** -- the projected alpha_ddot = M^-1 (tau - C alpha_dot - G) against the plant's
    ``pin.constraintDynamics`` (a KKT solve on the whole tree) under random torques (relative);
-3. **gravity** -- G against central differences of the potential energy V(q(alpha)) (relative);
-4. **Coriolis** -- C + C^T against central differences of M along alpha_dot (M_dot = C + C^T, the
+3. **gravity** -- G against the derivative of the potential energy V(q(alpha)) (relative);
+4. **Coriolis** -- C + C^T against the derivative of M along alpha_dot (M_dot = C + C^T, the
    skew-symmetry the designs rely on) (relative);
-5. **energy** -- free motion (zero torque, no friction) for ``energy_duration`` on the plant
-   with RK4 at 0.1 ms (full coordinates, Baumgarte-stabilised): the drift of kinetic + potential
-   energy relative to the largest kinetic energy, and the closure gap along it.
+5. **energy** -- free motion (zero torque, no friction, joint dampers off, springs on) for
+   ``energy_duration`` on the plant in full coordinates (Baumgarte-stabilised; idle motions,
+   passive joints and a free base move with it): the drift of kinetic + gravity + spring energy
+   relative to the largest kinetic energy, and the closure gap along it.
+
+An underactuated robot (passive joints, a free base) has no reduced model: checks 2-4 are then
+not run, and the report says so; the closure and energy checks still are. The report's notes
+open with the robot's mobility classification (:meth:`ClosedChainRobot.summary`).
+
+Every check that rests on an approximation reports an error estimate of that approximation
+beside its measured value, and fails only where the discrepancy exceeds the tolerance plus the
+estimate (times a stated safety factor):
+
+* the derivatives (checks 3 and 4) are central differences at h and h/2 with one Richardson
+  extrapolation (:func:`richardson_derivative`), the step h taken from the scale of the argument
+  and the rounding level of the differenced quantity; the estimate is the truncation estimate
+  |D(h) - D(h/2)| / 3 plus a round-off bound, and a state fails only where the discrepancy
+  exceeds :data:`DERIVATIVE_SAFETY` times the estimate plus the tolerance;
+* the free motion is integrated by scipy's DOP853 at rtol = :data:`ENERGY_RTOL`, atol =
+  :data:`ENERGY_ATOL` (or, with ``dt=``, by RK4 at that fixed step); the estimate of the drift's
+  integration error is the difference from the same run at 10x tighter tolerances (or at dt/2),
+  plus the rounding of the energy itself, and the check fails only where the drift exceeds the
+  tolerance plus that estimate.
+
+The report also gives the conditioning cond(J_p) of the closure Jacobian on the passive joints
+(the matrix every projection solves with) over the checked states and the free motion.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.errors import AssemblyError, InvalidParameterError
+from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant
 from delta_pin.sim.integrators import rk4_step
 
-__all__ = ["ClosedChainValidation", "validate_closed_chain"]
+__all__ = [
+    "ClosedChainValidation",
+    "Derivative",
+    "passive_conditioning",
+    "richardson_derivative",
+    "validate_closed_chain",
+]
 
-DIFFERENCE_STEP = 1e-6  # [rad or m] central differences: truncation ~1e-12, rounding ~1e-10 relative
+EPS = float(np.finfo(float).eps)
+DERIVATIVE_SAFETY = 10.0  # the derivative estimates are orders of magnitude (asymptotic truncation, a
+# rounding level), not bounds: a discrepancy fails only beyond ten times its estimate (plus tol)
+DEFAULT_TOL = 1e-6  # relative tolerance of the gravity, Coriolis and energy checks
+ENERGY_RTOL, ENERGY_ATOL = 1e-10, 1e-12  # DOP853 on [q, v] (rad or m, rad/s or m/s)
+ENERGY_SAMPLES = 100  # the energy is read at least this often along the free motion (max_step)
+MAX_FIXED_STEPS = 1_000_000  # a fixed-step energy run longer than this (and its half-step twin) is refused
+ASSEMBLY_TOL = 1e-14  # [m or rad] the differenced states are assembled this tightly where they can be
+
+
+@dataclass(frozen=True)
+class Derivative:
+    """A derivative with its error estimate (:func:`richardson_derivative`).
+
+    Attributes:
+        value: the extrapolated derivative (the shape of f's values) [f's units per x's unit].
+        error: the estimated absolute error, largest over the entries: truncation + round_off.
+        truncation: |D(h) - D(h/2)| / 3, the truncation error estimate of D(h/2).
+        round_off: 3 delta / h, where delta bounds the error of one value of f (the larger of the
+            stated rounding level and the level measured by the fourth difference of the five values).
+        step: h [x's unit].
+    """
+
+    value: np.ndarray
+    error: float
+    truncation: float
+    round_off: float
+    step: float
+
+
+def richardson_derivative(
+    f: Callable[[float], np.ndarray | float],
+    x: float = 0.0,
+    *,
+    scale: float = 1.0,
+    noise: float = EPS,
+    center: np.ndarray | float | None = None,
+) -> Derivative:
+    """df/dx at x by central differences D(h), D(h/2) and one Richardson extrapolation
+    (4 D(h/2) - D(h)) / 3, with an error estimate.
+
+    The step is h = cbrt(noise) * max(scale, |x|), the balance of truncation (~ h^2) and round-off
+    (~ noise / h) for a function that changes by its own size over ``scale``. The error estimate
+    is the truncation estimate |D(h) - D(h/2)| / 3 (of D(h/2); the extrapolated value is better
+    by an order of h^2) plus the round-off bound 3 delta / h of the extrapolation, where delta, the
+    error of one value of f, is the larger of ``noise`` * max|f| and the noise that the fourth
+    difference of f at x - h, x - h/2, x, x + h/2, x + h shows (std sqrt(70) sigma for independent
+    errors), plus the rounding of the arguments, eps |x| max|df/dx|.
+
+    Args:
+        f: a smooth function of one variable, scalar or array valued.
+        x: the point [x's unit].
+        scale: the distance [x's unit] over which f changes by its own size (1 rad for a function
+            of an angle).
+        noise: the relative rounding level of f's values (>= machine epsilon), e.g. eps times the
+            condition number of a linear solve inside f.
+        center: f(x) if already known (one evaluation fewer).
+
+    Raises:
+        InvalidParameterError: a non-finite or non-positive ``scale`` or ``noise``, or non-finite x.
+    """
+    if not (math.isfinite(x) and math.isfinite(scale) and scale > 0.0):
+        raise InvalidParameterError(f"x={x!r} must be finite and scale={scale!r} a finite distance > 0")
+    if not (math.isfinite(noise) and noise > 0.0):
+        raise InvalidParameterError(f"noise={noise!r} must be a finite relative rounding level > 0")
+    noise = max(noise, EPS)
+    h = math.cbrt(noise) * max(scale, abs(x))
+    h = (x + h) - x  # a step that x + h represents exactly
+    values = [np.asarray(f(x + s * h), dtype=float) for s in (-1.0, -0.5, 0.5, 1.0)]
+    middle = np.asarray(f(x) if center is None else center, dtype=float)
+    minus, half_minus, half_plus, plus = values
+    coarse = (plus - minus) / (2.0 * h)
+    fine = (half_plus - half_minus) / h
+    value = (4.0 * fine - coarse) / 3.0
+    fourth = minus - 4.0 * half_minus + 6.0 * middle - 4.0 * half_plus + plus
+    largest = max(float(np.abs(v).max()) for v in (*values, middle))
+    delta = max(noise * largest, float(np.abs(fourth).max()) / math.sqrt(70.0))
+    delta += EPS * abs(x) * float(np.abs(value).max())
+    truncation = float(np.abs(coarse - fine).max()) / 3.0
+    round_off = 3.0 * delta / h
+    return Derivative(
+        value=value if value.ndim else float(value),
+        error=truncation + round_off,
+        truncation=truncation,
+        round_off=round_off,
+        step=h,
+    )
 
 
 @dataclass
 class ClosedChainValidation:
-    """The checks' results: name -> (measured, tolerance, what it measures)."""
+    """The checks' results.
+
+    Attributes:
+        robot: the robot's name.
+        states: the assembled random states the checks ran at.
+        checks: name -> (measured, tolerance, what it measures).
+        estimates: name -> (error estimate of the measured value, in its units; safety factor) for
+            the checks that approximate: such a check passes while measured <= tolerance + factor *
+            estimate.
+        conditioning: (smallest, largest) cond(J_p) over the states and the free motion.
+        conditioning_parts: where -> (smallest, largest) cond(J_p): ``"at the states"``,
+            ``"along the free motion"``.
+        notes: lines that say how the approximations were made.
+    """
 
     robot: str
     states: int
     checks: dict[str, tuple[float, float, str]] = field(default_factory=dict)
+    estimates: dict[str, tuple[float, float]] = field(default_factory=dict)
+    conditioning: tuple[float, float] | None = None
+    conditioning_parts: dict[str, tuple[float, float]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def check_passed(self, name: str) -> bool:
+        """Whether check ``name`` passed: measured <= tolerance (+ factor * estimate where it has one)."""
+        value, tol, _ = self.checks[name]
+        estimate, factor = self.estimates.get(name, (0.0, 0.0))
+        return bool(value <= tol + factor * estimate)
 
     @property
     def passed(self) -> bool:
-        return all(value <= tol for value, tol, _ in self.checks.values())
+        return all(self.check_passed(name) for name in self.checks)
 
     def table(self) -> str:
         lines = [
             f"{self.robot}: {self.states} assembled random states",
-            f"{'check':<10} {'measured':>11}  {'tol':>8}  ",
+            f"{'check':<10} {'measured':>11}  {'estimate':>13}  {'tol':>8}  ",
         ]
         for name, (value, tol, what) in self.checks.items():
-            verdict = "ok" if value <= tol else "FAILED"
-            lines.append(f"{name:<10} {value:>11.3e}  {tol:>8.0e}  {verdict:<6} {what}")
+            verdict = "ok" if self.check_passed(name) else "FAILED"
+            if name in self.estimates:
+                estimate, factor = self.estimates[name]
+                shown = f"{estimate:.1e} x{factor:g}"
+            else:
+                shown = "-"
+            lines.append(f"{name:<10} {value:>11.3e}  {shown:>13}  {tol:>8.0e}  {verdict:<6} {what}")
+        lines.extend(self.notes)
+        if self.conditioning is not None:
+            parts = self.conditioning_parts or {"all": self.conditioning}
+            ranges = ", ".join(f"{low:.3g} to {high:.3g} {where}" for where, (low, high) in parts.items())
+            lines.append(f"cond(J_p) of the passive closure Jacobian: {ranges}")
         lines.append("all checks passed" if self.passed else "some checks FAILED")
         return "\n".join(lines)
 
 
-def _potential(robot: ClosedChainRobot, alpha: np.ndarray, q_guess: np.ndarray) -> float:
-    q = robot.configuration(alpha, initial_guess=q_guess)
-    return float(pin.computePotentialEnergy(robot.model, robot.data, q))
+def passive_conditioning(robot: ClosedChainRobot, q: np.ndarray) -> float:
+    """cond(J_p): the largest over the smallest nonzero singular value of the closure Jacobian on
+    the passive joints at q (nonzero: above max(shape) eps times the largest, numpy's rank rule;
+    so an idle motion's exact null direction does not count, a near-singular pose does)."""
+    J = robot.closure_jacobian(q)[:, robot.passive_indices]
+    if J.size == 0:
+        return 1.0
+    s = np.linalg.svd(J, compute_uv=False)
+    if not s[0] > 0.0:
+        return math.inf
+    nonzero = s[s > s[0] * max(J.shape) * EPS]
+    return float(nonzero[0] / nonzero[-1])
+
+
+class _Evaluations:
+    """V(q(alpha)) and M(alpha) at the differenced states, assembled to :data:`ASSEMBLY_TOL` while
+    Newton gets there (a robot whose rounding floor lies above it falls back to the default tol)."""
+
+    def __init__(self, robot: ClosedChainRobot) -> None:
+        self.robot = robot
+        self.tight = True
+
+    def assemble(self, alpha: np.ndarray, guess: np.ndarray) -> np.ndarray:
+        if self.tight:
+            try:
+                return self.robot.configuration(alpha, initial_guess=guess, tol=ASSEMBLY_TOL)
+            except AssemblyError:
+                self.tight = False
+        return self.robot.configuration(alpha, initial_guess=guess)
+
+    def potential(self, alpha: np.ndarray, guess: np.ndarray) -> float:
+        """V [J] at alpha [rad or m]."""
+        q = self.assemble(alpha, guess)
+        return float(pin.computePotentialEnergy(self.robot.model, self.robot.data, q))
+
+    def inertia(self, alpha: np.ndarray, guess: np.ndarray) -> np.ndarray:
+        """M = S^T M_tree S (dof, dof) [SI] at alpha [rad or m]."""
+        q = self.assemble(alpha, guess)
+        S = self.robot.velocity_map(q)
+        M = S.T @ self.robot.mass_matrix(q) @ S
+        return 0.5 * (M + M.T)
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-9))
+
+
+@dataclass
+class _Worst:
+    """The state nearest to failing a derivative check: (relative discrepancy, relative estimate)."""
+
+    ratio: float = -1.0
+    value: float = 0.0
+    estimate: float = 0.0
+
+    def add(self, discrepancy: float, estimate: float, scale: float, tol: float) -> None:
+        value, estimate = discrepancy / scale, estimate / scale
+        ratio = value / (tol + DERIVATIVE_SAFETY * estimate)
+        if ratio > self.ratio:
+            self.ratio, self.value, self.estimate = ratio, value, estimate
+
+
+def _gravity_discrepancy(
+    evaluations: _Evaluations, alpha: np.ndarray, q: np.ndarray, G: np.ndarray, noise: float
+) -> tuple[float, float, float]:
+    """G against G_i = dV/dalpha_i along each unit coordinate [rad or m] (scale 1): (largest
+    discrepancy, its error estimate, the scale: the larger of |G| and 1e-9) [N m or N]."""
+    robot = evaluations.robot
+    V = float(pin.computePotentialEnergy(robot.model, robot.data, q))
+    reference = np.empty(robot.dof)
+    error = 0.0
+    for i, e in enumerate(np.eye(robot.dof)):
+        d = richardson_derivative(
+            lambda s, e=e: evaluations.potential(alpha + s * e, q), center=V, noise=noise
+        )
+        reference[i] = d.value
+        error = max(error, d.error)
+    scale = max(float(np.abs(reference).max()), float(np.abs(G).max()), 1e-9)
+    return float(np.abs(G - reference).max()), error, scale
+
+
+def _coriolis_discrepancy(
+    evaluations: _Evaluations,
+    alpha: np.ndarray,
+    alpha_dot: np.ndarray,
+    q: np.ndarray,
+    M: np.ndarray,
+    C: np.ndarray,
+    noise: float,
+) -> tuple[float, float, float]:
+    """C + C^T against M_dot = |alpha_dot| dM/ds along the unit direction u = alpha_dot / |alpha_dot|
+    (scale 1 rad or m): (largest discrepancy, its error estimate, the scale: the larger of |M_dot|
+    and |M| |alpha_dot|, per rad or m, where M hardly changes) [M's units per s]."""
+    speed = float(np.linalg.norm(alpha_dot))
+    if speed == 0.0:
+        return float(np.abs(C + C.T).max()), 0.0, max(float(np.abs(M).max()), 1e-300)
+    u = alpha_dot / speed
+    d = richardson_derivative(
+        lambda s: evaluations.inertia(alpha + s * u, q),
+        center=evaluations.inertia(alpha, q),
+        noise=noise,
+    )
+    M_dot = speed * d.value
+    scale = max(float(np.abs(M_dot).max()), float(np.abs(M).max()) * float(np.abs(alpha_dot).max()))
+    return float(np.abs(C + C.T - M_dot).max()), speed * d.error, scale
+
+
+def _check_options(samples, seed, spread, energy_duration, tol, dt) -> None:
+    if samples < 1:
+        raise InvalidParameterError(f"samples={samples} must be >= 1")
+    if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
+        raise InvalidParameterError(f"seed={seed!r} must be an integer >= 0")
+    if not (spread > 0.0 and math.isfinite(spread)):
+        raise InvalidParameterError(f"spread={spread} must be a finite number > 0 [rad or m]")
+    if not (energy_duration > 0.0 and math.isfinite(energy_duration)):
+        raise InvalidParameterError(
+            f"energy_duration={energy_duration} (--duration) must be a finite number of seconds > 0, e.g. 0.5"
+        )
+    if not (math.isfinite(tol) and tol > 0.0):
+        raise InvalidParameterError(
+            f"tol={tol!r} must be a finite relative tolerance > 0 (e.g. the default {DEFAULT_TOL:g})"
+        )
+    if dt is None:
+        return
+    shortest = energy_duration / MAX_FIXED_STEPS
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and shortest <= dt <= energy_duration):
+        raise InvalidParameterError(
+            f"dt={dt!r} must be a fixed step in seconds with {shortest:g} <= dt <= energy_duration="
+            f"{energy_duration:g} (at most {MAX_FIXED_STEPS:g} steps), e.g. 1e-4; or leave it out for "
+            "the error-controlled integrator"
+        )
 
 
 def validate_closed_chain(
@@ -70,23 +344,33 @@ def validate_closed_chain(
     seed: int = 0,
     spread: float = 0.1,
     energy_duration: float = 0.5,
+    *,
+    tol: float | None = None,
+    dt: float | None = None,
 ) -> ClosedChainValidation:
     """Run the five checks (module docstring) at ``samples`` random states alpha = home +
-    U(-spread, spread) [rad or m], alpha_dot ~ N(0, 0.5^2).
+    U(-spread, spread) [rad or m], alpha_dot ~ N(0, 0.5^2) [rad/s or m/s].
+
+    Args:
+        energy_duration: the free motion's length [s].
+        tol: relative tolerance of the gravity, Coriolis and energy checks (None: 1e-6).
+        dt: a fixed RK4 step [s] for the free motion instead of the error-controlled DOP853.
 
     Raises:
-        InvalidParameterError: bad ``samples``, ``spread`` or ``energy_duration``.
+        InvalidParameterError: bad ``samples``, ``seed``, ``spread``, ``energy_duration``, ``tol``
+            or ``dt``.
         AssemblyError: no random state assembles (the home configuration is at the workspace edge).
     """
-    if samples < 1:
-        raise InvalidParameterError(f"samples={samples} must be >= 1")
-    if not spread > 0.0 or not energy_duration > 0.0:
-        raise InvalidParameterError(f"spread={spread} and energy_duration={energy_duration} must be > 0")
+    tol = DEFAULT_TOL if tol is None else tol
+    _check_options(samples, seed, spread, energy_duration, tol, dt)
     rng = np.random.default_rng(seed)
-    plant = ClosedChainPlant(robot, coordinates="active")
+    plant = ClosedChainPlant(robot, coordinates="full" if robot.has_unactuated_motion else "active")
     report = ClosedChainValidation(robot.name, 0)
-    gaps, plant_errors, gravity_errors, coriolis_errors = [], [], [], []
-    h = DIFFERENCE_STEP
+    report.notes.append("robot: " + robot.summary().replace("\n", "\n  "))
+    reduced = not robot.passive_joints  # an underactuated robot has no reduced model to check
+    gaps, plant_errors, conditions = [], [], []
+    gravity, coriolis_check = _Worst(), _Worst()
+    evaluations = _Evaluations(robot)
     for _ in range(samples):
         alpha = robot.home + rng.uniform(-spread, spread, robot.dof)
         alpha_dot = rng.normal(0.0, 0.5, robot.dof)
@@ -96,26 +380,20 @@ def validate_closed_chain(
             continue
         report.states += 1
         gaps.append(robot.closure_gap(q))
+        condition = passive_conditioning(robot, q)
+        conditions.append(condition)
+        noise = min(
+            EPS * condition, 1e-6
+        )  # the rounding a solve with J_p amplifies; capped near a singularity
+        if not reduced:
+            continue
         M, C, G, coriolis = robot.reduced_terms(alpha, alpha_dot, q)
         tau = rng.normal(0.0, 1.0, robot.dof)
         v = robot.velocity_map(q) @ alpha_dot
         plant_alpha_ddot = plant.accelerations(0.0, q, v, tau)[robot.actuated_indices]
         plant_errors.append(_relative(np.linalg.solve(M, tau - coriolis - G), plant_alpha_ddot))
-        eye = np.eye(robot.dof)
-        G_fd = np.array(
-            [
-                (_potential(robot, alpha + h * e, q) - _potential(robot, alpha - h * e, q)) / (2 * h)
-                for e in eye
-            ]
-        )
-        gravity_errors.append(_relative(G, G_fd) if np.abs(G_fd).max() > 1e-9 else float(np.abs(G).max()))
-        M_plus = robot.reduced_terms(
-            alpha + h * alpha_dot, alpha_dot, robot.configuration(alpha + h * alpha_dot, initial_guess=q)
-        )[0]
-        M_minus = robot.reduced_terms(
-            alpha - h * alpha_dot, alpha_dot, robot.configuration(alpha - h * alpha_dot, initial_guess=q)
-        )[0]
-        coriolis_errors.append(_relative(C + C.T, (M_plus - M_minus) / (2 * h)))
+        gravity.add(*_gravity_discrepancy(evaluations, alpha, q, G, noise), tol)
+        coriolis_check.add(*_coriolis_discrepancy(evaluations, alpha, alpha_dot, q, M, C, noise), tol)
         robot.configuration(alpha, initial_guess=q)  # leave the warm start here
     if report.states == 0:
         raise AssemblyError(
@@ -123,55 +401,153 @@ def validate_closed_chain(
             "assembles; lower --spread"
         )
     report.checks["closure"] = (max(gaps), 1e-10, "largest closure residual of the states [m or rad]")
+    if reduced:
+        _reduced_model_checks(report, plant_errors, gravity, coriolis_check, tol)
+    else:
+        report.notes.append(
+            "plant, gravity, coriolis: not run: the robot is underactuated (passive joints "
+            f"{', '.join(robot.passive_joints)}), so it has no reduced model"
+        )
+    motion = _energy_drift(robot, energy_duration, rng, dt)
+    report.checks["energy"] = (
+        motion.drift,
+        tol,
+        f"energy drift over {energy_duration:g} s of free motion (relative to the largest kinetic energy)",
+    )
+    report.estimates["energy"] = (motion.estimate, 1.0)
+    report.notes.append(f"energy: {motion.how}; fails beyond tol + estimate")
+    report.checks["loop gap"] = (motion.gap, 1e-8, "largest closure gap along the free motion [m or rad]")
+    report.conditioning_parts["at the states"] = (min(conditions), max(conditions))
+    report.conditioning_parts["along the free motion"] = (min(motion.conditions), max(motion.conditions))
+    everywhere = conditions + motion.conditions
+    report.conditioning = (min(everywhere), max(everywhere))
+    return report
+
+
+def _reduced_model_checks(report, plant_errors, gravity, coriolis_check, tol: float) -> None:
+    """Checks 2-4 of the module docstring into ``report``."""
     report.checks["plant"] = (
         max(plant_errors),
         1e-8,
         "projected alpha_ddot vs constraintDynamics (relative)",
     )
-    report.checks["gravity"] = (max(gravity_errors), 1e-6, "G vs dV/dalpha by central differences (relative)")
+    report.checks["gravity"] = (gravity.value, tol, "G vs dV/dalpha, Richardson differences (relative)")
+    report.estimates["gravity"] = (gravity.estimate, DERIVATIVE_SAFETY)
     report.checks["coriolis"] = (
-        max(coriolis_errors),
-        1e-6,
-        "C + C^T vs dM/dt by central differences (relative)",
+        coriolis_check.value,
+        tol,
+        "C + C^T vs dM/dt, Richardson differences (relative)",
     )
-    drift, gap = _energy_drift(robot, energy_duration, rng)
-    report.checks["energy"] = (
-        drift,
-        1e-6,
-        f"energy drift over {energy_duration:g} s of free motion (relative)",
+    report.estimates["coriolis"] = (coriolis_check.estimate, DERIVATIVE_SAFETY)
+    report.notes.append(
+        f"gravity, coriolis: the state nearest to failing; fails beyond tol + {DERIVATIVE_SAFETY:g} x "
+        "estimate (truncation + round-off of the differences)"
     )
-    report.checks["loop gap"] = (gap, 1e-8, "largest closure gap along the free motion [m or rad]")
-    return report
 
 
 def _energy(robot: ClosedChainRobot, q: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+    """(kinetic + gravity + spring energy, kinetic energy) [J]."""
     kinetic = pin.computeKineticEnergy(robot.model, robot.data, q, v)
-    return kinetic + pin.computePotentialEnergy(robot.model, robot.data, q), kinetic
+    springs = 0.0
+    for joint, (stiffness, reference, _) in robot.joint_springs.items():
+        springs += 0.5 * stiffness * (q[robot.model.idx_qs[robot.model.getJointId(joint)]] - reference) ** 2
+    return kinetic + pin.computePotentialEnergy(robot.model, robot.data, q) + springs, kinetic
 
 
-def _energy_drift(robot: ClosedChainRobot, duration: float, rng) -> tuple[float, float]:
-    """Free motion from home with a random velocity, RK4 at 0.1 ms on the plant in full
-    coordinates where the joints allow (a passive mechanism may swing through a configuration
-    where the actuated coordinates do not determine the rest), else in active coordinates:
-    (largest |E(t) - E(0)| / max kinetic energy, largest closure gap)."""
-    full = robot.model.nq == robot.model.nv
-    plant = ClosedChainPlant(robot, coordinates="full" if full else "active")
-    h = 1e-4
-    x = plant.initial_state(robot.home, rng.normal(0.0, 0.5, robot.dof))
+@dataclass
+class _FreeMotion:
+    drift: float  # largest |E(t) - E(0)| / largest kinetic energy
+    estimate: float  # estimated integration error of drift, plus the rounding of E
+    gap: float  # largest closure gap [m or rad]
+    conditions: list[float]  # cond(J_p) along the motion
+    how: str  # the integrator and the estimate, in words
+
+
+def _free_motion(
+    robot: ClosedChainRobot,
+    alpha_dot: np.ndarray,
+    duration: float,
+    step: float | None,
+    rtol: float,
+    atol: float,
+) -> tuple[float, float, float, list[float]]:
+    """One run from home at alpha_dot: (drift, the rounding of E relative to the same scale, gap,
+    cond(J_p) at about ENERGY_SAMPLES points)."""
+    plant = ClosedChainPlant(robot, coordinates="full", joint_damping=False)  # conservative
+    x0 = plant.initial_state(robot.home, alpha_dot)
     nq, n = robot.model.nq, robot.dof
-
-    def point(x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        return (x[:nq], x[nq:]) if full else plant.complete(x[:n], x[n:], t)
-
-    q, v = point(x, 0.0)
-    energy0, kinetic = _energy(robot, q, v)
-    largest_kinetic, drift, gap = kinetic, 0.0, 0.0
     zero = np.zeros(n)
-    for k in range(round(duration / h)):
-        x = rk4_step(lambda t, y: plant.derivative(t, y, zero), k * h, x, h)
-        q, v = point(x, (k + 1) * h)
+
+    def derivative(t: float, y: np.ndarray) -> np.ndarray:
+        return plant.derivative(t, y, zero)
+
+    q = robot.reference_configuration
+    energy0 = None
+    largest_kinetic = largest_terms = drift = gap = 0.0
+    conditions = []
+
+    def record(k: int, x: np.ndarray, every: int) -> None:
+        nonlocal q, energy0, largest_kinetic, largest_terms, drift, gap
+        q, v = x[:nq], x[nq:]
         energy, kinetic = _energy(robot, q, v)
+        energy0 = energy if energy0 is None else energy0
         largest_kinetic = max(largest_kinetic, kinetic)
+        largest_terms = max(largest_terms, kinetic + abs(energy - kinetic))
         drift = max(drift, abs(energy - energy0))
         gap = max(gap, robot.closure_gap(q))
-    return drift / max(largest_kinetic, 1e-12), gap
+        if k % every == 0:
+            conditions.append(passive_conditioning(robot, q))
+
+    if step is None:
+        from scipy.integrate import solve_ivp
+
+        solution = solve_ivp(
+            derivative,
+            (0.0, duration),
+            x0,
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            max_step=duration / ENERGY_SAMPLES,
+        )
+        if solution.status != 0:
+            reached = float(solution.t[-1]) if len(solution.t) else 0.0
+            raise SimulationError(f"the free motion's integration failed: {solution.message}", reached)
+        every = max(1, len(solution.t) // ENERGY_SAMPLES)
+        for k, x in enumerate(solution.y.T):
+            record(k, x, every)
+    else:
+        steps = round(duration / step)
+        every = max(1, steps // ENERGY_SAMPLES)
+        x = x0
+        record(0, x, every)
+        for k in range(steps):
+            x = rk4_step(derivative, k * step, x, step)
+            record(k + 1, x, every)
+    scale = max(largest_kinetic, 1e-12)
+    return drift / scale, 2.0 * EPS * largest_terms / scale, gap, conditions
+
+
+def _energy_drift(robot: ClosedChainRobot, duration: float, rng, dt: float | None = None) -> _FreeMotion:
+    """Free motion from home with a random velocity on the plant in full coordinates where the
+    joints allow (a passive mechanism may swing through a configuration where the actuated
+    coordinates do not determine the rest), else in active coordinates; Baumgarte's corrector keeps
+    the loops closed (no projection). DOP853 at (ENERGY_RTOL, ENERGY_ATOL), its error estimated by
+    the run at 10x tighter tolerances; or RK4 at ``dt`` [s], estimated by the run at dt / 2; either
+    estimate plus the rounding of the energy itself."""
+    alpha_dot = rng.normal(0.0, 0.5, robot.dof)
+    if dt is None:
+        drift, rounding, gap, conditions = _free_motion(
+            robot, alpha_dot, duration, None, ENERGY_RTOL, ENERGY_ATOL
+        )
+        tighter = _free_motion(robot, alpha_dot, duration, None, ENERGY_RTOL / 10, ENERGY_ATOL / 10)[0]
+        how = (
+            f"DOP853 at rtol={ENERGY_RTOL:g}, atol={ENERGY_ATOL:g}; estimate = |drift - drift at rtol="
+            f"{ENERGY_RTOL / 10:g}, atol={ENERGY_ATOL / 10:g} ({tighter:.3e})|"
+        )
+    else:
+        drift, rounding, gap, conditions = _free_motion(robot, alpha_dot, duration, dt, 0.0, 0.0)
+        tighter = _free_motion(robot, alpha_dot, duration, dt / 2, 0.0, 0.0)[0]
+        how = f"RK4 at dt={dt:g} s; estimate = |drift - drift at dt={dt / 2:g} s ({tighter:.3e})|"
+    how += " + rounding 2 eps (K + |V|) / max K"
+    return _FreeMotion(drift, abs(drift - tighter) + rounding, gap, conditions, how)
