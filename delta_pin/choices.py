@@ -26,4 +26,7 @@ SHIPPED_ROBOT_NAMES = (
     "three_rrr_mjcf",
     "delta_mjcf",
     "delta_gepetto",
+    "stewart",
+    "stewart_mjcf",
+    "delta_ballrods",
 )  # model.loaders
