@@ -204,6 +204,7 @@ class ClosedChainNominalModel(NominalModel):
         mass = float(payload_mass)
         if not (np.isfinite(mass) and mass >= 0.0):
             raise InvalidParameterError(f"payload_mass={payload_mass!r} must be a finite mass >= 0 [kg]")
+        robot.require_full_actuation()  # an underactuated or free-base robot: one line, at once
         self.robot = robot.with_payload(mass, payload_frame) if mass > 0.0 else robot
         self.payload_mass = mass
         self.dof = robot.dof

@@ -57,7 +57,7 @@ from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePo
 from delta_pin.model.closures import Closure
 from delta_pin.model.dynamics import ReducedDynamics
 
-__all__ = ["ClosedChainRobot", "closure_rank", "least_squares"]
+__all__ = ["ClosedChainRobot", "closure_rank", "free_motions", "independent_joints", "least_squares"]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _RANK_TOLERANCE = 1e-9  # singular values below this fraction of the largest count as zero
@@ -90,6 +90,62 @@ def _quaternion_rate(quaternion: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return 0.5 * np.concatenate([w * omega + np.cross(u, omega), [-u @ omega]])
 
 
+def free_motions(
+    model: pin.Model, closures: Sequence[Closure], q: np.ndarray, held: Sequence[str] = ()
+) -> np.ndarray:
+    """A basis (nv, k) of the velocities the closures allow at q with the joints ``held`` at
+    rest (the null space of J_c and of those joints' velocity rows)."""
+    from scipy.linalg import null_space
+
+    model = pin.Model(model)
+    frames = []
+    for closure in closures:
+        pair = [
+            model.addFrame(
+                pin.Frame(f"_{closure.name}_{tag}", joint, 0, placement, pin.FrameType.OP_FRAME), False
+            )
+            for tag, joint, placement in (
+                ("1", closure.joint1, closure.placement1),
+                ("2", closure.joint2, closure.placement2),
+            )
+        ]
+        frames.append((pair, closure.size))
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    rows = [
+        (pin.getFrameJacobian(model, data, a, _WORLD) - pin.getFrameJacobian(model, data, b, _WORLD))[:size]
+        for (a, b), size in frames
+    ]
+    N = null_space(np.vstack(rows), rcond=_RANK_TOLERANCE)
+    taken = [
+        model.idx_vs[model.getJointId(name)] + k
+        for name in held
+        for k in range(model.nvs[model.getJointId(name)])
+    ]
+    if taken and N.shape[1]:  # the motions left with the held joints still
+        N = N @ null_space(N[taken], rcond=_RANK_TOLERANCE)
+    return N
+
+
+def independent_joints(
+    model: pin.Model, closures: Sequence[Closure], q: np.ndarray, exclude: Sequence[str] = ()
+) -> list[str]:
+    """1-DOF joints (besides ``exclude``) whose coordinates, with those of ``exclude``, fix the
+    mechanism's configuration at q: as many as its mobility leaves, chosen by column-pivoted QR
+    of the closure null space (the best-conditioned set, file order breaking ties). For a
+    mechanism without motors, these are the passive joints to integrate."""
+    from scipy.linalg import qr
+
+    N = free_motions(model, closures, q, exclude)
+    if N.shape[1] == 0:
+        return []
+    candidates = [j for j in range(1, model.njoints) if model.nvs[j] == 1 and model.names[j] not in exclude]
+    columns = [model.idx_vs[j] for j in candidates]
+    pivots = qr(N[columns].T, pivoting=True)[2][: N.shape[1]]
+    return [model.names[candidates[i]] for i in sorted(pivots)]
+
+
 def closure_rank(robot: ClosedChainRobot, q: np.ndarray) -> int:
     """Number of independent closure equations at q (``robot.closure_size`` when none is redundant)."""
     return _rank(robot.closure_jacobian(q))
@@ -107,6 +163,8 @@ class ClosedChainRobot:
             (an underactuated mechanism: a spring link of a gripper); they are independent
             coordinates beside alpha, the plant simulates them (with ``passive_stiffness``) and
             no controller takes the robot (module docstring, "Mobility").
+        joint_springs: joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m],
+            damping [N m s/rad or N s/m]) of 1-DOF joints; the plant applies -k (q - q_ref) - d v.
         name: the robot's name.
         reference_configuration: a configuration q (nq,) near an assembled one; its actuated
             coordinates are the robot's ``home`` and it starts the first assembly (default: the
@@ -132,6 +190,7 @@ class ClosedChainRobot:
         actuated: Sequence[str],
         *,
         passive: Sequence[str] = (),
+        joint_springs: dict[str, tuple[float, float, float]] | None = None,
         name: str = "",
         reference_configuration: np.ndarray | None = None,
         end_effector: str | None = None,
@@ -153,8 +212,11 @@ class ClosedChainRobot:
         if not self.closures:
             raise InvalidParameterError(f"{self._label}has no loop closure: use a serial-robot model instead")
         self.actuated_joints = tuple(actuated)
-        if not self.actuated_joints:
-            raise InvalidParameterError(f"{self._label}names no actuated joint")
+        if not self.actuated_joints and not passive:
+            raise InvalidParameterError(
+                f"{self._label}names no actuated joint: name the motors (actuated=[...]), or the joints "
+                "no motor drives (passive=[...]) for a mechanism without motors"
+            )
         ids = [self._joint_id(joint, "actuated") for joint in self.actuated_joints]
         if len(set(ids)) != len(ids):
             raise InvalidParameterError(
@@ -167,14 +229,19 @@ class ClosedChainRobot:
                     f"{self._label}joint {joint!r} is named both actuated and passive: a joint is driven by "
                     "a motor (actuated) or by nothing (passive), not both"
                 )
-        passive_ids = [self._joint_id(joint, "passive") for joint in self.passive_joints]
+        passive_ids = [self._joint_id(joint, "passive", any_type=True) for joint in self.passive_joints]
         if len(set(passive_ids)) != len(passive_ids):
             raise InvalidParameterError(f"{self._label}a passive joint is named twice: {list(passive)}")
         self.dof = len(ids)
-        self.actuated_indices = np.array([self.model.idx_vs[j] for j in ids])  # in v
-        self.actuated_q_indices = np.array([self.model.idx_qs[j] for j in ids])  # in q
-        self.passive_joint_indices = np.array([self.model.idx_vs[j] for j in passive_ids], dtype=int)
-        self.passive_joint_q_indices = np.array([self.model.idx_qs[j] for j in passive_ids], dtype=int)
+        self.actuated_indices = np.array([self.model.idx_vs[j] for j in ids], dtype=int)  # in v
+        self.actuated_q_indices = np.array([self.model.idx_qs[j] for j in ids], dtype=int)  # in q
+        # a passive joint may have several degrees of freedom (a free-flyer base, a ball joint)
+        self.passive_joint_indices = np.array(
+            [self.model.idx_vs[j] + k for j in passive_ids for k in range(self.model.nvs[j])], dtype=int
+        )
+        self.passive_joint_q_indices = np.array(
+            [self.model.idx_qs[j] + k for j in passive_ids for k in range(self.model.nqs[j])], dtype=int
+        )
         # the independent coordinates (actuated, then the named passive joints) and the ones the
         # closures determine (up to idle motions); passive_indices is the older name of the latter
         self.independent_indices = np.concatenate([self.actuated_indices, self.passive_joint_indices])
@@ -184,6 +251,15 @@ class ClosedChainRobot:
         # joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m], damping
         # [N m s/rad or N s/m]): the plant applies -k (q - q_ref) - d v there (MJCF stiffness/damping)
         self.joint_springs: dict[str, tuple[float, float, float]] = {}
+        for joint, values in (joint_springs or {}).items():
+            self._joint_id(joint, "sprung")
+            stiffness, reference, damping = (float(x) for x in values)
+            if not (np.isfinite([stiffness, reference, damping]).all() and stiffness >= 0 and damping >= 0):
+                raise InvalidParameterError(
+                    f"{self._label}joint_springs[{joint!r}] = {values!r} must be (stiffness >= 0, reference, "
+                    "damping >= 0), finite"
+                )
+            self.joint_springs[joint] = (stiffness, reference, damping)
         self._rates = None  # per joint, how its configuration coefficients move (configuration_rate)
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
@@ -229,7 +305,7 @@ class ClosedChainRobot:
         self._classify_mobility(self.reference_configuration)
         self._options = {
             "name": name, "source": source, "urdf": urdf, "base_dir": base_dir, "visual_model": visual_model,
-            "passive": self.passive_joints,
+            "passive": self.passive_joints, "joint_springs": self.joint_springs,
         }  # fmt: skip
 
     # ------------------------------------------------------------------------------ naming
@@ -239,15 +315,15 @@ class ClosedChainRobot:
         source = getattr(self, "source", "")
         return f"robot {name!r}{f' ({source})' if source else ''}: " if name or source else ""
 
-    def _joint_id(self, joint: str, role: str) -> int:
-        """Id of a 1-DOF joint named as ``role`` (actuated or passive)."""
+    def _joint_id(self, joint: str, role: str, any_type: bool = False) -> int:
+        """Id of a joint named as ``role`` (actuated or passive): 1-DOF unless ``any_type``."""
         if not isinstance(joint, str) or not self.model.existJointName(joint):
             known = ", ".join(self.model.names[1:])
             raise InvalidParameterError(
                 f"{self._label}{role} joint {joint!r} is not in the model (joints: {known})"
             )
         jid = self.model.getJointId(joint)
-        if self.model.nqs[jid] != 1 or self.model.nvs[jid] != 1:
+        if not any_type and (self.model.nqs[jid] != 1 or self.model.nvs[jid] != 1):
             what = "an actuator drives" if role == "actuated" else "a passive joint is"
             raise InvalidParameterError(
                 f"{self._label}{role} joint {joint!r} has {self.model.nvs[jid]} degrees of freedom; "
@@ -778,7 +854,7 @@ class ClosedChainRobot:
             q: the closure-consistent configuration of ``alpha`` if already known.
         """
         alpha_dot = self._joint_vector(alpha_dot, "alpha_dot")
-        self._require_full_actuation()
+        self.require_full_actuation()
         q = self.configuration(alpha) if q is None else q
         if self.idle_dof:
             p = self._idle_projection(q, alpha_dot)
@@ -813,12 +889,24 @@ class ClosedChainRobot:
             S.T @ (nle - gravity) + S.T @ (M @ rate),
         )
 
-    def _require_full_actuation(self) -> None:
+    def require_full_actuation(self) -> None:
+        """Raise unless the actuated joints determine the motion (up to idle motions): what every
+        controller's reduced model needs.
+
+        Raises:
+            InvalidParameterError: passive joints (an underactuated robot, or a free base), named.
+        """
         if self.passive_joints:
+            free = [
+                j
+                for j in self.passive_joints
+                if self.model.joints[self.model.getJointId(j)].shortname() == "JointModelFreeFlyer"
+            ]
+            what = f"its base is free ({', '.join(free)})" if free else "it is underactuated"
             raise InvalidParameterError(
-                f"{self._label}is underactuated: its passive joint(s) {', '.join(self.passive_joints)} are "
-                "driven by no motor, so the actuated joints do not determine its motion and it has no "
-                "reduced model for a controller; simulate it with a plant and torques of your own, or "
+                f"{self._label}{what}: passive joint(s) {', '.join(self.passive_joints)} are driven by no "
+                "motor, so the actuated joints do not determine its motion and it has no reduced model "
+                "for a controller (underactuated); simulate it with a plant and torques of your own, or "
                 "name those joints actuated"
             )
 
@@ -883,7 +971,6 @@ class ClosedChainRobot:
             tree, self.closures, self.actuated_joints, reference_configuration=self.reference_configuration,
             end_effector=self.model.frames[self.end_effector].name, **self._options,
         )  # fmt: skip
-        robot.joint_springs = dict(self.joint_springs)
         robot.delta = self.delta
         return robot
 
@@ -933,9 +1020,9 @@ class ClosedChainRobot:
             f"robot {self.name!r}{f' ({self.source})' if self.source else ''}",
             f"  joints: {c['joint_velocities']} velocities; closures: {kinds} "
             f"({c['closure_equations']} equations, {c['independent_closure_equations']} independent)",
-            f"  mobility: {c['mobility']} = {self.dof} actuated + {len(self.passive_joints)} passive + "
-            f"{self.idle_dof} idle",
-            f"  actuated: {', '.join(self.actuated_joints)}",
+            f"  mobility: {c['mobility']} = {self.dof} actuated + {len(self.passive_joint_indices)} "
+            f"passive + {self.idle_dof} idle",
+            f"  actuated: {', '.join(self.actuated_joints) or 'none'}",
             f"  passive: {', '.join(self.passive_joints) or 'none'}"
             + ("" if c["fully_actuated"] else " (underactuated: no controller takes it)"),
             f"  idle motions: {idle}",

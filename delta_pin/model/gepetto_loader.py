@@ -8,7 +8,9 @@ motors (docs/architecture.md section 13)::
     type: ['3D', '6D']              # per pair: 3D (the origins coincide) or 6D (the frames do)
     name_mot: ['mot1', 'mot2']      # the actuated joints, in the order of alpha
     joint_name: ['to_rotule_1']     # optional: joints to replace ...
-    joint_type: ['SPHERICAL']       # ... by SPHERICAL, CARDAN (RX then RY) or FIXED
+    joint_type: ['SPHERICAL']       # ... by SPHERICAL, UJOINTXY (RX then RY; any two of XYZ),
+                                    #     CARDAN (= UJOINTXY) or FIXED
+    name_passive: ['spring_1']      # optional: joints no motor drives (an underactuated robot)
 
 A frame name is any frame of the Pinocchio model built from the URDF: a link, or a fixed
 joint's child link or the fixed joint itself (Gepetto's files add massless child links, e.g.
@@ -16,9 +18,11 @@ joint's child link or the fixed joint itself (Gepetto's files add massless child
 Gepetto's loader; ``3d``/``6d`` in lower case are accepted. A frame on the root link (or on a
 link fixed to it) rides on joint 0: that closure holds a moving part to the ground. The joint
 replacements follow Gepetto's ``completeRobotLoader``: SPHERICAL makes the joint a ball joint at
-the same placement, CARDAN a revolute about x (``<name>_X``) followed by one about y
-(``<name>_Y``, which carries the link), FIXED locks the joint at its neutral value. Units: SI, as
-the URDF's.
+the same placement, ``UJOINT<a><b>`` a revolute about axis a (``<name>_<a>``) followed by one
+about axis b (``<name>_<b>``, which carries the link; CARDAN is UJOINTXY), FIXED locks the joint
+at its neutral value. Gepetto's loader takes ``freeflyer=True`` in Python, not in the file:
+``load_robot(..., free_flyer=True)`` puts the tree on a free-flyer root the same way. Units: SI,
+as the URDF's.
 """
 
 from __future__ import annotations
@@ -31,12 +35,27 @@ import pinocchio as pin
 from delta_pin.errors import OptionalDependencyError, URDFConventionError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.closures import Closure
+from delta_pin.model.urdf_tree import build_urdf_tree, with_free_base
 
 __all__ = ["read_gepetto", "read_gepetto_yaml"]
 
 _KINDS = {"3d": "3d", "6d": "6d"}
-_KEYS = ("closed_loop", "type", "name_mot", "joint_name", "joint_type")
-_REPLACEMENTS = ("SPHERICAL", "CARDAN", "FIXED")
+_KEYS = ("closed_loop", "type", "name_mot", "name_passive", "joint_name", "joint_type")
+_REPLACEMENTS = ("SPHERICAL", "UJOINT<a><b> (a, b in X, Y, Z)", "CARDAN", "FIXED")
+_AXES = {"X": pin.JointModelRX, "Y": pin.JointModelRY, "Z": pin.JointModelRZ}
+
+
+def _universal_axes(kind: str) -> tuple[str, str] | None:
+    """The two axes of a universal-joint replacement (``UJOINTXY``, ``CARDAN``), else ``None``."""
+    if kind == "CARDAN":
+        return ("X", "Y")
+    if kind.startswith("UJOINT") and len(kind) >= 8 and kind[-2] in _AXES and kind[-1] in _AXES:
+        return (kind[-2], kind[-1]) if kind[-2] != kind[-1] else None
+    return None
+
+
+def _known_replacement(kind: str) -> bool:
+    return kind in ("SPHERICAL", "FIXED") or _universal_axes(kind) is not None
 
 
 def _lines(text: str) -> dict:
@@ -122,20 +141,22 @@ def _replace_joints(model: pin.Model, names: list, types: list, where) -> pin.Mo
     new.name = model.name
     new.gravity = model.gravity
     kinds = dict(zip(names, types))
+    # the joint that carries the link of a universal-joint replacement: the second axis's
+    carrier = {n: f"{n}_{_universal_axes(k)[1]}" for n, k in kinds.items() if _universal_axes(k)}
     locked = []
     for j in range(1, model.njoints):
         name, placement = model.names[j], model.jointPlacements[j]
-        parent = new.getJointId(model.names[model.parents[j]]) if model.parents[j] else 0
-        if model.names[model.parents[j]] in kinds and kinds[model.names[model.parents[j]]] == "CARDAN":
-            parent = new.getJointId(model.names[model.parents[j]] + "_Y")
+        parent_name = model.names[model.parents[j]]
+        parent = new.getJointId(carrier.get(parent_name, parent_name)) if model.parents[j] else 0
         kind = kinds.get(name)
         joint = model.joints[j]
         if kind == "SPHERICAL":
             joint = pin.JointModelSpherical()
-        elif kind == "CARDAN":
-            parent = new.addJoint(parent, pin.JointModelRX(), placement, name + "_X")
+        elif name in carrier:
+            first, second = _universal_axes(kind)
+            parent = new.addJoint(parent, _AXES[first](), placement, f"{name}_{first}")
             new.addJointFrame(parent, -1)
-            joint, placement, name = pin.JointModelRY(), pin.SE3.Identity(), name + "_Y"
+            joint, placement, name = _AXES[second](), pin.SE3.Identity(), carrier[name]
         jid = new.addJoint(parent, joint, placement, name)
         new.addJointFrame(jid, -1)
         new.appendBodyToJoint(jid, model.inertias[j], pin.SE3.Identity())
@@ -145,13 +166,12 @@ def _replace_joints(model: pin.Model, names: list, types: list, where) -> pin.Mo
         if frame.type == pin.FrameType.JOINT:
             continue  # addJoint made them
         joint_name = model.names[frame.parentJoint]
-        if kinds.get(joint_name) == "CARDAN":
-            joint_name += "_Y"
+        joint_name = carrier.get(joint_name, joint_name)
         parent = new.getJointId(joint_name) if frame.parentJoint else 0
         previous = model.frames[frame.parentFrame]
         previous_name = previous.name
-        if previous.type == pin.FrameType.JOINT and kinds.get(previous_name) == "CARDAN":
-            previous_name += "_Y"
+        if previous.type == pin.FrameType.JOINT:
+            previous_name = carrier.get(previous_name, previous_name)
         previous_id = new.getFrameId(previous_name) if new.existFrame(previous_name) else 0
         new.addFrame(pin.Frame(frame.name, parent, previous_id, frame.placement, frame.type), False)
     for name in names:
@@ -175,6 +195,8 @@ def read_gepetto(
     *,
     urdf: str,
     actuated: list[str] | None = None,
+    passive: list[str] | None = None,
+    free_flyer: bool = False,
     end_effector: str | None = None,
     g: float | None = None,
 ) -> ClosedChainRobot:
@@ -186,6 +208,8 @@ def read_gepetto(
         yaml_path: the ``robot.yaml``.
         urdf: the URDF text (already read, xacro compiled).
         actuated: the actuated joints (default: ``name_mot``).
+        passive: joints no motor drives (default: ``name_passive``, if given).
+        free_flyer: a free-flyer root joint (``root_joint``, passive) under the tree.
         end_effector: the frame the runs record (default: the first closure's first frame).
         g: gravity [m/s^2] along -z (default: Pinocchio's 9.81; a URDF has none).
 
@@ -202,14 +226,11 @@ def read_gepetto(
         line = lines.get(key if index is None else (key, index), lines.get(key))
         return f"{source} line {line}" if line else source
 
-    try:
-        model = pin.buildModelFromXML(urdf)
-    except (RuntimeError, ValueError) as exc:
-        raise URDFConventionError(f"{urdf_path.name}: Pinocchio could not read the URDF: {exc}") from None
+    model = build_urdf_tree(urdf, urdf_path.name, free_flyer)
     joint_names = [str(n) for n in content.get("joint_name", [])]
     joint_types = [str(t).upper() for t in content.get("joint_type", [])]
     for i, kind in enumerate(joint_types):
-        if kind not in _REPLACEMENTS:
+        if not _known_replacement(kind):
             raise URDFConventionError(
                 f"{where('joint_type', i)}: joint_type {content['joint_type'][i]!r} (for joint "
                 f"{joint_names[i]!r}) is not supported; use one of {', '.join(_REPLACEMENTS)}"
@@ -263,7 +284,16 @@ def read_gepetto(
                     f"{where('name_mot', i)}: motor joint {name!r} is not in {urdf_path.name} (joints: "
                     f"{', '.join(model.names[1:])})"
                 )
+    if passive is None:
+        passive = [str(n) for n in content.get("name_passive", [])]
+        for i, name in enumerate(passive):
+            if not model.existJointName(name):
+                raise URDFConventionError(
+                    f"{where('name_passive', i)}: passive joint {name!r} is not in {urdf_path.name} (joints: "
+                    f"{', '.join(model.names[1:])})"
+                )
     return ClosedChainRobot(
-        model, closures, actuated, name=model.name, source=f"{urdf_path.name} + {source}", urdf=urdf,
-        base_dir=str(urdf_path.resolve().parent), end_effector=end_effector,
+        model, closures, actuated, passive=with_free_base(passive, free_flyer), name=model.name,
+        source=f"{urdf_path.name} + {source}", urdf=urdf, base_dir=str(urdf_path.resolve().parent),
+        end_effector=end_effector,
     )  # fmt: skip

@@ -33,6 +33,7 @@ from lxml import etree
 from delta_pin.errors import DeltaPinError, InvalidParameterError, URDFConventionError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.closures import Closure
+from delta_pin.model.urdf_tree import build_urdf_tree, with_free_base
 
 __all__ = ["ROBOT_FILE_SHAPES", "SHIPPED_ROBOTS", "load_robot", "read_urdf_constraints", "shipped_robot"]
 
@@ -47,6 +48,9 @@ SHIPPED_ROBOTS = {
     "three_rrr_mjcf": "three_rrr.xml",  # the same robot in MJCF (connect + weld)
     "delta_mjcf": "delta.xml",  # the Table 1 Delta in MJCF (connects, motors)
     "delta_gepetto": "delta_gepetto/robot.urdf",  # the Table 1 Delta as URDF + robot.yaml
+    "stewart": "stewart.urdf",  # 6-UPS Stewart-Gough platform, URDF with five <constraint type="point">
+    "stewart_mjcf": "stewart.xml",  # the same robot in MJCF (connect, ball, motors on the slides)
+    "delta_ballrods": "delta_ballrods.xml",  # the Table 1 Delta in MJCF, ball-jointed parallelogram rods
 }
 _POINT_TYPES = {"point": "3d", "3d": "3d"}
 _WELD_TYPES = {"weld": "6d", "fixed": "6d", "6d": "6d"}
@@ -73,9 +77,12 @@ def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> 
     """The ``<constraint>`` elements of URDF text as :class:`Closure` on ``model`` (built from
     the same text by Pinocchio).
 
+    A link may be the URDF's root link (the ground) or a link fixed to it: that frame rides on
+    joint 0 (the world), at the link's placement in the world.
+
     Raises:
-        URDFConventionError: a constraint with an unsupported type, a missing link, or bad
-            numbers; the message names the constraint and its line.
+        URDFConventionError: a constraint with an unsupported type, a missing link, bad
+            numbers, or two links of one rigid body; the message names the constraint and its line.
     """
     root = etree.fromstring(urdf.encode())
     closures = []
@@ -90,7 +97,7 @@ def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> 
                 "supported: 'point' (3D, the "
                 "frames' origins coincide) and 'weld' (6D, the frames coincide)"
             )
-        anchors = []
+        anchors, links = [], []
         for tag in ("parent", "child"):
             link_element = element.find(tag)
             link = None if link_element is None else link_element.get("link")
@@ -100,13 +107,16 @@ def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> 
                 raise URDFConventionError(
                     f"constraint {name!r} ({where}) names link {link!r}, which the URDF does not have"
                 )
+            # the root link and links fixed to it are on joint 0 (the ground), placed in the world
             body = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
             anchors.append((body.parentJoint, body.placement * _origin(element.find(f"{tag}_origin"), where)))
+            links.append(link)
         (j1, placement1), (j2, placement2) = anchors
         if j1 == j2:
+            body = "the ground (the root link)" if j1 == 0 else f"joint {model.names[j1]!r}"
             raise URDFConventionError(
-                f"constraint {name!r} ({where}) joins two links that move together (the "
-                "same joint): it closes no loop"
+                f"constraint {name!r} ({where}) joins links {links[0]!r} and {links[1]!r}, which are one "
+                f"rigid body (both on {body}): it closes no loop; join links of two different bodies"
             )
         closures.append(Closure(name, kind, j1, placement1, j2, placement2, source=where))
     return closures
@@ -140,17 +150,14 @@ def _read_text(path: Path) -> str:
 
 
 def _load_urdf(
-    path: Path, text: str, actuated, g: float | None, end_effector: str | None
+    path: Path, text: str, actuated, g: float | None, end_effector: str | None, passive, free_flyer: bool
 ) -> ClosedChainRobot:
     source = path.name
     try:
         etree.fromstring(text.encode())
     except etree.XMLSyntaxError as exc:
         raise URDFConventionError(f"{source}: not valid XML: {exc}") from None
-    try:
-        model = pin.buildModelFromXML(text)
-    except (RuntimeError, ValueError) as exc:
-        raise URDFConventionError(f"{source}: Pinocchio could not read the URDF: {exc}") from None
+    model = build_urdf_tree(text, source, free_flyer)
     if g is not None:
         model.gravity.linear = np.array([0.0, 0.0, -float(g)])
     closures = read_urdf_constraints(text, model, source)
@@ -175,9 +182,9 @@ def _load_urdf(
             "elements"
         )
     return ClosedChainRobot(
-        model, closures, actuated, name=model.name, source=source, urdf=text,
-        base_dir=str(path.resolve().parent),
-        end_effector=end_effector, reference_configuration=reference,
+        model, closures, actuated, passive=with_free_base(passive, free_flyer), name=model.name,
+        source=source, urdf=text, base_dir=str(path.resolve().parent), end_effector=end_effector,
+        reference_configuration=reference,
     )  # fmt: skip
 
 
@@ -207,6 +214,8 @@ def load_robot(
     path: str | Path,
     *,
     actuated: list[str] | None = None,
+    passive: list[str] | None = None,
+    free_flyer: bool = False,
     end_effector: str | None = None,
     g: float | None = None,
     recognise: bool = True,
@@ -220,6 +229,12 @@ def load_robot(
             shipped robot (:data:`SHIPPED_ROBOTS`, e.g. ``"five_bar"``).
         actuated: the actuated joints, in the order of alpha (default: from the file: URDF
             ``<transmission>``, ``robot.yaml`` ``name_mot``, MJCF ``<motor>``).
+        passive: joints no motor drives that the closures leave free (an underactuated
+            mechanism; default: ``robot.yaml`` ``name_passive``, MJCF joints with a spring that no
+            motor drives and free joints; a motorless MJCF file: chosen). The plant simulates
+            them; controllers refuse the robot.
+        free_flyer: URDF shapes: put the tree on a free-flyer root joint (``root_joint``, passive),
+            as Gepetto's loader does with ``freeflyer=True``; MJCF has its own free joints.
         end_effector: the frame the runs record and task-space paths move (default: the first
             closure's first frame).
         g: gravity [m/s^2] along -z (default: the file's; URDF has none: 9.81).
@@ -249,7 +264,11 @@ def load_robot(
     if name.endswith(".xml") or name.endswith(".mjcf"):
         from delta_pin.model.mjcf_loader import read_mjcf
 
-        robot = read_mjcf(path, actuated=actuated, end_effector=end_effector, g=g)
+        if free_flyer:
+            raise InvalidParameterError(
+                f"free_flyer=True applies to URDF files; {path.name} is MJCF: give its base a <freejoint/>"
+            )
+        robot = read_mjcf(path, actuated=actuated, passive=passive, end_effector=end_effector, g=g)
     elif name.endswith(".urdf") or name.endswith(".xacro"):
         if xacro_args:
             from xacrodoc import XacroDoc
@@ -263,12 +282,15 @@ def load_robot(
         if not _has_constraints(text, path.name) and sidecar.is_file():
             from delta_pin.model.gepetto_loader import read_gepetto
 
-            robot = read_gepetto(path, sidecar, urdf=text, actuated=actuated, end_effector=end_effector, g=g)
+            robot = read_gepetto(
+                path, sidecar, urdf=text, actuated=actuated, passive=passive, free_flyer=free_flyer,
+                end_effector=end_effector, g=g,
+            )  # fmt: skip
         else:
-            robot = _load_urdf(path, text, actuated, g, end_effector)
+            robot = _load_urdf(path, text, actuated, g, end_effector, passive, free_flyer)
     else:
         raise URDFConventionError(f"{path.name}: unknown robot file type; give {ROBOT_FILE_SHAPES}")
-    if recognise:
+    if recognise and not robot.passive_joints:  # an underactuated robot has no reduced model to compare
         from delta_pin.model.delta_recognition import delta_platform_joint, recognise_delta
 
         robot.delta = recognise_delta(robot)

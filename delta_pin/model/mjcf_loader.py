@@ -41,9 +41,12 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
 * visuals: geoms of the primitive types (box, sphere, capsule, cylinder, ellipsoid) become a
   ``pin.GeometryModel`` (coal shapes) for drawing; mesh, plane, hfield and sdf geoms are not drawn.
 
-Joint damping, stiffness, friction loss and armature, joint limits and contacts are MuJoCo
-simulation options that the closed-chain model does not carry; armature is refused (it changes the
-inertia), the others are listed in a warning.
+Joint dynamics: armature (rotor inertia) goes into ``model.armature`` (hinge, slide and ball
+joints); stiffness, ``springref`` and damping of hinge and slide joints become the robot's
+``joint_springs`` (the plant applies -k (q - q_ref) - d v), and a sprung joint that no motor
+drives is passive (an underactuated mechanism, e.g. a gripper's spring links). A spring or
+damper on a ball or free joint is refused; friction loss is listed in a warning; joint limits
+and contacts are not modelled.
 
 Units: SI (m, kg, s, rad), as MuJoCo's.
 """
@@ -57,7 +60,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import OptionalDependencyError, URDFConventionError
-from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.closed_chain import ClosedChainRobot, free_motions, independent_joints
 from delta_pin.model.closures import Closure
 
 __all__ = ["mjcf_to_pinocchio", "read_mjcf"]
@@ -304,26 +307,53 @@ def _actuated(mujoco, m, model: pin.Model, path: Path, source: str) -> list[str]
     return names
 
 
-def _warn_ignored(mujoco, m, source: str) -> None:
-    if np.any(m.dof_armature != 0.0):
-        raise URDFConventionError(
-            f"{source}: joint armature (rotor inertia) is not carried by delta-pin's model: set "
-            'armature="0" or model the rotor as a body'
+def _velocity_rows(model: pin.Model, joint: str) -> slice:
+    jid = model.getJointId(joint)
+    return slice(model.idx_vs[jid], model.idx_vs[jid] + model.nvs[jid])
+
+
+def _joint_dynamics(mujoco, m, model: pin.Model, source: str) -> tuple[dict, list[str]]:
+    """The joints' springs, dampers and rotor inertias as the model carries them: armature into
+    ``model.armature``; (stiffness, spring reference, damping) per hinge or slide joint; and the
+    hinge and slide joints with a spring (stiffness > 0), which are passive unless a motor drives
+    them. Friction loss is listed in a warning (the plant has no dry friction on those joints).
+
+    Raises:
+        URDFConventionError: a spring, damper or armature on a ball or free joint (named).
+    """
+    springs, sprung = {}, []
+    for j in range(m.njnt):
+        kind = int(m.jnt_type[j])
+        name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
+        dofs = slice(
+            int(m.jnt_dofadr[j]), int(m.jnt_dofadr[j]) + (1 if kind in (2, 3) else 3 if kind == 1 else 6)
         )
-    ignored = []
-    for label, values in (
-        ("damping", m.dof_damping),
-        ("frictionloss", m.dof_frictionloss),
-        ("stiffness", m.jnt_stiffness),
-    ):
-        if np.any(np.asarray(values) != 0.0):
-            ignored.append(label)
-    if ignored:
+        stiffness, damping = float(m.jnt_stiffness[j]), np.asarray(m.dof_damping[dofs], dtype=float)
+        armature = np.asarray(m.dof_armature[dofs], dtype=float)
+        if kind in (0, 1):
+            if stiffness != 0.0 or np.any(damping != 0.0) or (kind == 0 and np.any(armature != 0.0)):
+                raise URDFConventionError(
+                    f"{source}: {'free' if kind == 0 else 'ball'} joint {name!r} has a stiffness, damping or "
+                    "armature; delta-pin carries springs and dampers on hinge and slide joints (and "
+                    "armature on those and on ball joints): set them to 0 there or model them otherwise"
+                )
+            if kind == 1 and np.any(armature != 0.0):
+                start = model.idx_vs[model.getJointId(name)]
+                model.armature[start : start + 3] = armature
+            continue
+        index = model.idx_vs[model.getJointId(name)]
+        model.armature[index] = armature[0]
+        if stiffness != 0.0 or damping[0] != 0.0:
+            springs[name] = (stiffness, float(m.qpos_spring[m.jnt_qposadr[j]]), float(damping[0]))
+        if stiffness > 0.0:
+            sprung.append(name)
+    if np.any(np.asarray(m.dof_frictionloss) != 0.0):
         warnings.warn(
-            f"{source}: joint {', '.join(ignored)} are MuJoCo simulation options that delta-pin's model "
-            "ignores",
+            f"{source}: joint frictionloss (dry friction) is a MuJoCo option the plant does not apply; "
+            "give the actuated joints' friction to the plant (friction=) instead",
             stacklevel=3,
         )
+    return springs, sprung
 
 
 def _visual_model(mujoco, m, bodies, model: pin.Model) -> pin.GeometryModel:
@@ -359,6 +389,7 @@ def read_mjcf(
     path: str | Path,
     *,
     actuated: list[str] | None = None,
+    passive: list[str] | None = None,
     end_effector: str | None = None,
     g: float | None = None,
 ) -> ClosedChainRobot:
@@ -368,6 +399,11 @@ def read_mjcf(
         path: the ``.xml`` file.
         actuated: the actuated joints in the order of alpha (default: the joints of the file's
             ``<motor>`` actuators, in actuator order).
+        passive: the joints no motor drives that the closures leave free (default: the hinge
+            and slide joints with a spring, ``stiffness`` > 0, that no motor drives, and the free
+            joints whose motion the closures leave free (a floating base); for a file without motors,
+            the joints that fix its configuration, chosen by
+            :func:`~delta_pin.model.closed_chain.independent_joints`).
         end_effector: a frame (body, site or joint name) the runs record (default: the first
             closure's first frame).
         g: gravity [m/s^2] along -z (default: the file's ``<option gravity>``).
@@ -386,8 +422,8 @@ def read_mjcf(
     except ValueError as exc:  # MuJoCo's compiler: the message names the element and the line
         message = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
         raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {message}") from None
-    _warn_ignored(mujoco, m, source)
     model, bodies, q_maps = mjcf_to_pinocchio(m, source=source)
+    springs, sprung = _joint_dynamics(mujoco, m, model, source)
     model.name = bytes(m.names).split(b"\0", 1)[0].decode() or path.stem  # <mujoco model="...">
     if g is not None:
         model.gravity.linear = np.array([0.0, 0.0, -float(g)])
@@ -400,17 +436,29 @@ def read_mjcf(
     motors = _actuated(mujoco, m, model, path, source)
     if actuated is None:
         actuated = motors
-    if not actuated:
-        raise URDFConventionError(
-            f'{source} has no <actuator> <motor joint="..."/>: pass actuated=[...] (CLI: --actuated a,b,c) '
-            "or add motors"
-        )
     keys = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(m.nkey)]
     home = keys.index("home") if "home" in keys else None
     qpos = m.qpos0 if home is None else m.key_qpos[home]
     reference = _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float))
+    if passive is None:
+        # the sprung joints no motor drives; a file without motors is a passive mechanism whose
+        # independent joints are chosen (closed_chain.independent_joints)
+        # a free joint whose motion the closures leave free (a floating base: no motor drives
+        # it); one the closures fix (a Delta's platform written as a free body) is not passive
+        motions = free_motions(model, closures, reference, held=actuated)
+        free = []
+        for j in range(m.njnt):
+            name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
+            if (
+                int(m.jnt_type[j]) == 0
+                and np.abs(motions[_velocity_rows(model, name)]).max(initial=0.0) > 1e-9
+            ):
+                free.append(name)
+        passive = free + [name for name in sprung if name not in actuated]
+        if not actuated:
+            passive += independent_joints(model, closures, reference, exclude=passive)
     return ClosedChainRobot(
-        model, closures, actuated, name=model.name, source=source, base_dir=str(path.resolve().parent),
-        end_effector=end_effector, reference_configuration=reference,
+        model, closures, actuated, passive=passive, joint_springs=springs, name=model.name, source=source,
+        base_dir=str(path.resolve().parent), end_effector=end_effector, reference_configuration=reference,
         visual_model=_visual_model(mujoco, m, bodies, model),
     )  # fmt: skip

@@ -54,6 +54,8 @@ class ClosedChainPlant(Plant):
             has idle motions or passive joints).
         baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
         projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
+        joint_damping: apply the dampers of ``robot.joint_springs`` (``False``: springs only, a
+            conservative plant, as the energy check of ``validate`` needs).
     """
 
     name = "pinocchio_closed_chain"
@@ -68,6 +70,7 @@ class ClosedChainPlant(Plant):
         coordinates: str | None = None,
         baumgarte_frequency: float = 20.0,
         projection_tolerance: float = 1e-10,
+        joint_damping: bool = True,
         uncertainty=None,
     ) -> None:
         if uncertainty is not None:
@@ -143,7 +146,7 @@ class ClosedChainPlant(Plant):
         self._spring_v = np.array([robot.model.idx_vs[j] for j, *_ in springs], dtype=int)
         self._spring_k = np.array([k for _, k, _, _ in springs], dtype=float)
         self._spring_ref = np.array([r for _, _, r, _ in springs], dtype=float)
-        self._spring_d = np.array([d for *_, d in springs], dtype=float)
+        self._spring_d = np.array([d if joint_damping else 0.0 for *_, d in springs], dtype=float)
         # idle motions and passive joints are state of their own: a projection keeps them
         self._keeps_unactuated_state = bool(carried)
 

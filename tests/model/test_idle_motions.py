@@ -275,3 +275,17 @@ def test_configuration_rate_matches_differences_of_pin_integrate():
     h = 1e-6
     fd = (pin.integrate(model, q, h * v) - pin.integrate(model, q, -h * v)) / (2 * h)
     np.testing.assert_allclose(robot.configuration_rate(q, v), fd, atol=1e-8, rtol=0)
+
+
+def test_validate_passes_on_both_and_reports_the_classification():
+    """The honest checks on Gepetto's models as shipped: every check passes, and the report
+    opens with the idle motions. robot_delta's free motion is short here: its grams-light links
+    and tiny spin bodies make the motion fast (DOP853 takes ~5e4 steps/s) and its redundant welds
+    cost constraintDynamics proximal iterations (~0.17 ms an evaluation), so 0.2 s takes ~50 s."""
+    from delta_pin.sim.closed_chain_validation import validate_closed_chain
+
+    for name, duration in (("5bar_linkage", 0.2), ("robot_delta", 0.01)):
+        report = validate_closed_chain(load(name), samples=8, energy_duration=duration)
+        assert report.passed, report.table()
+        assert set(report.checks) == {"closure", "plant", "gravity", "coriolis", "energy", "loop gap"}
+        assert "idle motions: closedloop" in report.table()

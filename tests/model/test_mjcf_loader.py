@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -317,17 +318,26 @@ def test_missing_mujoco_is_an_optional_dependency_error(monkeypatch):
         read_mjcf(ROBOTS / "delta.xml")
 
 
-def test_armature_is_refused_and_damping_is_reported(tmp_path):
+def test_armature_and_damping_are_read_not_ignored(tmp_path):
+    """A rotor inertia on active_1 adds exactly that to the reduced inertia's (1, 1) entry (S's
+    actuated rows are the identity); a damper becomes a joint spring of zero stiffness, and
+    nothing is warned about (1e-12: the same numbers, one sum)."""
+    plain = load_robot(_delta_with(tmp_path, "", ""), recognise=False)
     path = _delta_with(
         tmp_path, '<joint name="active_1" type="hinge"', '<joint name="active_1" armature="0.01" type="hinge"'
     )
-    with pytest.raises(URDFConventionError, match="armature"):
-        load_robot(path)
+    robot = load_robot(path, recognise=False)
+    alpha, alpha_dot = np.array([0.2, 0.3, 0.1]), np.zeros(3)
+    added = robot.reduced_terms(alpha, alpha_dot)[0] - plain.reduced_terms(alpha, alpha_dot)[0]
+    np.testing.assert_allclose(added, np.diag([0.01, 0.0, 0.0]), atol=1e-12, rtol=0)
     path = _delta_with(
         tmp_path, '<joint name="active_1" type="hinge"', '<joint name="active_1" damping="0.1" type="hinge"'
     )
-    with pytest.warns(UserWarning, match="damping"):
-        load_robot(path, recognise=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        damped = load_robot(path, recognise=False)
+    assert damped.joint_springs == {"active_1": (0.0, 0.0, 0.1)}
+    assert damped.passive_joints == ()  # a damper alone does not make a joint passive
 
 
 TO_THE_WORLD = """
