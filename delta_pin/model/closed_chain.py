@@ -981,10 +981,23 @@ class ClosedChainRobot:
             "source": self.source,
             "dof": self.dof,
             "actuated_joints": list(self.actuated_joints),
-            "closures": [{"name": c.name, "kind": c.kind} for c in self.closures],
+            "closures": [self._closure_record(c) for c in self.closures],
             "end_effector": self.end_effector_name,
             "passive_joints": list(self.passive_joints),
+            "joint_springs": {name: list(values) for name, values in self.joint_springs.items()},
             "idle_dof": self.idle_dof,
+        }
+
+    def _closure_record(self, closure: Closure) -> dict:
+        """A closure as JSON: enough to rebuild it on the same tree (joint names, placements)."""
+        return {
+            "name": closure.name,
+            "kind": closure.kind,
+            "source": closure.source,
+            "joint1": self.model.names[closure.joint1],
+            "placement1": closure.placement1.homogeneous.tolist(),
+            "joint2": self.model.names[closure.joint2],
+            "placement2": closure.placement2.homogeneous.tolist(),
         }
 
     def classification(self, q: np.ndarray | None = None) -> dict:

@@ -396,10 +396,7 @@ def _rebuild_closed_chain(run: Run) -> ClosedChainRobot:
     if not urdf:
         raise VisualizationError(f"{label} cannot be rebuilt from the run: it carries no URDF; {hint}")
     if "<constraint" not in urdf:
-        raise VisualizationError(
-            f"{label} cannot be rebuilt from the run: its URDF has no <constraint> (the loops came from "
-            f"another file); {hint}"
-        )
+        return _rebuild_from_recorded_closures(run, urdf, base_dir, label, hint)
     # the run records no folder for a closed-chain robot's URDF: relative mesh filenames need robot=
     try:
         for link in etree.fromstring(urdf.encode()).findall("link"):
@@ -426,6 +423,55 @@ def _rebuild_closed_chain(run: Run) -> ClosedChainRobot:
             except DeltaPinError as exc:
                 raise VisualizationError(f"{label} cannot be rebuilt from the run ({exc}); {hint}") from None
     robot.base_dir = base_dir  # relative mesh filenames: the run's folder, not the temporary one
+    return robot
+
+
+def _rebuild_from_recorded_closures(run: Run, urdf: str, base_dir, label: str, hint: str) -> ClosedChainRobot:
+    """A run whose loops came from another file than its URDF (a Gepetto ``robot.yaml``): the
+    tree from the URDF text (on a free-flyer root where the run's robot had one), the closures,
+    passive joints and springs from the run's robot metadata, assembled at the run's first q."""
+    from delta_pin.model.closures import Closure
+    from delta_pin.model.urdf_tree import FREE_FLYER_JOINT, build_urdf_tree
+
+    meta = run.metadata.get("robot") or {}
+    recorded = meta.get("closures") or []
+    if not recorded or any("joint1" not in c for c in recorded):
+        raise VisualizationError(
+            f"{label} cannot be rebuilt from the run: its URDF has no <constraint> and the run records "
+            f"no closure frames (saved before they were kept); {hint}"
+        )
+    passive = list(meta.get("passive_joints") or [])
+    try:
+        model = build_urdf_tree(urdf, "the run's URDF", free_flyer=FREE_FLYER_JOINT in passive)
+        ids = {
+            name: model.getJointId(name) if name != "universe" else 0
+            for c in recorded
+            for name in (c["joint1"], c["joint2"])
+        }
+        if any(i >= model.njoints for i in ids.values()):
+            raise DeltaPinError(f"a closure joint of {sorted(ids)} is not in the URDF")
+        closures = [
+            Closure(
+                c["name"],
+                c["kind"],
+                ids[c["joint1"]],
+                pin.SE3(np.array(c["placement1"])),
+                ids[c["joint2"]],
+                pin.SE3(np.array(c["placement2"])),
+                source=c.get("source", ""),
+            )
+            for c in recorded
+        ]
+        q = getattr(run, "q", None)
+        robot = ClosedChainRobot(
+            model, closures, list(meta.get("actuated_joints") or []), passive=passive,
+            joint_springs={k: tuple(v) for k, v in (meta.get("joint_springs") or {}).items()},
+            name=meta.get("name", ""), source=meta.get("source", ""), urdf=urdf, base_dir=base_dir,
+            end_effector=meta.get("end_effector"),
+            reference_configuration=None if q is None else np.asarray(q[0], dtype=float),
+        )  # fmt: skip
+    except DeltaPinError as exc:
+        raise VisualizationError(f"{label} cannot be rebuilt from the run ({exc}); {hint}") from None
     return robot
 
 
