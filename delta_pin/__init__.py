@@ -50,12 +50,13 @@ if TYPE_CHECKING:
     )
     from delta_pin.model.closed_chain import ClosedChainRobot
     from delta_pin.model.closures import Closure
+    from delta_pin.model.delta_robot import load_delta
     from delta_pin.model.description import DeltaParameters, StribeckParameters, compile_urdf
     from delta_pin.model.dynamics import ReducedDynamics
     from delta_pin.model.frame_path import Circle, FramePath
     from delta_pin.model.friction import Friction
     from delta_pin.model.loaders import load_robot
-    from delta_pin.model.robot import Delta, load_delta
+    from delta_pin.model.robot import Delta
     from delta_pin.model.trajectory import (
         AdeptCycle,
         JointReference,
@@ -91,7 +92,8 @@ _PUBLIC = {
     "delta_pin.model.description": ("DeltaParameters", "StribeckParameters", "compile_urdf"),
     "delta_pin.model.dynamics": ("ReducedDynamics",),
     "delta_pin.model.friction": ("Friction",),
-    "delta_pin.model.robot": ("Delta", "load_delta"),
+    "delta_pin.model.robot": ("Delta",),
+    "delta_pin.model.delta_robot": ("load_delta",),
     "delta_pin.model.trajectory": (
         "AdeptCycle",
         "JointReference",

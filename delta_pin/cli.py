@@ -141,7 +141,7 @@ def _add_robot_arguments(parser: argparse.ArgumentParser, allow_urdf: bool = Tru
 
 
 def _load_robot(args: argparse.Namespace):
-    from delta_pin.model.robot import load_delta
+    from delta_pin.model.delta_robot import load_delta
 
     return load_delta(getattr(args, "urdf", None), **_parse_settings(args.settings))
 
@@ -335,7 +335,7 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
 
         written.append(export_html(run, args.html, robot))
     summary = {
-        "robot": robot.metadata(),
+        "robot": run.metadata["robot"],
         "run": description,
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),

@@ -175,7 +175,7 @@ def test_a_run_that_saturates_most_of_the_time_says_so(tmp_path, capsys):
 
 def _discrete(controller: str) -> bool:
     """Whether the named controller is a discrete-time law (runs only in sampled mode)."""
-    from delta_pin.model.robot import load_delta
+    from delta_pin.model.delta_robot import load_delta
     from delta_pin.studies.experiments import RunSpec, build_controller
 
     return build_controller(RunSpec(controller=controller, path="adept"), load_delta()).dt is not None
@@ -228,7 +228,7 @@ def test_design1_runs_the_adept_cycle_on_the_pinocchio_plant(tmp_path):
 
 def test_path_i_keeps_the_documented_lsoda_tolerance():
     """The tightening leaves paths I and II at rtol 1e-6 (the README's numbers)."""
-    from delta_pin.model.robot import load_delta
+    from delta_pin.model.delta_robot import load_delta
     from delta_pin.sim.reference import tabulate_reference
     from delta_pin.sim.runner import _layer_resolving_rtol
     from delta_pin.studies.experiments import RunSpec, build_controller, build_trajectory

@@ -22,6 +22,7 @@ import pinocchio as pin
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
 from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import InvalidParameterError
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
 from delta_pin.model.kinematics import chain_trigonometry
@@ -84,6 +85,7 @@ class DeltaNominalModel(NominalModel):
         nominal_disturbance=(0.0, 0.0, 0.0),
         friction: Friction | bool | None = True,
     ) -> None:
+        robot = analytic_delta(robot)  # the robot of load_delta carries the Delta's model
         self.robot = robot
         m_o = robot.params.m_o if platform_mass is None else float(platform_mass)
         if not m_o > 0.0:

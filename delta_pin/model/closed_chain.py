@@ -308,6 +308,14 @@ class ClosedChainRobot:
             "passive": self.passive_joints, "joint_springs": self.joint_springs,
         }  # fmt: skip
 
+    def __getattr__(self, name: str):
+        """The analytic Delta's attributes (``params``'s siblings: ``pinocchio``, ``description``,
+        ``jacobian``, ``analytic_dynamics`` ...) where the robot carries one (``robot.delta``)."""
+        delta = self.__dict__.get("delta")
+        if delta is None or name.startswith("__"):
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(delta, name)
+
     # ------------------------------------------------------------------------------ naming
     @property
     def _label(self) -> str:
@@ -747,7 +755,10 @@ class ClosedChainRobot:
 
     def forward_kinematics(self, alpha: np.ndarray, frame: str | None = None) -> np.ndarray:
         """Position [m] of a frame (the end effector by default) for actuated coordinates (dof,)
-        -> (3,), or (N, dof) -> (N, 3), assembling each state (warm-started)."""
+        -> (3,), or (N, dof) -> (N, 3), assembling each state (warm-started); a Delta's
+        platform by the analytic model (eqs. 1-5)."""
+        if frame is None and self.delta is not None:
+            return self.delta.forward_kinematics(alpha)
         alpha = np.asarray(alpha, dtype=float)
         if alpha.ndim == 2:
             return np.array([self.forward_kinematics(row, frame) for row in alpha])
@@ -796,7 +807,8 @@ class ClosedChainRobot:
         """Actuated coordinates alpha that put a frame's origin at ``position`` [m] along ``axes``.
 
         Newton on alpha with the closed-loop Jacobian (least squares where the frame has fewer
-        task coordinates than actuators), each iterate assembled from the previous one.
+        task coordinates than actuators), each iterate assembled from the previous one; a
+        Delta's platform (the default frame, ``axes="xyz"``) in closed form, elbow-out.
 
         Args:
             position: target world position (3,) [m]; only the ``axes`` components count.
@@ -807,6 +819,8 @@ class ClosedChainRobot:
         Raises:
             UnreachablePoseError: Newton does not reach the target to ``tol`` [m].
         """
+        if self.delta is not None and frame is None and axes == "xyz" and initial_guess is None:
+            return self.delta.inverse_kinematics(position)
         rows = [" xyz".index(a) - 1 for a in axes] if axes and set(axes) <= set("xyz") else None
         if rows is None or len(set(rows)) != len(rows):
             raise InvalidParameterError(f"axes={axes!r} must be distinct letters of 'xyz'")

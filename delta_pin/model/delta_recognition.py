@@ -103,7 +103,7 @@ def recognise_delta(robot):
     any other 3-actuator robot with three point closures is measured and compared with the
     packaged xacro compiled at its dimensions (module docstring).
     """
-    from delta_pin.model.robot import load_delta
+    from delta_pin.model.robot import load_analytic_delta
 
     if robot.dof != 3 or len(robot.closures) != 3 or any(c.kind != "3d" for c in robot.closures):
         return None
@@ -126,7 +126,9 @@ def recognise_delta(robot):
     measured.pop("platform_joint")
     for forearm in ("lumped", "rod"):
         try:
-            delta = load_delta(g=g, forearm_inertia=forearm, **{k: repr(v) for k, v in measured.items()})
+            delta = load_analytic_delta(
+                g=g, forearm_inertia=forearm, **{k: repr(v) for k, v in measured.items()}
+            )
         except DeltaPinError:
             return None
         if same_reduced_dynamics(robot, delta) is not None:

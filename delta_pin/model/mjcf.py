@@ -63,6 +63,9 @@ def delta_mjcf(
         The MJCF document; joints keep the URDF's names, the closure sites are
         ``<closure>_parent`` and ``<closure>_child``.
     """
+    from delta_pin.model.delta_robot import analytic_delta
+
+    robot = analytic_delta(robot)
     source = robot.pinocchio
     model = source.model
     children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}

@@ -1,4 +1,8 @@
-"""The user-facing robot object: :func:`load_delta` and :class:`Delta`."""
+"""The paper's analytic Delta model: :class:`Delta` and :func:`load_analytic_delta`.
+
+Users get it as ``robot.delta`` of the :class:`~delta_pin.model.closed_chain.ClosedChainRobot`
+that :func:`delta_pin.load_delta` returns (:mod:`delta_pin.model.delta_robot`): one robot
+model for every closed chain, the analytic one an accelerator where the robot is a Delta."""
 
 from __future__ import annotations
 
@@ -22,10 +26,10 @@ from delta_pin.model.friction import stribeck_torque
 from delta_pin.model.pinocchio_model import DeltaPinocchioModel
 from delta_pin.model.visuals import check_mesh_files
 
-__all__ = ["Delta", "load_delta"]
+__all__ = ["Delta", "load_analytic_delta"]
 
 # common active angles tried to show that a geometry can close its loops at all [rad]
-_ASSEMBLY_PROBES = np.linspace(-1.2, 1.4, 27)
+ASSEMBLY_PROBES = np.linspace(-1.2, 1.4, 27)
 
 
 class Delta:
@@ -55,7 +59,7 @@ class Delta:
         return DeltaPinocchioModel(self.description)
 
     def _check_assembly(self) -> None:
-        for angle in _ASSEMBLY_PROBES:
+        for angle in ASSEMBLY_PROBES:
             try:
                 kinematics.forward_kinematics(self.params, np.full(3, angle))
                 return
@@ -64,7 +68,7 @@ class Delta:
         p = self.params
         raise AssemblyError(
             f"the geometry R={p.R}, r={p.r}, l_a={p.l_a}, l_b={p.l_b} m cannot close its loops for "
-            f"any common arm angle in [{_ASSEMBLY_PROBES[0]}, {_ASSEMBLY_PROBES[-1]}] rad "
+            f"any common arm angle in [{ASSEMBLY_PROBES[0]}, {ASSEMBLY_PROBES[-1]}] rad "
             "(forearms too short or too long for the platforms?)"
         )
 
@@ -118,8 +122,10 @@ class Delta:
         )
 
 
-def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_args: float | str) -> Delta:
-    """Load a Delta robot.
+def load_analytic_delta(
+    urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_args: float | str
+) -> Delta:
+    """The analytic Delta model of a URDF (what :func:`delta_pin.load_delta` carries as ``robot.delta``).
 
     Args:
         urdf: path of a URDF (or xacro) file that follows docs/architecture.md section 3; ``None`` compiles
@@ -130,8 +136,8 @@ def load_delta(urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_ar
             mu_s, mu_d, mu_v``.
 
     Examples:
-        >>> robot = load_delta()                      # Table 1
-        >>> robot = load_delta(l_a=0.25, m_o=0.5)     # swap dimensions and masses
+        >>> delta = load_analytic_delta()                      # Table 1
+        >>> delta = load_analytic_delta(l_a=0.25, m_o=0.5)     # swap dimensions and masses
 
     Raises:
         XacroArgumentError: unknown argument or invalid value.

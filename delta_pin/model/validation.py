@@ -30,6 +30,7 @@ import numpy as np
 
 from delta_pin.errors import DeltaPinError, InvalidParameterError
 from delta_pin.model import kinematics
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.robot import Delta
 
 __all__ = ["Check", "ValidationReport", "sample_states", "validate"]
@@ -170,6 +171,7 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
         seed: seed of the random generator.
         tol: relative tolerance of the M, C alpha_dot and G agreement.
     """
+    robot = analytic_delta(robot)
     if not tol > 0.0:
         raise InvalidParameterError(f"tol={tol} must be > 0")
     report = ValidationReport(robot, samples, seed)

@@ -53,6 +53,7 @@ from delta_pin.control.adaptive_robust import AdaptiveRobustController
 from delta_pin.control.base import Reference
 from delta_pin.control.baselines import LQR
 from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
@@ -185,6 +186,7 @@ def simulate_batch(
         InvalidParameterError: a controller or plant the compiled path cannot run, bad sizes.
         SimulationError: a run that fails (with ``errors="raise"``), naming the time.
     """
+    robot = analytic_delta(robot)
     controllers = _check_controllers(controllers, plant, mode)
     if errors not in ("raise", "return"):
         raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")

@@ -36,6 +36,7 @@ from delta_pin.control.adaptive_robust import AdaptiveRobustController
 from delta_pin.control.digital import TimeDelayControl
 from delta_pin.control.digital_robust import DigitalRobustController
 from delta_pin.errors import SimulationError
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
@@ -116,6 +117,7 @@ def simulate_digital(
     Raises:
         SimulationError: a run that fails, naming the time.
     """
+    robot = analytic_delta(robot)
     steps = check_timing(dt, t_end)
     check_substeps(substeps)
     drive = _drive_record(sensor, delay, torque_limit)

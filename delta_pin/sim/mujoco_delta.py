@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from delta_pin.errors import OptionalDependencyError
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.mjcf import STIFF_CONNECT, delta_mjcf
 
 __all__ = ["MujocoDelta"]
@@ -50,6 +51,7 @@ class MujocoDelta:
         solimp: str | None = STIFF_CONNECT["solimp"],
     ) -> None:
         mujoco = self._mujoco = _import_mujoco()
+        robot = analytic_delta(robot)
         self.robot = robot
         self.model = mujoco.MjModel.from_xml_string(
             delta_mjcf(robot, timestep=timestep, solref=solref, solimp=solimp)

@@ -40,6 +40,7 @@ from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve
 from delta_pin.compiled.layouts import TRUTH, as_table, records
 from delta_pin.compiled.tree_kernels import joint_torques, joint_torques_at, tree_combine, tree_stage
 from delta_pin.errors import AssemblyError, ForwardKinematicsError, InvalidParameterError, SimulationError
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
 from delta_pin.model.kinematics import chain_trigonometry
@@ -75,6 +76,7 @@ class Plant(ABC):
     dof: int = 3  # actuated joints
 
     def __init__(self, robot: Delta, friction: Friction | bool | None = None, uncertainty=None) -> None:
+        robot = analytic_delta(robot)  # the robot of load_delta carries the Delta's model
         self.robot = robot
         if friction is True:
             friction = Friction()
@@ -189,6 +191,7 @@ class AnalyticPlant(Plant):
 
     def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
         super().__init__(robot, friction, uncertainty)
+        robot = self.robot
         self._geometry_table = as_table(kernel_geometry(robot.params))  # what Python passes to kernels
         self._cos, self._sin = chain_trigonometry()
         self._last_xyz = np.full(3, np.nan)
@@ -250,6 +253,7 @@ class PinocchioPlant(Plant):
         failure_tolerance: float = math.inf,
     ) -> None:
         super().__init__(robot, friction, uncertainty)
+        robot = self.robot
         if coordinates not in ("full", "active"):
             raise InvalidParameterError(f"coordinates={coordinates!r} must be 'full' or 'active'")
         self.coordinates = coordinates
@@ -481,6 +485,7 @@ def make_plant(plant: str | Plant, robot: Delta, friction=None, uncertainty=None
     ``options`` go to :class:`PinocchioPlant` (e.g. ``coordinates="active"``)."""
     if isinstance(plant, Plant):
         return plant
+    robot = analytic_delta(robot)
     if plant == "pinocchio":
         return PinocchioPlant(robot, friction, uncertainty, **options)
     if plant == "analytic":

@@ -25,10 +25,12 @@ from delta_pin.choices import INTEGRATOR_CHOICES
 from delta_pin.control.base import as_controller
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.delta_robot import analytic_delta, carries_own_delta
+from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
-from delta_pin.sim.closed_chain_plant import closed_chain_plant
+from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant
 from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
@@ -119,6 +121,15 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
         coordinates = "active" if mode == "continuous" and not robot.has_unactuated_motion else None
         plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
     return False, plant
+
+
+def _runs_as_delta(robot, plant, trajectory) -> bool:
+    """Whether a closed-chain robot that carries the analytic Delta of its own URDF (the robot of
+    ``load_delta``: ``carries_own_delta``) runs on the Delta's own plants and compiled loops:
+    unless it is given a closed-chain plant, or a path of a named frame."""
+    if not carries_own_delta(robot) or isinstance(plant, ClosedChainPlant):
+        return False
+    return not isinstance(trajectory, FramePath)  # a path of a named frame: the closed-chain path
 
 
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> None:
@@ -225,6 +236,8 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
+    if _runs_as_delta(robot, plant, trajectory):
+        robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
     if isinstance(robot, ClosedChainRobot):
         compiled, plant = _closed_chain_options(
             robot, plant, integrator, compiled, friction, uncertainty, mode

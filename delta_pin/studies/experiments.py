@@ -21,8 +21,9 @@ from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel
 from delta_pin.control.digital import tdc
 from delta_pin.control.digital_robust import digital_robust
 from delta_pin.errors import InvalidParameterError
+from delta_pin.model.delta_robot import load_delta
 from delta_pin.model.friction import Friction
-from delta_pin.model.robot import Delta, load_delta
+from delta_pin.model.robot import Delta
 from delta_pin.model.trajectory import AdeptCycle, PathI, PathII, Trajectory
 from delta_pin.sim.arguments import MODES
 from delta_pin.sim.batch import native_available, simulate_batch

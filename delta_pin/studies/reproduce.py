@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.robot import load_delta
+from delta_pin.model.delta_robot import load_delta
 from delta_pin.sim.run import Run, load_run
 from delta_pin.studies import manifest
 from delta_pin.studies.digital import DigitalStudy, digital_report_lines, digital_rows, digital_specs

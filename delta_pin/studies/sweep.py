@@ -248,7 +248,7 @@ def _freeze(value):
 @functools.lru_cache(maxsize=8)
 def _cached_robot(frozen_args: tuple):
     """The robot of ``load_delta(**robot_args)``, built once per process."""
-    from delta_pin.model.robot import load_delta
+    from delta_pin.model.delta_robot import load_delta
 
     return load_delta(**dict(frozen_args))
 

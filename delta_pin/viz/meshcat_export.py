@@ -485,6 +485,7 @@ def _describe_robot_difference(run: Run, robot) -> str | None:
 
 
 def _resolve_robot(run: Run, robot):
+    from delta_pin.model.delta_robot import analytic_delta
     from delta_pin.model.description import read_description
     from delta_pin.model.robot import Delta
 
@@ -496,6 +497,8 @@ def _resolve_robot(run: Run, robot):
         if not run_urdf:
             raise VisualizationError("the run carries no URDF (metadata['urdf']): pass robot= to draw it")
         return Delta(read_description(run_urdf, base_dir=run.metadata.get("urdf_dir")))
+    if not closed_chain:  # a Delta's run: drawn by the analytic model the robot of load_delta carries
+        robot = analytic_delta(robot)
     if run_urdf and robot.urdf != run_urdf:
         difference = (
             "the run's robot has a URDF, the robot given has none"

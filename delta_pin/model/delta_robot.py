@@ -1,0 +1,111 @@
+"""``load_delta``: the paper's Delta as one :class:`~delta_pin.model.closed_chain.ClosedChainRobot`.
+
+One robot model for the Delta and every other closed chain (docs/architecture.md section 10):
+the robot is the Pinocchio tree of the Delta's URDF closed by its three ``<constraint
+type="point">`` elements, driven on ``active_1..3``, its end effector the platform; it carries
+the paper's analytic model (eqs. 1-10, :class:`~delta_pin.model.robot.Delta`) as ``robot.delta``,
+which the robot uses where it is exact and faster (the platform's kinematics) and which the
+compiled loops, the Delta's plants and the studies run on (:func:`analytic_delta`). The
+Delta-only API (``robot.params``, ``robot.jacobian(alpha)``, ``robot.pinocchio``,
+``robot.analytic_dynamics`` ...) reaches ``robot.delta``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.description import GRAVITY
+from delta_pin.model.loaders import read_urdf_constraints
+from delta_pin.model.robot import Delta, load_analytic_delta
+from delta_pin.model.urdf_tree import build_urdf_tree
+
+__all__ = ["analytic_delta", "carries_own_delta", "delta_robot", "load_delta"]
+
+
+def load_delta(
+    urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_args: float | str
+) -> ClosedChainRobot:
+    """Load a Delta robot: the closed-chain robot of its URDF, with the analytic model as
+    ``robot.delta``.
+
+    Args:
+        urdf: path of a URDF (or xacro) file that follows docs/architecture.md section 3; ``None`` compiles
+            the packaged ``delta.urdf.xacro`` (the paper's Table 1 robot by default).
+        g: gravity acceleration [m/s^2] (9.8, the paper's, by default).
+        **xacro_args: arguments of the packaged xacro, SI units: ``R, r, l_a, l_b, m_a, m_b,
+            m_o`` [m, kg], ``forearm_inertia`` (``"lumped"`` or ``"rod"``), friction ``r_a, v_s,
+            mu_s, mu_d, mu_v``.
+
+    Examples:
+        >>> robot = load_delta()                      # Table 1
+        >>> robot = load_delta(l_a=0.25, m_o=0.5)     # swap dimensions and masses
+
+    Raises:
+        XacroArgumentError: unknown argument or invalid value.
+        URDFConventionError: the URDF does not follow the convention.
+        AssemblyError: the geometry cannot close its loops.
+        MeshFileError: a mesh visual's file does not exist (named in the message).
+    """
+    return delta_robot(load_analytic_delta(urdf, g=g, **xacro_args))
+
+
+def delta_robot(delta: Delta) -> ClosedChainRobot:
+    """The closed-chain robot of an analytic Delta's URDF, carrying it as ``robot.delta``."""
+    description = delta.description
+    source = "delta.urdf" if description.base_dir is None else f"{Path(description.base_dir).name}/delta.urdf"
+    model = build_urdf_tree(delta.urdf, source)
+    model.gravity = delta.pinocchio.model.gravity
+    robot = ClosedChainRobot(
+        model, read_urdf_constraints(delta.urdf, model, source), description.active_joints,
+        name=model.name or "delta", source=source, urdf=delta.urdf,
+        base_dir=None if description.base_dir is None else str(description.base_dir),
+        reference_configuration=_tree_configuration(model, delta),
+    )  # fmt: skip
+    robot.delta = delta
+    robot.set_end_effector(robot.joint_frame(description.platform_joints[-1]))
+    return robot
+
+
+def _tree_configuration(model, delta: Delta) -> np.ndarray:
+    """The analytic model's assembled configuration on the URDF tree (the two are built from the
+    same URDF, joint for joint) at alpha = 0, or at the first common arm angle where the loops
+    close (a geometry that does not close at 0, e.g. short forearms)."""
+    from delta_pin.errors import DeltaPinError
+    from delta_pin.model.robot import ASSEMBLY_PROBES
+
+    source = delta.pinocchio
+    q = np.zeros(model.nq)
+    for angle in (0.0, *ASSEMBLY_PROBES):
+        try:
+            delta.forward_kinematics(np.full(3, angle))
+            reference = source.configuration(np.full(3, angle))
+            break
+        except DeltaPinError:
+            continue
+    for j in range(1, source.model.njoints):
+        name = source.model.names[j]
+        if model.existJointName(name):
+            target = model.getJointId(name)
+            q[model.idx_qs[target] : model.idx_qs[target] + model.nqs[target]] = reference[
+                source.model.idx_qs[j] : source.model.idx_qs[j] + source.model.nqs[j]
+            ]
+    return q
+
+
+def analytic_delta(robot):
+    """The analytic :class:`~delta_pin.model.robot.Delta` of a robot's own URDF (the robot of
+    :func:`load_delta`, or a URDF that follows the Delta convention loaded by ``load_robot``),
+    else the robot itself: what the Delta's compiled loops, plants and studies take. A Delta
+    recognised in another file (MJCF, a robot.yaml) keeps its own tree: its analytic model is of
+    the packaged xacro at the measured numbers, not of that file."""
+    return robot.delta if carries_own_delta(robot) else robot
+
+
+def carries_own_delta(robot) -> bool:
+    """Whether ``robot`` is a closed-chain robot whose ``robot.delta`` is built from its very URDF."""
+    if not isinstance(robot, ClosedChainRobot) or robot.delta is None:
+        return False
+    return robot.urdf is not None and robot.delta.urdf == robot.urdf
