@@ -157,15 +157,17 @@ def plant_free_fall(robot, t_end, h):
     return plant, x
 
 
-def test_free_fall_matches_a_pinocchio_only_reference_and_keeps_its_idle_momentum():
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_free_fall_matches_a_pinocchio_only_reference_and_keeps_its_idle_momentum(name):
     """Free fall of the five-bar (a 654 t sphere at the loop, Gepetto's file as shipped) for the
     0.03 s before it collapses through its straight-arm singularity (at ~0.05 s the joint rates
     pass 30 rad/s): the plant (RK4 at 1 ms, Baumgarte and projection) against constraintDynamics
     integrated by DOP853 at rtol 1e-11 without any stabilisation (its closure drift stays below
     1e-9). Tolerances: 10x RK4's global error at 1 ms on this motion, measured 9.9e-10 rad and
-    4.7e-8 rad/s (6.2e-11 rad at 0.5 ms: fourth order, so the error is the integrator's). The idle
-    momentum (the sphere's spin about its axis, decoupled) stays zero to 1e-9 of the momentum scale."""
-    robot = load("5bar_linkage")
+    4.7e-8 rad/s (6.2e-11 rad at 0.5 ms: fourth order, so the error is the integrator's; robot_delta
+    2.7e-10 rad). The idle momentum (the sphere's spin about its axis, decoupled) stays zero to
+    1e-9 of the momentum scale."""
+    robot = load(name)
     _, x = plant_free_fall(robot, T_FALL, 1e-3)
     nq = robot.model.nq
     q0, v0 = robot.state(robot.home, np.zeros(robot.dof))
