@@ -557,15 +557,15 @@ class ClosedChainRobot:
         mobility = self.model.nv - rank
         named = len(self.independent_indices)
         counts = (
-            f"{self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
-            f"actuator(s) ({', '.join(self.actuated_joints)})"
+            f"({self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
+            f"actuator(s) ({', '.join(self.actuated_joints) or 'none'})"
             + (f" and {len(self.passive_joints)} passive joint(s)" if self.passive_joints else "")
         )
         where = f"at its reference configuration{'' if assembled else ' (a generic pose near it)'}"
         if not assembled:
             if mobility < named:
                 raise AssemblyError(
-                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}): "
+                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} {counts}: "
                     "name one actuator per degree of freedom"
                 )
             return
@@ -573,7 +573,7 @@ class ClosedChainRobot:
         dependent_rank = _rank(dependent)
         if dependent_rank != rank or mobility < named:
             raise AssemblyError(
-                f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}): the "
+                f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} {counts}: the "
                 "actuated joints do not move independently (a singular or redundant actuation); drop an "
                 "actuator or start from another configuration"
             )
@@ -582,7 +582,7 @@ class ClosedChainRobot:
             moving = self._idle_motions_moving_end_effector(q)
             if moving:
                 raise AssemblyError(
-                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} ({counts}); "
+                    f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} {counts}; "
                     f"{len(moving)} of the {self.idle_dof} motion(s) that move none of them move the end "
                     f"effector {self.end_effector_name!r} (joints {', '.join(moving[0])}): a missing "
                     "actuator: name one more actuated (actuated=) or passive (passive=) joint per motion, "
