@@ -801,8 +801,13 @@ def files() -> dict[str, str]:
     }
 
 
+def all_files() -> dict[str, str]:
+    """Every shipped robot file this script writes, by its path under delta_pin/robots."""
+    return {**files(), **stewart_files(), **delta_ballrods_files()}
+
+
 def main(out_dir: Path = ROBOTS_DIR) -> None:
-    for name, text in {**files(), **stewart_files(), **delta_ballrods_files()}.items():
+    for name, text in all_files().items():
         path = Path(out_dir) / name
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")

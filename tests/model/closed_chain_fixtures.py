@@ -8,6 +8,7 @@ The joint frames are rotated so that the zero configuration is assembled with th
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -77,3 +78,16 @@ def five_bar_urdf(tip=(0.0, 0.0, -0.4), closure_type: str = "point", transmissio
         + transmission
         + "\n</robot>\n"
     )
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+
+
+def assert_same_numbers(shipped: str, generated: str, name: str) -> None:
+    """Two texts with the same words and numbers equal to 1e-12 relative (plus 1e-15 absolute):
+    computed inertias and trigonometry differ in their last digits between numpy/BLAS/libm
+    builds, so a generated file is compared after parsing, never byte for byte."""
+    assert _NUMBER.sub("#", shipped) == _NUMBER.sub("#", generated), name
+    mine = np.array([float(v) for v in _NUMBER.findall(shipped)])
+    theirs = np.array([float(v) for v in _NUMBER.findall(generated)])
+    np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-15, err_msg=name)
