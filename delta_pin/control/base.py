@@ -181,7 +181,9 @@ class Controller(ABC):
         """
         if not hasattr(self, "state"):
             self.reset()
-        alpha = np.array(alpha_measured, dtype=float)
+        alpha, alpha_dot_measured, reference = self._checked_sample(
+            t, alpha_measured, alpha_dot_measured, reference
+        )
         previous = self._previous_sample
         period = 0.0
         if previous is not None:
@@ -196,6 +198,53 @@ class Controller(ABC):
         output = self.evaluate(t, alpha, alpha_dot, reference, self.state)
         self._previous_sample = (t, alpha, output)
         return np.asarray(output.tau, dtype=float)
+
+    @property
+    def dof(self) -> int | None:
+        """Joints the law drives: its nominal model's (``None`` for a law without one)."""
+        nominal = getattr(self, "nominal", None)
+        return None if nominal is None else int(nominal.dof)
+
+    def _checked_sample(self, t, alpha, alpha_dot, reference) -> tuple:
+        """The inputs of :meth:`step` as float arrays, each checked before it reaches compiled
+        code: a finite time after the previous sample's, and finite vectors of one length each
+        (the law's ``dof`` where it declares one).
+
+        Raises:
+            InvalidParameterError: naming the input and what would work.
+        """
+        try:
+            time_now = float(t)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"t={t!r} must be a time in seconds") from None
+        previous = self._previous_sample
+        if not math.isfinite(time_now) or (previous is not None and not time_now > previous[0]):
+            after = "" if previous is None else f" after the previous sample's t={previous[0]:g}"
+            raise InvalidParameterError(f"t={t!r} must be a finite time [s]{after}")
+        n = self.dof
+        if n is None:
+            n = np.asarray(alpha).size
+
+        def vector(value, name: str) -> np.ndarray:
+            array = np.array(value, dtype=float)
+            if array.shape != (n,) or not np.isfinite(array).all():
+                raise InvalidParameterError(
+                    f"{name}={np.asarray(value).tolist()!r} must be {n} finite numbers (one per joint of "
+                    f"{self.name!r})"
+                )
+            return array
+
+        if not isinstance(reference, Reference):
+            raise InvalidParameterError(
+                f"reference={reference!r} must be a delta_pin Reference(alpha, alpha_dot, alpha_ddot)"
+            )
+        checked = Reference(
+            vector(reference.alpha, "reference.alpha"),
+            vector(reference.alpha_dot, "reference.alpha_dot"),
+            vector(reference.alpha_ddot, "reference.alpha_ddot"),
+        )
+        rate = None if alpha_dot is None else vector(alpha_dot, "alpha_dot_measured")
+        return vector(alpha, "alpha_measured"), rate, checked
 
     def torque(self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference) -> np.ndarray:
         """Torque [N m] with the controller's current internal state (call :meth:`reset` first)."""
