@@ -249,11 +249,17 @@ class ClosedChainRobot:
         self.passive_indices = self.dependent_indices
         self.idle_dof = None  # set by the mobility classification below
         # joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m], damping
-        # [N m s/rad or N s/m]): the plant applies -k (q - q_ref) - d v there (MJCF stiffness/damping)
+        # [N m s/rad or N s/m]): the plant applies -k (q - q_ref) - d v there (MJCF stiffness/damping);
+        # a joint of several degrees of freedom (a ball) takes a damper only, on each of them
         self.joint_springs: dict[str, tuple[float, float, float]] = {}
         for joint, values in (joint_springs or {}).items():
-            self._joint_id(joint, "sprung")
+            jid = self._joint_id(joint, "sprung", any_type=True)
             stiffness, reference, damping = (float(x) for x in values)
+            if self.model.nvs[jid] != 1 and stiffness != 0.0:
+                raise InvalidParameterError(
+                    f"{self._label}joint_springs[{joint!r}]: a spring needs a 1-DOF joint; {joint!r} has "
+                    f"{self.model.nvs[jid]} degrees of freedom and takes a damper only (stiffness 0)"
+                )
             if not (np.isfinite([stiffness, reference, damping]).all() and stiffness >= 0 and damping >= 0):
                 raise InvalidParameterError(
                     f"{self._label}joint_springs[{joint!r}] = {values!r} must be (stiffness >= 0, reference, "

@@ -42,11 +42,11 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
   ``pin.GeometryModel`` (coal shapes) for drawing; mesh, plane, hfield and sdf geoms are not drawn.
 
 Joint dynamics: armature (rotor inertia) goes into ``model.armature`` (hinge, slide and ball
-joints); stiffness, ``springref`` and damping of hinge and slide joints become the robot's
-``joint_springs`` (the plant applies -k (q - q_ref) - d v), and a sprung joint that no motor
-drives is passive (an underactuated mechanism, e.g. a gripper's spring links). A spring or
-damper on a ball or free joint is refused; friction loss is listed in a warning; joint limits
-and contacts are not modelled.
+joints); stiffness, ``springref`` and damping of hinge and slide joints, and the damping of ball
+joints, become the robot's ``joint_springs`` (the plant applies -k (q - q_ref) - d v), and a
+sprung joint that no motor drives is passive (an underactuated mechanism, e.g. a gripper's
+spring links). A spring on a ball joint or anything on a free joint is refused; friction loss is
+listed in a warning; joint limits and contacts are not modelled.
 
 Units: SI (m, kg, s, rad), as MuJoCo's.
 """
@@ -314,12 +314,14 @@ def _velocity_rows(model: pin.Model, joint: str) -> slice:
 
 def _joint_dynamics(mujoco, m, model: pin.Model, source: str) -> tuple[dict, list[str]]:
     """The joints' springs, dampers and rotor inertias as the model carries them: armature into
-    ``model.armature``; (stiffness, spring reference, damping) per hinge or slide joint; and the
-    hinge and slide joints with a spring (stiffness > 0), which are passive unless a motor drives
-    them. Friction loss is listed in a warning (the plant has no dry friction on those joints).
+    ``model.armature``; (stiffness, spring reference, damping) per hinge or slide joint, and
+    (0, 0, damping) per ball joint; and the hinge and slide joints with a spring (stiffness > 0),
+    which are passive unless a motor drives them. Friction loss is listed in a warning (the
+    plant has no dry friction on those joints).
 
     Raises:
-        URDFConventionError: a spring, damper or armature on a ball or free joint (named).
+        URDFConventionError: a spring on a ball joint, unequal dampers on one, or anything on a
+            free joint (named).
     """
     springs, sprung = {}, []
     for j in range(m.njnt):
@@ -330,16 +332,23 @@ def _joint_dynamics(mujoco, m, model: pin.Model, source: str) -> tuple[dict, lis
         )
         stiffness, damping = float(m.jnt_stiffness[j]), np.asarray(m.dof_damping[dofs], dtype=float)
         armature = np.asarray(m.dof_armature[dofs], dtype=float)
-        if kind in (0, 1):
-            if stiffness != 0.0 or np.any(damping != 0.0) or (kind == 0 and np.any(armature != 0.0)):
+        if kind == 0 and (stiffness != 0.0 or np.any(damping != 0.0) or np.any(armature != 0.0)):
+            raise URDFConventionError(
+                f"{source}: free joint {name!r} has a stiffness, damping or armature; delta-pin carries none "
+                "on a free joint: set them to 0 there"
+            )
+        if kind == 1:
+            if stiffness != 0.0 or np.ptp(damping) != 0.0:
                 raise URDFConventionError(
-                    f"{source}: {'free' if kind == 0 else 'ball'} joint {name!r} has a stiffness, damping or "
-                    "armature; delta-pin carries springs and dampers on hinge and slide joints (and "
-                    "armature on those and on ball joints): set them to 0 there or model them otherwise"
+                    f"{source}: ball joint {name!r} has a stiffness or unequal dampers {damping.tolist()}; "
+                    "delta-pin carries springs on hinge and slide joints and one damper per ball joint"
                 )
-            if kind == 1 and np.any(armature != 0.0):
-                start = model.idx_vs[model.getJointId(name)]
-                model.armature[start : start + 3] = armature
+            start = model.idx_vs[model.getJointId(name)]
+            model.armature[start : start + 3] = armature
+            if damping[0] != 0.0:
+                springs[name] = (0.0, 0.0, float(damping[0]))
+            continue
+        if kind == 0:
             continue
         index = model.idx_vs[model.getJointId(name)]
         model.armature[index] = armature[0]

@@ -141,12 +141,22 @@ class ClosedChainPlant(Plant):
         self.projections = 0
         self._last_q = robot.reference_configuration.copy()
         # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v
-        springs = [(robot.model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
-        self._spring_q = np.array([robot.model.idx_qs[j] for j, *_ in springs], dtype=int)
-        self._spring_v = np.array([robot.model.idx_vs[j] for j, *_ in springs], dtype=int)
-        self._spring_k = np.array([k for _, k, _, _ in springs], dtype=float)
-        self._spring_ref = np.array([r for _, _, r, _ in springs], dtype=float)
-        self._spring_d = np.array([d if joint_damping else 0.0 for *_, d in springs], dtype=float)
+        model = robot.model
+        springs = [(model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
+        one = [spring for spring in springs if model.nvs[spring[0]] == 1]
+        self._spring_q = np.array([model.idx_qs[j] for j, *_ in one], dtype=int)
+        self._spring_v = np.array([model.idx_vs[j] for j, *_ in one], dtype=int)
+        self._spring_k = np.array([k for _, k, _, _ in one], dtype=float)
+        self._spring_ref = np.array([r for _, _, r, _ in one], dtype=float)
+        self._spring_d = np.array([d if joint_damping else 0.0 for *_, d in one], dtype=float)
+        # dampers on joints of several degrees of freedom (ball joints): -d omega on each
+        many = [(j, d) for j, _, _, d in springs if model.nvs[j] != 1]
+        self._damper_v = np.array(
+            [model.idx_vs[j] + k for j, _ in many for k in range(model.nvs[j])], dtype=int
+        )
+        self._damper_d = np.array(
+            [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
+        )
         # idle motions and passive joints are state of their own: a projection keeps them
         self._keeps_unactuated_state = bool(carried)
 
@@ -195,6 +205,8 @@ class ClosedChainPlant(Plant):
             self._tau[self._spring_v] -= self._spring_k * (q[self._spring_q] - self._spring_ref) + (
                 self._spring_d * v[self._spring_v]
             )
+        if self._damper_v.size:
+            self._tau[self._damper_v] -= self._damper_d * v[self._damper_v]
         return pin.constraintDynamics(
             self.model,
             self.data,

@@ -132,13 +132,16 @@ def test_controllers_refuse_underactuated_robots_in_one_line(sprung):
 
 
 def test_springs_on_ball_joints_are_refused(tmp_path):
+    """A ball joint takes one damper (delta_ballrods' test checks it against MuJoCo), not a spring."""
     text = SPRUNG_FIVE_BAR.replace(
         '<joint name="left_elbow" type="hinge" axis="0 1 0" damping="0.01"/>',
-        '<joint name="left_elbow" type="ball" damping="0.01"/>',
+        '<joint name="left_elbow" type="ball" stiffness="2"/>',
     )
     path = tmp_path / "ball.xml"
     path.write_text(text)
-    with pytest.raises(URDFConventionError, match="ball joint 'left_elbow' has a stiffness, damping"):
+    with pytest.raises(
+        URDFConventionError, match="ball joint 'left_elbow' has a stiffness or unequal dampers"
+    ):
         dp.load_robot(path)
 
 
