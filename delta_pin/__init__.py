@@ -69,7 +69,7 @@ if TYPE_CHECKING:
     from delta_pin.sim.batch import simulate_batch
     from delta_pin.sim.closed_chain_plant import ClosedChainPlant
     from delta_pin.sim.drive import Encoder
-    from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant
+    from delta_pin.sim.plants import AnalyticPlant, DeltaPlant, PinocchioPlant, Plant
     from delta_pin.sim.run import Run, load_run
     from delta_pin.sim.runner import simulate
     from delta_pin.sim.serial import JointSinusoid
@@ -121,7 +121,7 @@ _PUBLIC = {
         "digital_robust",
         "tdc",
     ),
-    "delta_pin.sim.plants": ("AnalyticPlant", "PinocchioPlant", "Plant"),
+    "delta_pin.sim.plants": ("AnalyticPlant", "DeltaPlant", "PinocchioPlant", "Plant"),
     "delta_pin.sim.uncertainty": (
         "FunctionUncertainty",
         "NoUncertainty",

@@ -79,8 +79,7 @@ class ClosedChainPlant(Plant):
                 "closed-chain "
                 "robot takes payload_mass=m(t) [kg] at payload_frame= instead"
             )
-        self.robot = robot
-        self.dof = robot.dof
+        super().__init__(robot)
         self.uncertainty = None
         full_possible = robot.model.nq == robot.model.nv
         if coordinates is None:
@@ -176,8 +175,6 @@ class ClosedChainPlant(Plant):
         self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
 
     # ------------------------------------------------------------------ truth
-    def precompute_truth(self, step: float, count: int) -> None:
-        """Nothing to tabulate: the payload function is called at each evaluation."""
 
     def joint_friction(self, alpha_dot: np.ndarray) -> np.ndarray:
         """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints (0 without friction)."""

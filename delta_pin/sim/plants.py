@@ -47,7 +47,7 @@ from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.uncertainty import NoUncertainty
 
-__all__ = ["PLANTS", "AnalyticPlant", "PinocchioPlant", "Plant", "make_plant", "truth_records"]
+__all__ = ["PLANTS", "AnalyticPlant", "DeltaPlant", "PinocchioPlant", "Plant", "make_plant", "truth_records"]
 
 PLANTS = ("pinocchio", "analytic")
 
@@ -64,20 +64,88 @@ def truth_records(mass, normal_force, disturbance) -> np.ndarray:
 
 
 class Plant(ABC):
-    """A simulated robot with state ``x``; torques act on the three active joints.
+    """A simulated robot with state ``x``, driven by torques on its ``dof`` actuated joints: the
+    interface every plant implements (the Delta's analytic and Pinocchio plants, any closed
+    chain's, a serial robot's), with what a plant without closures or a time-varying truth needs
+    by default.
+    """
+
+    name: str = "plant"
+    dof: int = 3  # actuated joints: the robot's where it says
+
+    def __init__(self, robot) -> None:
+        self.robot = robot
+        self.dof = int(getattr(robot, "dof", type(self).dof))
+
+    def precompute_truth(self, step: float, count: int) -> None:  # noqa: B027 - an optional hook
+        """Tabulate the time-varying truth at t = k step, k < count [s] for the integrator's stage
+        times (nothing to tabulate by default)."""
+
+    # ------------------------------------------------------------------ state interface
+    @abstractmethod
+    def initial_state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
+        """Plant state for active angles [rad] and velocities [rad/s]."""
+
+    @abstractmethod
+    def derivative(self, t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """dx/dt at time t [s] under active-joint torques tau [N m]."""
+
+    @abstractmethod
+    def joint_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(alpha [rad], alpha_dot [rad/s]) of a plant state."""
+
+    @abstractmethod
+    def platform_position(self, x: np.ndarray) -> np.ndarray:
+        """Platform (end-effector) position xyz [m] of a plant state."""
+
+    def configuration_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The multibody's full (q (nq,), v (nv,)) at plant state x, where the plant has one
+        (a run records it at every sample, so drawings and energies need no re-assembly)."""
+        return None
+
+    def closure_residual(self, x: np.ndarray) -> float:
+        """Largest loop-closure gap [m] (0 for plants without closures)."""
+        return 0.0
+
+    def finish_step(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Correction applied after each integration step (none by default)."""
+        return x
+
+    def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
+        """(:meth:`finish_step` of x, the :meth:`closure_residual` of that state)."""
+        x = self.finish_step(x, t)
+        return x, self.closure_residual(x)
+
+    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
+        """A fast path for one RK4 step of length h [s] of :meth:`derivative` under a held torque
+        from t = stage h / 2 (the sampled mode's inner step), equal to the generic step bit for
+        bit; ``None`` (the default) where the plant has none: the caller then takes the generic
+        step."""
+        return None
+
+    def metadata(self) -> dict:
+        """JSON-serialisable description stored with every run (``"plant"``: its name)."""
+        return {"plant": self.name}
+
+
+class DeltaPlant(Plant):
+    """A Delta plant: the paper's time-varying truth (eq. 13: platform mass m_o(t), normal force
+    F_n(t), disturbance F(t)) and eq. 12's friction on the three active joints, shared by the
+    analytic and the Pinocchio plant.
 
     Args:
-        robot: the robot (its URDF sets every number).
+        robot: the robot (its URDF sets every number; the robot of ``load_delta`` gives its
+            analytic model).
         friction: joint friction, ``True`` for :class:`Friction` defaults, or ``None``.
         uncertainty: time-varying truth (:mod:`delta_pin.sim.uncertainty`), or ``None`` for nominal.
     """
 
-    name: str = "plant"
-    dof: int = 3  # actuated joints
+    dof = 3  # actuated joints
 
     def __init__(self, robot: Delta, friction: Friction | bool | None = None, uncertainty=None) -> None:
         robot = analytic_delta(robot)  # the robot of load_delta carries the Delta's model
-        self.robot = robot
+        super().__init__(robot)
+        self.dof = 3
         if friction is True:
             friction = Friction()
         self.friction = friction or None
@@ -132,48 +200,6 @@ class Plant(ABC):
             return mass, disturbance
         return mass, disturbance + friction_torque(self._friction_table, alpha_dot, normal)
 
-    # ------------------------------------------------------------------ state interface
-    @abstractmethod
-    def initial_state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
-        """Plant state for active angles [rad] and velocities [rad/s]."""
-
-    @abstractmethod
-    def derivative(self, t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """dx/dt at time t [s] under active-joint torques tau [N m]."""
-
-    @abstractmethod
-    def joint_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(alpha [rad], alpha_dot [rad/s]) of a plant state."""
-
-    @abstractmethod
-    def platform_position(self, x: np.ndarray) -> np.ndarray:
-        """Platform position xyz [m] of a plant state."""
-
-    def configuration_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """The multibody's full (q (nq,), v (nv,)) at plant state x, where the plant has one
-        (a run records it at every sample, so drawings and energies need no re-assembly)."""
-        return None
-
-    def closure_residual(self, x: np.ndarray) -> float:
-        """Largest loop-closure gap [m] (0 for plants without closures)."""
-        return 0.0
-
-    def finish_step(self, x: np.ndarray, t: float) -> np.ndarray:
-        """Correction applied after each integration step (none by default)."""
-        return x
-
-    def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
-        """(:meth:`finish_step` of x, the :meth:`closure_residual` of that state)."""
-        x = self.finish_step(x, t)
-        return x, self.closure_residual(x)
-
-    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
-        """A fast path for one RK4 step of length h [s] of :meth:`derivative` under a held torque
-        from t = stage h / 2 (the sampled mode's inner step), equal to the generic step bit for
-        bit; ``None`` (the default) where the plant has none: the caller then takes the generic
-        step."""
-        return None
-
     def metadata(self) -> dict:
         return {
             "plant": self.name,
@@ -184,7 +210,7 @@ class Plant(ABC):
         }
 
 
-class AnalyticPlant(Plant):
+class AnalyticPlant(DeltaPlant):
     """The paper's reduced model M alpha_ddot + C alpha_dot + G + F + M_f = tau; x = [alpha, alpha_dot]."""
 
     name = "analytic"
@@ -217,7 +243,7 @@ class AnalyticPlant(Plant):
         return xyz if ok else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha
 
 
-class PinocchioPlant(Plant):
+class PinocchioPlant(DeltaPlant):
     """The full tree with point closures through ``pin.constraintDynamics``.
 
     Two state representations:

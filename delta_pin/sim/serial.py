@@ -134,10 +134,9 @@ class SerialPlant(Plant):
     name = "pinocchio_serial"
 
     def __init__(self, robot: SerialRobot, payload_mass: Callable[[float], float] | None = None) -> None:
-        self.robot = robot
+        super().__init__(robot)
         self.friction = None
         self.uncertainty = None
-        self.dof = robot.dof
         self.model = pin.Model(robot.model)
         self.data = self.model.createData()
         frame = self.model.frames[robot.end_effector]
@@ -166,9 +165,6 @@ class SerialPlant(Plant):
 
     def platform_position(self, x):
         return self.robot.forward_kinematics(x[: self.dof])
-
-    def precompute_truth(self, step, count):
-        """Nothing to tabulate: the payload function is cheap."""
 
     def metadata(self):
         return {"plant": self.name, "payload": getattr(self.payload_mass, "__name__", None)}
