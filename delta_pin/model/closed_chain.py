@@ -879,27 +879,22 @@ class ClosedChainRobot:
         if self.idle_dof:
             p = self._idle_projection(q, alpha_dot)
             S, S_dot, M, C_tree, v = p["S"], p["S_dot"], p["M"], p["C_tree"], p["v"]
-            gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
-            nle = pin.nonLinearEffects(self.model, self.data, q, v)
-            M_red = S.T @ M @ S
-            return (
-                0.5 * (M_red + M_red.T),
-                S.T @ C_tree @ S + S.T @ M @ S_dot,
-                S.T @ gravity,
-                S.T @ (nle - gravity) + S.T @ (M @ (S_dot @ alpha_dot)),
+            rate = S_dot @ alpha_dot
+        else:
+            pin.framesForwardKinematics(self.model, self.data, q)
+            J = self.closure_jacobian(q, kinematics_done=True)
+            S = self._velocity_map(J, q)
+            v = S @ alpha_dot
+            passive = J[:, self.dependent_indices]
+            S_dot = np.zeros_like(S)
+            S_dot[self.dependent_indices] = -least_squares(
+                passive, self.closure_jacobian_derivative(q, v) @ S
             )
-        pin.framesForwardKinematics(self.model, self.data, q)
-        J = self.closure_jacobian(q, kinematics_done=True)
-        S = self._velocity_map(J, q)
-        v = S @ alpha_dot
-        passive = J[:, self.dependent_indices]
-        S_dot = np.zeros_like(S)
-        S_dot[self.dependent_indices] = -least_squares(passive, self.closure_jacobian_derivative(q, v) @ S)
-        M = self.mass_matrix(q)
+            M = self.mass_matrix(q)
+            C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
+            rate = np.zeros(self.model.nv)  # S_dot alpha_dot, from the drift (exact classical accelerations)
+            rate[self.dependent_indices] = -least_squares(passive, self.closure_drift(q, v))
         gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
-        C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
-        rate = np.zeros(self.model.nv)  # S_dot alpha_dot, from the drift (exact classical accelerations)
-        rate[self.dependent_indices] = -least_squares(passive, self.closure_drift(q, v))
         nle = pin.nonLinearEffects(self.model, self.data, q, v)
         M_red = S.T @ M @ S
         return (

@@ -125,25 +125,8 @@ class Delta:
 def load_analytic_delta(
     urdf: str | Path | None = None, *, g: float = GRAVITY, **xacro_args: float | str
 ) -> Delta:
-    """The analytic Delta model of a URDF (what :func:`delta_pin.load_delta` carries as ``robot.delta``).
-
-    Args:
-        urdf: path of a URDF (or xacro) file that follows docs/architecture.md section 3; ``None`` compiles
-            the packaged ``delta.urdf.xacro`` (the paper's Table 1 robot by default).
-        g: gravity acceleration [m/s^2] (9.8, the paper's, by default).
-        **xacro_args: arguments of the packaged xacro, SI units: ``R, r, l_a, l_b, m_a, m_b,
-            m_o`` [m, kg], ``forearm_inertia`` (``"lumped"`` or ``"rod"``), friction ``r_a, v_s,
-            mu_s, mu_d, mu_v``.
-
-    Examples:
-        >>> delta = load_analytic_delta()                      # Table 1
-        >>> delta = load_analytic_delta(l_a=0.25, m_o=0.5)     # swap dimensions and masses
-
-    Raises:
-        XacroArgumentError: unknown argument or invalid value.
-        URDFConventionError: the URDF does not follow the convention.
-        AssemblyError: the geometry cannot close its loops.
-        MeshFileError: a mesh visual's file does not exist (named in the message).
+    """The analytic Delta model of a URDF: what :func:`delta_pin.load_delta` (the same arguments
+    and errors) carries as ``robot.delta``.
     """
     if urdf is None:
         text = compile_urdf(**xacro_args)

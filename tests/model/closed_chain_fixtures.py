@@ -11,6 +11,7 @@ import math
 import re
 
 import numpy as np
+import pinocchio as pin
 
 PROXIMAL, DISTAL, BASE = 0.25, 0.3, 0.2  # [m]
 MASSES = (0.3, 0.2)  # proximal, distal [kg]
@@ -91,3 +92,22 @@ def assert_same_numbers(shipped: str, generated: str, name: str) -> None:
     mine = np.array([float(v) for v in _NUMBER.findall(shipped)])
     theirs = np.array([float(v) for v in _NUMBER.findall(generated)])
     np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-15, err_msg=name)
+
+
+def pinocchio_accelerations(robot, settings=None):
+    """q_ddot = f(q, v, tau_full) by Pinocchio alone, the tests' reference for the plant:
+    ``pin.constraintDynamics`` on the robot's tree and closure models, no Baumgarte correction.
+    ``settings`` default to tight proximal iterations (accuracy 1e-14, mu 1e-10, 1000 iterations),
+    which also converge where redundant closure equations make the KKT matrix singular; give
+    ``pin.ProximalSettings(1e-14, 0.0, 1)`` for the exact solve of independent equations."""
+    model, data = robot.model, robot.model.createData()
+    datas = pin.StdVec_RigidConstraintData()
+    for constraint in robot.constraint_models:
+        datas.append(constraint.createData())
+    pin.initConstraintDynamics(model, data, robot.constraint_models, datas)
+    settings = pin.ProximalSettings(1e-14, 1e-10, 1000) if settings is None else settings
+
+    def accelerations(q, v, tau_full):
+        return pin.constraintDynamics(model, data, q, v, tau_full, robot.constraint_models, datas, settings)
+
+    return accelerations

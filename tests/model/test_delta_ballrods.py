@@ -52,6 +52,7 @@ from scipy.integrate import solve_ivp
 import delta_pin as dp
 from delta_pin.model.closed_chain import closure_rank
 from delta_pin.model.loaders import load_robot
+from tests.model.closed_chain_fixtures import pinocchio_accelerations
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -234,11 +235,7 @@ def _pinocchio_free_fall(robot, alpha0: np.ndarray, t: np.ndarray):
     tangent coordinates delta of a base pose, q = integrate(q_base, delta), delta_dot =
     dIntegrate(q_base, delta)^-1 v, the base re-set every 20 samples (|delta| stays small)."""
     model, data = robot.model, robot.model.createData()
-    datas = pin.StdVec_RigidConstraintData()
-    for constraint in robot.constraint_models:
-        datas.append(constraint.createData())
-    pin.initConstraintDynamics(model, data, robot.constraint_models, datas)
-    settings = pin.ProximalSettings(1e-14, 0.0, 1)
+    accelerations = pinocchio_accelerations(robot, pin.ProximalSettings(1e-14, 0.0, 1))
     nv, zero = model.nv, np.zeros(model.nv)
     q, v = robot.state(alpha0, np.zeros(3), initial_guess=robot.reference_configuration)
     samples, velocities, window = [q], [v], 20
@@ -246,10 +243,7 @@ def _pinocchio_free_fall(robot, alpha0: np.ndarray, t: np.ndarray):
         base = q.copy()
 
         def rhs(_t, x, base=base):
-            a = pin.constraintDynamics(
-                model, data, pin.integrate(model, base, x[:nv]), x[nv:], zero,
-                robot.constraint_models, datas, settings,
-            )  # fmt: skip
+            a = accelerations(pin.integrate(model, base, x[:nv]), x[nv:], zero)
             rate = np.linalg.solve(pin.dIntegrate(model, base, x[:nv], pin.ArgumentPosition.ARG1), x[nv:])
             return np.concatenate([rate, a])
 

@@ -19,6 +19,7 @@ from scipy.integrate import solve_ivp
 import delta_pin as dp
 from delta_pin.errors import AssemblyError, InvalidParameterError
 from delta_pin.sim.integrators import rk4_step
+from tests.model.closed_chain_fixtures import pinocchio_accelerations
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "gepetto"
 MODELS = {
@@ -49,16 +50,6 @@ def random_state(robot, rng, spread=0.05):
     alpha_dot = rng.normal(0.0, 1.0, robot.dof)
     q = robot.configuration(alpha)
     return alpha, alpha_dot, q
-
-
-def reference_accelerations(robot, q, v, tau_full):
-    """q_ddot from Pinocchio alone: constraintDynamics with tight proximal settings (the welds
-    of a planar loop repeat equations, so the KKT system is singular without them)."""
-    model, data = robot.model, robot.model.createData()
-    datas = [c.createData() for c in robot.constraint_models]
-    pin.initConstraintDynamics(model, data, robot.constraint_models, datas)
-    settings = pin.ProximalSettings(1e-14, 1e-10, 1000)
-    return pin.constraintDynamics(model, data, q, v, tau_full, robot.constraint_models, datas, settings)
 
 
 def test_each_loads_as_shipped_and_classifies_its_idle_spins(robot):
@@ -105,7 +96,7 @@ def test_reduced_dynamics_equal_constraint_dynamics_at_zero_idle_momentum(robot)
         tau = rng.normal(0.0, 1.0, robot.dof) * np.abs(robot.reduced_terms(alpha, alpha_dot, q)[2]).max()
         tau_full = np.zeros(robot.model.nv)
         tau_full[robot.actuated_indices] = tau
-        expected = reference_accelerations(robot, q, v, tau_full)[robot.actuated_indices]
+        expected = pinocchio_accelerations(robot)(q, v, tau_full)[robot.actuated_indices]
         M, C, G, coriolis = robot.reduced_terms(alpha, alpha_dot, q)
         np.testing.assert_allclose(
             C @ alpha_dot, coriolis, rtol=0, atol=1e-9 * (np.abs(coriolis).max() + 1e-300)
@@ -172,9 +163,10 @@ def test_free_fall_matches_a_pinocchio_only_reference_and_keeps_its_idle_momentu
     nq = robot.model.nq
     q0, v0 = robot.state(robot.home, np.zeros(robot.dof))
 
+    accelerations = pinocchio_accelerations(robot)
+
     def f(t, y):
-        q, v = y[:nq], y[nq:]
-        return np.concatenate([v, reference_accelerations(robot, q, v, np.zeros(robot.model.nv))])
+        return np.concatenate([y[nq:], accelerations(y[:nq], y[nq:], np.zeros(robot.model.nv))])
 
     reference = solve_ivp(f, (0.0, T_FALL), np.concatenate([q0, v0]), method="DOP853", rtol=1e-11, atol=1e-12)
     q_ref, v_ref = reference.y[:nq, -1], reference.y[nq:, -1]

@@ -17,6 +17,7 @@ import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, URDFConventionError
 from delta_pin.model.gepetto_loader import _universal_axes
 from delta_pin.sim.integrators import rk4_step
+from tests.model.closed_chain_fixtures import pinocchio_accelerations
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -157,15 +158,10 @@ def test_mujoco_test_model_without_motors_loads_as_shipped_and_falls_as_referenc
     assert robot.classification()["mobility"] == 2
     _, x = plant_motion(robot, 0.3, 1e-4)
     nq = robot.model.nq
-    model, data = robot.model, robot.model.createData()
-    datas = [c.createData() for c in robot.constraint_models]
-    pin.initConstraintDynamics(model, data, robot.constraint_models, datas)
-    settings = pin.ProximalSettings(1e-14, 1e-10, 1000)
+    accelerations = pinocchio_accelerations(robot)
 
     def f(t, y):
-        q, v = y[:nq], y[nq:]
-        a = pin.constraintDynamics(model, data, q, v, np.zeros(nq), robot.constraint_models, datas, settings)
-        return np.concatenate([v, a])
+        return np.concatenate([y[nq:], accelerations(y[:nq], y[nq:], np.zeros(nq))])
 
     y0 = np.concatenate([robot.reference_configuration, np.zeros(nq)])
     reference = solve_ivp(f, (0.0, 0.3), y0, method="DOP853", rtol=1e-11, atol=1e-12).y[:nq, -1]

@@ -33,6 +33,7 @@ from scipy.integrate import solve_ivp
 import delta_pin as dp
 from delta_pin.model.closed_chain import closure_rank
 from delta_pin.model.loaders import load_robot
+from tests.model.closed_chain_fixtures import pinocchio_accelerations
 
 pytest.importorskip("mujoco")
 
@@ -167,20 +168,12 @@ def _pinocchio_free_fall(robot, alpha0: np.ndarray, t: np.ndarray) -> np.ndarray
     """The actuated coordinates of a zero-torque fall from rest: Pinocchio's constraintDynamics on
     the tree and its closures (no Baumgarte correction, the exact KKT solve: mu = 0, the 15
     equations are independent), integrated by SciPy's DOP853 at rtol 1e-10, atol 1e-12."""
-    model, data = robot.model, robot.model.createData()
-    datas = pin.StdVec_RigidConstraintData()
-    for constraint in robot.constraint_models:
-        datas.append(constraint.createData())
-    pin.initConstraintDynamics(model, data, robot.constraint_models, datas)
-    settings = pin.ProximalSettings(1e-14, 0.0, 1)
-    nv, zero = model.nv, np.zeros(model.nv)
-    assert model.nq == nv  # 1-DOF joints only: q integrates as q + v dt
+    accelerations = pinocchio_accelerations(robot, pin.ProximalSettings(1e-14, 0.0, 1))
+    nv, zero = robot.model.nv, np.zeros(robot.model.nv)
+    assert robot.model.nq == nv  # 1-DOF joints only: q integrates as q + v dt
 
     def rhs(_t, x):
-        a = pin.constraintDynamics(
-            model, data, x[:nv], x[nv:], zero, robot.constraint_models, datas, settings
-        )
-        return np.concatenate([x[nv:], a])
+        return np.concatenate([x[nv:], accelerations(x[:nv], x[nv:], zero)])
 
     q0, v0 = robot.state(alpha0, np.zeros(6), initial_guess=robot.reference_configuration)
     solution = solve_ivp(
