@@ -230,11 +230,40 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 0 if report.passed else 1
 
 
+# run's options that only one of its two paths applies (the packaged Delta's scenario, or any
+# robot of --robot): given to the other, each is refused, never ignored
+_DELTA_RUN_OPTIONS = {
+    "path": "--path", "plant": "--plant", "integrator": "--integrator", "uncertainty": "--uncertainty",
+    "no_friction_compensation": "--no-friction-compensation", "seed": "--seed",
+    "encoder_bits": "--encoder-bits", "velocity": "--velocity", "delay": "--delay",
+    "torque_limit": "--torque-limit",
+}  # fmt: skip
+_ROBOT_RUN_OPTIONS = {"frame": "--frame", "radius": "--radius", "period": "--period"}
+
+
+def _given_options(args: argparse.Namespace, options: dict[str, str]) -> list[str]:
+    """The flags among ``options`` whose value differs from run's default (given on the command line)."""
+    defaults = build_parser().parse_args(["run", "--out", "."])
+    return [flag for name, flag in options.items() if getattr(args, name) != getattr(defaults, name)]
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     if args.robot is not None:
+        given = _given_options(args, _DELTA_RUN_OPTIONS)
+        if given:
+            raise InvalidParameterError(
+                f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} to the packaged Delta's "
+                "scenario, not to --robot (which runs "
+                "the robot's constrained plant with the projected nominal model, without a drive): drop "
+                "them, or drop --robot"
+            )
         return _cmd_run_robot(args)
-    if args.frame is not None:
-        raise InvalidParameterError("--frame names a frame of --robot: give --robot PATH too")
+    given = _given_options(args, _ROBOT_RUN_OPTIONS)
+    if given:
+        raise InvalidParameterError(
+            f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} with --robot PATH only: give "
+            "--robot too"
+        )
     from delta_pin.studies.experiments import check_specs, run_spec
     from delta_pin.studies.metrics import compute_metrics, window_note
 
