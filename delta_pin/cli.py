@@ -41,6 +41,17 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{self.prog}: error: {message}")
 
 
+def _seconds(text: str) -> float:
+    """An argparse type: a finite duration > 0 [s], naming the value otherwise."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number of seconds > 0, e.g. 0.001")
+    return value
+
+
 def _integer(minimum: int):
     """An argparse type: an integer >= ``minimum``, naming the value otherwise."""
 
@@ -413,8 +424,12 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def _split(text: str) -> list[str]:
-    return [item.strip() for item in text.split(",") if item.strip()]
+def _split(text: str, flag: str | None = None) -> list[str]:
+    """The comma-separated items of ``text``; with ``flag``, at least one (else a one-line error)."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    if flag is not None and not items:
+        raise InvalidParameterError(f"{flag} {text!r} names nothing: give one or more, separated by commas")
+    return items
 
 
 def _spec_from_args(args: argparse.Namespace, **changes):
@@ -437,8 +452,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     specs = [
         _spec_from_args(args, controller=c, path=p, friction_compensation=fc)
-        for p in _split(args.paths)
-        for c in _split(args.controllers)
+        for p in _split(args.paths, "--paths")
+        for c in _split(args.controllers, "--controllers")
         for fc in ((True, False) if args.with_and_without_fc else (True,))
     ]
     _check_output_dir("--out", args.out)
@@ -500,8 +515,10 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic", help=_PLANT_HELP)
     _add_choice_argument(parser, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(parser, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
-    parser.add_argument("--t-end", type=float, default=None, help="duration [s] (None: the path's default)")
-    parser.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
+    parser.add_argument(
+        "--t-end", type=_seconds, default=None, help="duration [s] (None: the path's default)"
+    )
+    parser.add_argument("--dt", type=_seconds, default=1e-3, help="sample / control period [s]")
     parser.add_argument(
         "--sampling-aware",
         action="store_true",
@@ -655,11 +672,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_choice_argument(run, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     run.add_argument(
         "--t-end",
-        type=float,
+        type=_seconds,
         default=None,
         help="duration [s] (None: 15 for path I, 10 for II, 3 for adept; with --robot 6, or two periods)",
     )
-    run.add_argument("--dt", type=float, default=1e-3, help="sample / control period [s]")
+    run.add_argument("--dt", type=_seconds, default=1e-3, help="sample / control period [s]")
     run.add_argument(
         "--no-friction-compensation", action="store_true", help="leave the friction out of the controller"
     )

@@ -45,7 +45,10 @@ CASES = [
     (["run", "--out", "{out}", "--html", "{dir}"], 2, "--html {dir} is a directory"),
     (["run", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
     (["run", "--dt", "1e-12", "--out", "{out}"], 2, "--dt 1e-12"),
-    (["run", "--dt", "-1", "--out", "{out}"], 2, "dt=-1.0"),
+    (["run", "--dt", "-1", "--out", "{out}"], 2, "--dt: -1 must be a finite number of seconds > 0"),
+    (["run", "--dt", "nan", "--out", "{out}"], 2, "--dt: nan must be a finite number of seconds > 0"),
+    (["run", "--dt", "0", "--out", "{out}"], 2, "--dt: 0 must be a finite number of seconds > 0"),
+    (["run", "--t-end", "nan", "--out", "{out}"], 2, "--t-end: nan must be a finite number of seconds"),
     (["run", "--controller", "nope", "--out", "{out}"], 2, "'nope'"),
     (["run", "--seed", "-3", "--plant", "analytic", "--out", "{out}"], 2, "seed=-3"),
     (["run", "--uncertainty", "1.5", "--plant", "analytic", "--out", "{out}"], 2, "1.5"),
@@ -81,6 +84,9 @@ CASES = [
     (["run", "--robot", "five_bar", "--path", "II", "--out", "{out}"], 2, "--path applies to the packaged"),
     (["run", "--radius", "0.05", "--out", "{out}"], 2, "--radius applies with --robot PATH only"),
     (["run", "--frame", "tip", "--out", "{out}"], 2, "--frame applies with --robot PATH only"),
+    # compare: an empty list names nothing (issue 25: "unexpected ValueError")
+    (["compare", "--controllers", ",", "--out", "{out}"], 2, "--controllers ',' names nothing"),
+    (["compare", "--paths", "", "--out", "{out}"], 2, "--paths '' names nothing"),
     # view
     (["view", "{missing}"], 2, "{missing}' does not exist"),
     (["view", "{npz}"], 2, "{npz}' is not a readable delta-pin run"),
