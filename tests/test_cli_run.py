@@ -101,7 +101,7 @@ def test_seeded_uncertainty_is_reproducible(tmp_path):
 
 def test_bad_input_is_a_clear_error(tmp_path, capsys):
     assert main(["run", "--dt", "-1", "--plant", "analytic", "--out", str(tmp_path)]) == 2
-    assert "dt=-1.0" in capsys.readouterr().err
+    assert "--dt: -1 must be a finite number of seconds > 0" in capsys.readouterr().err
     assert main(["run", "--uncertainty", "1.5", "--plant", "analytic", "--out", str(tmp_path)]) == 2
     assert "delta_m" in capsys.readouterr().err
     assert not (tmp_path / "run.npz").exists()
