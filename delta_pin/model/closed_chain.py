@@ -90,6 +90,42 @@ def _quaternion_rate(quaternion: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return 0.5 * np.concatenate([w * omega + np.cross(u, omega), [-u @ omega]])
 
 
+def _add_closure_frames(model: pin.Model, closures: Sequence[Closure], prefix: str = "") -> list:
+    """Add each closure's two frames to ``model``: [(frame id 1, frame id 2, equations)].
+
+    Raises:
+        InvalidParameterError: a closure on a joint the model does not have.
+    """
+    frames = []
+    for closure in closures:
+        pair = []
+        for tag, joint, placement in (
+            ("1", closure.joint1, closure.placement1),
+            ("2", closure.joint2, closure.placement2),
+        ):
+            if not 0 <= joint < model.njoints:
+                raise InvalidParameterError(
+                    f"closure {closure.name!r}{closure.where}: joint id {joint} is not in the model"
+                )
+            frame = pin.Frame(f"{prefix}{closure.name}_{tag}", joint, 0, placement, pin.FrameType.OP_FRAME)
+            pair.append(model.addFrame(frame, False))
+        frames.append((pair[0], pair[1], closure.size))
+    return frames
+
+
+def _closure_rows(model: pin.Model, data: pin.Data, frames: list) -> np.ndarray:
+    """J_c: the closure frames' velocity rows, J_1 - J_2 (LOCAL_WORLD_ALIGNED; linear rows only for
+    a point), from the joint Jacobians and frame placements already in ``data``."""
+    return np.vstack(
+        [
+            (pin.getFrameJacobian(model, data, f1, _WORLD) - pin.getFrameJacobian(model, data, f2, _WORLD))[
+                :size
+            ]
+            for f1, f2, size in frames
+        ]
+    )
+
+
 def free_motions(
     model: pin.Model, closures: Sequence[Closure], q: np.ndarray, held: Sequence[str] = ()
 ) -> np.ndarray:
@@ -98,26 +134,11 @@ def free_motions(
     from scipy.linalg import null_space
 
     model = pin.Model(model)
-    frames = []
-    for closure in closures:
-        pair = [
-            model.addFrame(
-                pin.Frame(f"_{closure.name}_{tag}", joint, 0, placement, pin.FrameType.OP_FRAME), False
-            )
-            for tag, joint, placement in (
-                ("1", closure.joint1, closure.placement1),
-                ("2", closure.joint2, closure.placement2),
-            )
-        ]
-        frames.append((pair, closure.size))
+    frames = _add_closure_frames(model, closures, prefix="_")
     data = model.createData()
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
-    rows = [
-        (pin.getFrameJacobian(model, data, a, _WORLD) - pin.getFrameJacobian(model, data, b, _WORLD))[:size]
-        for (a, b), size in frames
-    ]
-    N = null_space(np.vstack(rows), rcond=_RANK_TOLERANCE)
+    N = null_space(_closure_rows(model, data, frames), rcond=_RANK_TOLERANCE)
     taken = [
         model.idx_vs[model.getJointId(name)] + k
         for name in held
@@ -161,10 +182,11 @@ class ClosedChainRobot:
         actuated: names of the actuated joints, in the order of alpha (1-DOF joints).
         passive: names of joints that no motor drives and that the closures do not determine
             (an underactuated mechanism: a spring link of a gripper); they are independent
-            coordinates beside alpha, the plant simulates them (with ``passive_stiffness``) and
-            no controller takes the robot (module docstring, "Mobility").
+            coordinates beside alpha, the plant simulates them (with ``joint_springs``) and no
+            controller takes the robot (module docstring, "Mobility").
         joint_springs: joint name -> (stiffness [N m/rad or N/m], spring reference [rad or m],
-            damping [N m s/rad or N s/m]) of 1-DOF joints; the plant applies -k (q - q_ref) - d v.
+            damping [N m s/rad or N s/m]); the plant applies -k (q - q_ref) - d v (a ball joint takes
+            a damper only, on each of its degrees of freedom).
         name: the robot's name.
         reference_configuration: a configuration q (nq,) near an assembled one; its actuated
             coordinates are the robot's ``home`` and it starts the first assembly (default: the
@@ -269,20 +291,8 @@ class ClosedChainRobot:
         self._rates = None  # per joint, how its configuration coefficients move (configuration_rate)
         self.constraint_models = pin.StdVec_RigidConstraintModel()
         self.constraint_datas = pin.StdVec_RigidConstraintData()
-        self._frames = []  # (frame id 1, frame id 2, kind) per closure
+        self._frames = _add_closure_frames(self.model, self.closures)  # (frame 1, frame 2, equations)
         for closure in self.closures:
-            pair = []
-            for tag, joint, placement in (
-                ("1", closure.joint1, closure.placement1),
-                ("2", closure.joint2, closure.placement2),
-            ):
-                if not 0 <= joint < self.model.njoints:
-                    raise InvalidParameterError(
-                        f"closure {closure.name!r}{closure.where}: joint id {joint} is not in the model"
-                    )
-                frame = pin.Frame(f"{closure.name}_{tag}", joint, 0, placement, pin.FrameType.OP_FRAME)
-                pair.append(self.model.addFrame(frame, False))
-            self._frames.append((pair[0], pair[1], closure.size))
             constraint = closure.constraint_model(self.model)
             self.constraint_models.append(constraint)
             self.constraint_datas.append(constraint.createData())
@@ -442,13 +452,7 @@ class ClosedChainRobot:
         if not kinematics_done:
             pin.framesForwardKinematics(self.model, self.data, q)
         pin.computeJointJacobians(self.model, self.data, q)
-        rows = []
-        for f1, f2, size in self._frames:
-            J = pin.getFrameJacobian(self.model, self.data, f1, _WORLD) - pin.getFrameJacobian(
-                self.model, self.data, f2, _WORLD
-            )
-            rows.append(J[:size])
-        return np.vstack(rows)
+        return _closure_rows(self.model, self.data, self._frames)
 
     def closure_drift(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """J_c_dot v: the closures' relative (classical) accelerations at zero joint acceleration."""

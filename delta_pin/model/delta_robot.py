@@ -14,8 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.description import GRAVITY
 from delta_pin.model.loaders import read_urdf_constraints
@@ -62,37 +60,11 @@ def delta_robot(delta: Delta) -> ClosedChainRobot:
         model, read_urdf_constraints(delta.urdf, model, source), description.active_joints,
         name=model.name or "delta", source=source, urdf=delta.urdf,
         base_dir=None if description.base_dir is None else str(description.base_dir),
-        reference_configuration=_tree_configuration(model, delta),
+        reference_configuration=delta.assembled_configuration(),  # the same URDF: the same q layout
     )  # fmt: skip
     robot.delta = delta
     robot.set_end_effector(robot.joint_frame(description.platform_joints[-1]))
     return robot
-
-
-def _tree_configuration(model, delta: Delta) -> np.ndarray:
-    """The analytic model's assembled configuration on the URDF tree (the two are built from the
-    same URDF, joint for joint) at alpha = 0, or at the first common arm angle where the loops
-    close (a geometry that does not close at 0, e.g. short forearms)."""
-    from delta_pin.errors import DeltaPinError
-    from delta_pin.model.robot import ASSEMBLY_PROBES
-
-    source = delta.pinocchio
-    q = np.zeros(model.nq)
-    for angle in (0.0, *ASSEMBLY_PROBES):
-        try:
-            delta.forward_kinematics(np.full(3, angle))
-            reference = source.configuration(np.full(3, angle))
-            break
-        except DeltaPinError:
-            continue
-    for j in range(1, source.model.njoints):
-        name = source.model.names[j]
-        if model.existJointName(name):
-            target = model.getJointId(name)
-            q[model.idx_qs[target] : model.idx_qs[target] + model.nqs[target]] = reference[
-                source.model.idx_qs[j] : source.model.idx_qs[j] + source.model.nqs[j]
-            ]
-    return q
 
 
 def analytic_delta(robot):

@@ -174,7 +174,7 @@ def _load_urdf(
         delta = _as_delta(text, model, path)
         if delta is not None:
             actuated = list(delta.description.active_joints)
-            reference = delta.pinocchio.configuration(np.zeros(3))
+            reference = delta.assembled_configuration()
     if not actuated:
         raise URDFConventionError(
             f"{source} names no actuated joint: pass actuated=[...] (CLI: --actuated a,b,c) or add "

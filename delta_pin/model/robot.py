@@ -58,6 +58,18 @@ class Delta:
         """The constrained Pinocchio model (built on first use)."""
         return DeltaPinocchioModel(self.description)
 
+    def assembled_configuration(self) -> np.ndarray:
+        """The Pinocchio model's assembled q (nq,) at alpha = 0, or at the first common arm angle
+        of :data:`ASSEMBLY_PROBES` where the loops close (short forearms may not close at 0)."""
+        for angle in (0.0, *ASSEMBLY_PROBES):
+            try:
+                return self.pinocchio.configuration(np.full(3, angle))
+            except DeltaPinError:
+                continue
+        raise AssemblyError(
+            f"the loops of {self!r} close at no common arm angle"
+        )  # _check_assembly found one
+
     def _check_assembly(self) -> None:
         for angle in ASSEMBLY_PROBES:
             try:

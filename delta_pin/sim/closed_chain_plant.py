@@ -156,8 +156,7 @@ class ClosedChainPlant(Plant):
         self._damper_d = np.array(
             [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
         )
-        # idle motions and passive joints are state of their own: a projection keeps them
-        self._keeps_unactuated_state = bool(carried)
+        self._completed = None  # (active state, its (q, v)): what a sample's readings share
 
     def _set_friction(self, friction) -> None:
         delta = getattr(self.robot, "delta", None)
@@ -175,7 +174,6 @@ class ClosedChainPlant(Plant):
         self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
 
     # ------------------------------------------------------------------ truth
-
     def joint_friction(self, alpha_dot: np.ndarray) -> np.ndarray:
         """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints (0 without friction)."""
         if self.friction is None:
@@ -247,14 +245,22 @@ class ClosedChainPlant(Plant):
             return x[: self.dof], x[self.dof :]
         return x[self.robot.actuated_q_indices], x[self.nq + self.active]
 
+    def _completed_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) of an active-coordinate state, completed once: the position, the closure gap
+        and the recorded configuration of one sample read the same state."""
+        if self._completed is None or not np.array_equal(self._completed[0], x):
+            self._completed = (np.array(x), *self.complete(x[: self.dof], x[self.dof :], math.nan))
+        return self._completed[1], self._completed[2]
+
     def _configuration(self, x: np.ndarray) -> np.ndarray:
         if self.coordinates == "active":
-            return self.complete(x[: self.dof], x[self.dof :], math.nan)[0]
+            return self._completed_state(x)[0]
         return x[: self.nq]
 
     def configuration_state(self, x):
         if self.coordinates == "active":
-            return self.complete(x[: self.dof], x[self.dof :], math.nan)
+            q, v = self._completed_state(x)
+            return q.copy(), v.copy()
         return x[: self.nq].copy(), x[self.nq :].copy()
 
     def platform_position(self, x):
@@ -278,7 +284,7 @@ class ClosedChainPlant(Plant):
         if not (math.isfinite(gap) and np.isfinite(x).all()):
             raise SimulationError(f"the loop-closure gap is {gap:.3e}: the state is no longer finite", t)
         self._last_q = x[: self.nq].copy()
-        if self._keeps_unactuated_state:
+        if self.robot.has_unactuated_motion:  # idle and passive state of its own: keep it
             try:
                 q, v = self.robot.project_state(x[: self.nq], x[self.nq :])
             except AssemblyError as exc:
