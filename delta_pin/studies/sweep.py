@@ -4,7 +4,11 @@ on-disk cache so that a killed sweep resumes where it stopped.
 Every finished point is written at once, atomically (a temporary file, then a rename), to
 ``cache_dir/<key>.json`` -- the spec, its metrics and the wall time -- and, with ``save_runs=True``,
 its :class:`~delta_pin.sim.runner.Run` to ``cache_dir/<key>.npz``. ``<key>`` is :func:`spec_key`, the
-sha256 of the spec's canonical JSON. A point whose ``.json`` exists is read back, not recomputed.
+sha256 of the spec's canonical JSON. A point whose ``.json`` exists is read back, not recomputed,
+once it holds up: its spec and robot arguments hash to its key, its metrics, wall time and error
+are of their types, and its ``.npz`` (where the run is needed) loads and holds a spec of this key
+(a file swapped with another point's is not trusted). One that does not is named in a warning line
+and recomputed.
 
 Executors: ``"serial"`` (a loop in this process), ``"process"`` (a
 :class:`concurrent.futures.ProcessPoolExecutor`), ``"dask"`` (``dask.distributed``: a scheduler
@@ -53,7 +57,7 @@ from delta_pin.errors import (
 )
 from delta_pin.sim.run import load_run
 from delta_pin.studies.experiments import RunSpec, batch_group, run_batch, run_spec
-from delta_pin.studies.metrics import compute_metrics
+from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
 from delta_pin.utils.atomic import write_text_atomically
 from delta_pin.utils.progress import Progress
 
@@ -77,6 +81,7 @@ BATCH_SIZE = 32  # points per compiled batch (one executor task)
 SCHEDULER_TIMEOUT = 5.0  # [s] to connect to a Dask scheduler before giving up
 RECORD_FORMAT = "delta-pin-sweep-point"
 RECORD_VERSION = 1
+NAMED_BAD_RECORDS = 5  # cache files that do not hold up named one by one; the rest are counted
 _log = logging.getLogger(__name__)
 _FIELD_TYPES = {f.name: str(f.type) for f in fields(RunSpec)}
 
@@ -361,36 +366,99 @@ def _chunks(todo: list[str], unique: Mapping[str, RunSpec], workers: int | None)
 # the cache
 
 
-def _read_cached(cache_dir: Path, key: str, need_run: bool, retry_failed: bool) -> dict | None:
+def _read_cached(
+    cache_dir: Path, key: str, need_run: bool, retry_failed: bool, args: dict
+) -> tuple[dict | None, str | None]:
+    """``(record, None)``: the cache record of ``key`` (with its run, if ``need_run``);
+    ``(None, None)``: none is cached (or a failure to retry); ``(None, why)``: a record or run that
+    does not hold up (:func:`_record_problem`, :func:`_run_problem`), named in one line to be
+    recomputed (never trusted, never a traceback)."""
     path = cache_dir / f"{key}.json"
     try:
         record = json.loads(path.read_text())
     except FileNotFoundError:
-        return None
+        return None, None
     except (OSError, ValueError) as exc:
-        _log.warning("unreadable cache file %s (%s): recomputing it", path, exc)
-        return None
+        return None, f"unreadable cache file {path} ({exc}): recomputing it"
     if not isinstance(record, dict) or record.get("format") != RECORD_FORMAT or record.get("key") != key:
-        _log.warning("cache file %s is not a delta-pin sweep point of key %s: recomputing it", path, key)
-        return None
-    if record.get("error") is not None:
-        return None if retry_failed else record
-    if need_run and not _run_loads(cache_dir / f"{key}.npz"):
-        return None
-    return record
+        return None, f"cache file {path} is not a delta-pin sweep point of key {key}: recomputing it"
+    problem = _record_problem(record, key, args)
+    if problem:
+        return None, f"cache file {path} is not a valid sweep point ({problem}): recomputing it"
+    if record["error"] is not None:
+        return (None, None) if retry_failed else (record, None)
+    if need_run:
+        run_path = cache_dir / f"{key}.npz"
+        if not run_path.is_file() and not run_path.is_symlink():
+            return None, None  # stored without its run (save_runs was off): computed again, quietly
+        problem = _run_problem(run_path, key, args)
+        if problem:
+            return None, problem
+    return record, None
 
 
-def _run_loads(path: Path) -> bool:
-    """Whether the cached run ``path`` exists and loads (a truncated file is recomputed, like an
-    unreadable record)."""
-    if not path.is_file():
-        return False
+def _number_or_none(value) -> bool:
+    return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+
+
+def _record_problem(record: dict, key: str, args: dict) -> str | None:
+    """What is wrong with a cache record of ``key`` (``None``: nothing): its spec and robot
+    arguments must hash to its key, its metrics be every index as a number or null (or null with
+    an error), its wall time and error fields of their types."""
+    spec, robot_args = record.get("spec"), record.get("robot_args", {})
+    if not isinstance(spec, dict):
+        return f"spec is {json.dumps(spec)}, not an object"
     try:
-        load_run(path)
+        canonical_args = _canonical_robot_args(robot_args)
+    except (InvalidParameterError, AttributeError, TypeError, ValueError):
+        return f"robot_args is {json.dumps(robot_args)}, not an object"
+    if canonical_args != args:
+        return f"robot_args {json.dumps(canonical_args)}, not this sweep's {json.dumps(args)}"
+    payload = {"spec": spec, "robot_args": canonical_args} if canonical_args else spec
+    if hashlib.sha256(_dumps(payload).encode()).hexdigest() != key:
+        return "its spec does not hash to its key"
+    error, error_type = record.get("error"), record.get("error_type")
+    if error is not None and not isinstance(error, str):
+        return f"error is {json.dumps(error)}, not a string or null"
+    if error_type is not None and not isinstance(error_type, str):
+        return f"error_type is {json.dumps(error_type)}, not a string or null"
+    if not _number_or_none(record.get("wall_time")):
+        return f"wall_time is {json.dumps(record.get('wall_time'))}, not a number or null"
+    metrics = record.get("metrics")
+    if error is not None:
+        return None if metrics is None or isinstance(metrics, dict) else f"metrics is {json.dumps(metrics)}"
+    if not isinstance(metrics, dict):
+        return f"metrics is {json.dumps(metrics)} without an error"
+    missing = [name for name in METRIC_NAMES if name not in metrics]
+    if missing:
+        return f"metrics lack {', '.join(missing)}"
+    bad = [name for name, value in metrics.items() if not _number_or_none(value)]
+    if bad:
+        return f"metrics.{bad[0]} is {json.dumps(metrics[bad[0]])}, not a number or null"
+    return None
+
+
+def _run_problem(path: Path, key: str, args: dict) -> str | None:
+    """What is wrong with the cached run ``path`` of ``key`` (``None``: nothing): it must be a file
+    that loads (a truncated one does not), and its metadata's spec must have this key (a run
+    swapped with another point's is not this point's)."""
+    if not path.is_file():
+        return f"cached run {path} is not a file: recomputing it"
+    try:
+        run = load_run(path)
     except DeltaPinError as exc:
-        _log.warning("unreadable cached run %s (%s): recomputing it", path, exc)
-        return False
-    return True
+        return f"unreadable cached run {path} ({exc}): recomputing it"
+    metadata = run.metadata if isinstance(run.metadata, dict) else {}
+    spec = metadata.get("spec")
+    if not isinstance(spec, dict):
+        return f"cached run {path} holds no spec in its metadata: recomputing it"
+    try:
+        found = spec_key(RunSpec(**spec), args)
+    except (DeltaPinError, TypeError, ValueError) as exc:
+        return f"cached run {path} holds a spec that is not a RunSpec ({exc}): recomputing it"
+    if found != key:
+        return f"cached run {path} is the run of another point (key {found}): recomputing it"
+    return None
 
 
 def _store(cache_dir: Path, key: str, record: dict, robot_args: dict) -> None:
@@ -619,7 +687,7 @@ def run_sweep(
     wanted = {
         key: bool(save_runs(spec) if callable(save_runs) else save_runs) for key, spec in unique.items()
     }
-    records = _read_cache(cache_dir, unique, wanted, retry_failed)
+    records = _read_cache(cache_dir, unique, wanted, retry_failed, args)
     from_cache = set(records)
     todo = [key for key in unique if key not in records]
     skipped = sum(key in from_cache for key in keys)
@@ -668,14 +736,28 @@ def _checked_specs(specs: Iterable[RunSpec]) -> list[RunSpec]:
     return specs
 
 
-def _read_cache(cache_dir: Path, unique: dict, wanted: dict, retry_failed: bool) -> dict[str, dict]:
+def _read_cache(
+    cache_dir: Path, unique: dict, wanted: dict, retry_failed: bool, args: dict
+) -> dict[str, dict]:
     """The records of the points already in the cache, by key (``wanted``: key -> whether its run
-    must be there too)."""
+    must be there too); each one that does not hold up is named in a warning line (the first
+    :data:`NAMED_BAD_RECORDS`, then one line counting the rest) and left to be recomputed."""
     records: dict[str, dict] = {}
+    bad = []
     for key in unique:
-        record = _read_cached(cache_dir, key, wanted[key], retry_failed)
+        record, problem = _read_cached(cache_dir, key, wanted[key], retry_failed, args)
         if record is not None:
             records[key] = record
+        elif problem:
+            bad.append(problem)
+    for problem in bad[:NAMED_BAD_RECORDS]:
+        _log.warning("%s", problem)
+    if len(bad) > NAMED_BAD_RECORDS:
+        _log.warning(
+            "%d more cache files of %s do not hold up either: recomputing them",
+            len(bad) - NAMED_BAD_RECORDS,
+            cache_dir,
+        )
     return records
 
 
