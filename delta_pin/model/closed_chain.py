@@ -43,12 +43,20 @@ idle momentum the actuated equations M_r alpha_ddot + C alpha_dot + G = tau hold
 idle motions that are dynamically decoupled (a symmetric rod's spin) never enter them. The
 plant simulates the idle motions with their inertia in full coordinates; a robot with passive
 joints (underactuated) has no reduced model, and controllers refuse it.
+
+Joint couplings. A :class:`JointCoupling` (MuJoCo's ``<equality joint>``) ties one 1-DOF joint's
+coordinate to another's by a polynomial, q_1 - q_1ref = sum_k c_k (q_2 - q_2ref)^k: one more
+closure equation, r = q_1 - q_1ref - p(q_2 - q_2ref), with the velocity row e_1 - p'(.) e_2 and the
+drift -p''(.) v_2^2. It enters the residual, J_c, its drift and derivative, the assembly and the
+classification like any closure row; Pinocchio's ``constraintDynamics`` has no such constraint,
+so :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant` adds its multipliers itself.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -57,7 +65,14 @@ from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePo
 from delta_pin.model.closures import Closure
 from delta_pin.model.dynamics import ReducedDynamics
 
-__all__ = ["ClosedChainRobot", "closure_rank", "free_motions", "independent_joints", "least_squares"]
+__all__ = [
+    "ClosedChainRobot",
+    "JointCoupling",
+    "closure_rank",
+    "free_motions",
+    "independent_joints",
+    "least_squares",
+]
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _RANK_TOLERANCE = 1e-9  # singular values below this fraction of the largest count as zero
@@ -88,6 +103,91 @@ def _quaternion_rate(quaternion: np.ndarray, omega: np.ndarray) -> np.ndarray:
     0.5 quat * (omega, 0)."""
     u, w = quaternion[:3], quaternion[3]
     return 0.5 * np.concatenate([w * omega + np.cross(u, omega), [-u @ omega]])
+
+
+@dataclass(frozen=True)
+class JointCoupling:
+    """One 1-DOF joint's coordinate tied to another's (module docstring, "Joint couplings"):
+    q_1 - reference1 = sum_k coefficients[k] (q_2 - reference2)^k [rad or m], MuJoCo's
+    ``<equality joint>`` with its ``polycoef`` and the joints' ``qpos0``; ``joint2`` ``None`` holds
+    joint 1 at reference1 + coefficients[0]. One closure equation.
+
+    Attributes:
+        name: the coupling's name (from the file; used in every error about it).
+        joint1, joint2: the joints' names (hinge or slide joints of the tree).
+        coefficients: c_0 ... c_n of the polynomial.
+        reference1, reference2: the coordinates the polynomial is written about.
+        source: where it was read, for error messages (e.g. ``"2f85.xml line 175"``).
+    """
+
+    name: str
+    joint1: str
+    joint2: str | None
+    coefficients: tuple[float, ...] = (0.0, 1.0)
+    reference1: float = 0.0
+    reference2: float = 0.0
+    source: str = ""
+
+    @property
+    def where(self) -> str:
+        """`` (source)`` for messages, or nothing."""
+        return f" ({self.source})" if self.source else ""
+
+    def polynomial(self, q2: float) -> tuple[float, float, float]:
+        """(p, dp/dq_2, d2p/dq_2^2) at the second joint's coordinate q2 (0 without joint 2)."""
+        x = 0.0 if self.joint2 is None else q2 - self.reference2
+        c = self.coefficients
+        value = sum(ck * x**k for k, ck in enumerate(c))
+        slope = sum(k * ck * x ** (k - 1) for k, ck in enumerate(c) if k >= 1)
+        curvature = sum(k * (k - 1) * ck * x ** (k - 2) for k, ck in enumerate(c) if k >= 2)
+        return value, slope, curvature
+
+
+def _coupling_indices(model: pin.Model, couplings: Sequence[JointCoupling], label: str = "") -> list:
+    """(coupling, q index 1, v index 1, q index 2, v index 2) per coupling (-1 without joint 2).
+
+    Raises:
+        InvalidParameterError: a coupled joint the model does not have, or not of one degree of
+            freedom (named).
+    """
+    rows = []
+    for coupling in couplings:
+        indices = []
+        for joint in (coupling.joint1, coupling.joint2):
+            if joint is None:
+                indices += [-1, -1]
+                continue
+            jid = model.getJointId(joint) if model.existJointName(joint) else model.njoints
+            if jid >= model.njoints or model.nqs[jid] != 1 or model.nvs[jid] != 1:
+                what = (
+                    "is not in the model" if jid >= model.njoints else "is not a 1-DOF (hinge or slide) joint"
+                )
+                raise InvalidParameterError(
+                    f"{label}joint coupling {coupling.name!r}{coupling.where}: joint {joint!r} {what}; a "
+                    "coupling ties two hinge or slide joints"
+                )
+            indices += [model.idx_qs[jid], model.idx_vs[jid]]
+        rows.append((coupling, *indices))
+    return rows
+
+
+def _coupling_terms(
+    indices: list, nv: int, q: np.ndarray, v: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(r, J, J_dot v, J_dot) of the joint couplings at q (and v): r = q_1 - ref_1 - p, J = e_1 - p' e_2,
+    J_dot v = -p'' v_2^2, J_dot = -p'' v_2 e_2 (module docstring, "Joint couplings")."""
+    k = len(indices)
+    r, J, drift, J_dot = np.zeros(k), np.zeros((k, nv)), np.zeros(k), np.zeros((k, nv))
+    for row, (coupling, iq1, iv1, iq2, iv2) in enumerate(indices):
+        value, slope, curvature = coupling.polynomial(q[iq2] if iq2 >= 0 else 0.0)
+        r[row] = q[iq1] - coupling.reference1 - value
+        J[row, iv1] = 1.0
+        if iv2 >= 0:
+            J[row, iv2] -= slope
+            if v is not None:
+                drift[row] = -curvature * v[iv2] ** 2
+                J_dot[row, iv2] = -curvature * v[iv2]
+    return r, J, drift, J_dot
 
 
 def _add_closure_frames(model: pin.Model, closures: Sequence[Closure], prefix: str = "") -> list:
@@ -127,10 +227,14 @@ def _closure_rows(model: pin.Model, data: pin.Data, frames: list) -> np.ndarray:
 
 
 def free_motions(
-    model: pin.Model, closures: Sequence[Closure], q: np.ndarray, held: Sequence[str] = ()
+    model: pin.Model,
+    closures: Sequence[Closure],
+    q: np.ndarray,
+    held: Sequence[str] = (),
+    couplings: Sequence[JointCoupling] = (),
 ) -> np.ndarray:
-    """A basis (nv, k) of the velocities the closures allow at q with the joints ``held`` at
-    rest (the null space of J_c and of those joints' velocity rows)."""
+    """A basis (nv, k) of the velocities the closures (and joint couplings) allow at q with the
+    joints ``held`` at rest (the null space of J_c and of those joints' velocity rows)."""
     from scipy.linalg import null_space
 
     model = pin.Model(model)
@@ -138,7 +242,10 @@ def free_motions(
     data = model.createData()
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
-    N = null_space(_closure_rows(model, data, frames), rcond=_RANK_TOLERANCE)
+    rows = _closure_rows(model, data, frames)
+    if couplings:
+        rows = np.vstack([rows, _coupling_terms(_coupling_indices(model, couplings), model.nv, q)[1]])
+    N = null_space(rows, rcond=_RANK_TOLERANCE)
     taken = [
         model.idx_vs[model.getJointId(name)] + k
         for name in held
@@ -150,7 +257,11 @@ def free_motions(
 
 
 def independent_joints(
-    model: pin.Model, closures: Sequence[Closure], q: np.ndarray, exclude: Sequence[str] = ()
+    model: pin.Model,
+    closures: Sequence[Closure],
+    q: np.ndarray,
+    exclude: Sequence[str] = (),
+    couplings: Sequence[JointCoupling] = (),
 ) -> list[str]:
     """1-DOF joints (besides ``exclude``) whose coordinates, with those of ``exclude``, fix the
     mechanism's configuration at q: as many as its mobility leaves, chosen by column-pivoted QR
@@ -158,7 +269,7 @@ def independent_joints(
     mechanism without motors, these are the passive joints to integrate."""
     from scipy.linalg import qr
 
-    N = free_motions(model, closures, q, exclude)
+    N = free_motions(model, closures, q, exclude, couplings)
     if N.shape[1] == 0:
         return []
     candidates = [j for j in range(1, model.njoints) if model.nvs[j] == 1 and model.names[j] not in exclude]
@@ -198,6 +309,10 @@ class ClosedChainRobot:
         base_dir: folder for the URDF's relative mesh paths.
         visual_model: the robot's visual geometry on ``model`` (drawing); ``None``: read from
             ``urdf`` where there is one.
+        joint_couplings: joints tied to others (:class:`JointCoupling`), closure equations of
+            their own (module docstring, "Joint couplings").
+        notes: lines :meth:`summary` shows about how the file was read (e.g. an actuator the file
+            writes as a servo, read as a force source).
 
     Raises:
         InvalidParameterError: an unknown or multi-DOF actuated joint, or no closure.
@@ -220,6 +335,8 @@ class ClosedChainRobot:
         urdf: str | None = None,
         base_dir: str | None = None,
         visual_model: pin.GeometryModel | None = None,
+        joint_couplings: Sequence[JointCoupling] = (),
+        notes: Sequence[str] = (),
     ) -> None:
         self.tree = pin.Model(model)  # as given, without the closure frames (for variants)
         self.model = pin.Model(model)
@@ -231,6 +348,9 @@ class ClosedChainRobot:
         self.visual_model = visual_model
         self.delta = None  # the analytic Delta model, where load_robot recognises one
         self.closures = tuple(closures)
+        self.joint_couplings = tuple(joint_couplings)
+        self.notes = tuple(notes)
+        self._couplings = _coupling_indices(self.model, self.joint_couplings, self._label)
         if not self.closures:
             raise InvalidParameterError(f"{self._label}has no loop closure: use a serial-robot model instead")
         self.actuated_joints = tuple(actuated)
@@ -297,7 +417,7 @@ class ClosedChainRobot:
             self.constraint_models.append(constraint)
             self.constraint_datas.append(constraint.createData())
         self.data = self.model.createData()
-        self.closure_size = sum(c.size for c in self.closures)
+        self.closure_size = sum(c.size for c in self.closures) + len(self._couplings)
         q0 = (
             pin.neutral(self.model)
             if reference_configuration is None
@@ -322,6 +442,7 @@ class ClosedChainRobot:
         self._options = {
             "name": name, "source": source, "urdf": urdf, "base_dir": base_dir, "visual_model": visual_model,
             "passive": self.passive_joints, "joint_springs": self.joint_springs,
+            "joint_couplings": self.joint_couplings, "notes": self.notes,
         }  # fmt: skip
 
     def __getattr__(self, name: str):
@@ -430,15 +551,18 @@ class ClosedChainRobot:
     def closure_residual(self, q: np.ndarray) -> np.ndarray:
         """Stacked closure residuals r(q) (``closure_size``,) [m, rad] (module docstring)."""
         pin.framesForwardKinematics(self.model, self.data, q)
-        return self._residual()
+        return self._residual(q)
 
-    def _residual(self) -> np.ndarray:
+    def _residual(self, q: np.ndarray) -> np.ndarray:
+        """r(q) from the frame placements already in ``data`` (and q, for the joint couplings)."""
         parts = []
         for f1, f2, size in self._frames:
             M1, M2 = self.data.oMf[f1], self.data.oMf[f2]
             parts.append(M1.translation - M2.translation)
             if size == 6:
                 parts.append(-M1.rotation @ pin.log3(M1.rotation.T @ M2.rotation))
+        if self._couplings:
+            parts.append(_coupling_terms(self._couplings, self.model.nv, q)[0])
         return np.concatenate(parts)
 
     def closure_gap(self, q: np.ndarray) -> float:
@@ -452,7 +576,17 @@ class ClosedChainRobot:
         if not kinematics_done:
             pin.framesForwardKinematics(self.model, self.data, q)
         pin.computeJointJacobians(self.model, self.data, q)
-        return _closure_rows(self.model, self.data, self._frames)
+        rows = _closure_rows(self.model, self.data, self._frames)
+        if self._couplings:
+            rows = np.vstack([rows, _coupling_terms(self._couplings, self.model.nv, q)[1]])
+        return rows
+
+    def coupling_terms(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(r, J, J_dot v) of the joint couplings alone (the last rows of the closure residual, J_c
+        and drift): what a plant adds to Pinocchio's constrained dynamics (``constraint_models``
+        carries the frame closures only)."""
+        r, J, drift, _ = _coupling_terms(self._couplings, self.model.nv, q, v)
+        return r, J, drift
 
     def closure_drift(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """J_c_dot v: the closures' relative (classical) accelerations at zero joint acceleration."""
@@ -464,6 +598,8 @@ class ClosedChainRobot:
             rows.append(a1.linear - a2.linear)
             if size == 6:
                 rows.append(a1.angular - a2.angular)
+        if self._couplings:
+            rows.append(_coupling_terms(self._couplings, self.model.nv, q, v)[2])
         return np.concatenate(rows)
 
     def closure_jacobian_derivative(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -478,6 +614,8 @@ class ClosedChainRobot:
                 pin.getFrameJacobianTimeVariation(self.model, self.data, f2, _WORLD)
             )
             rows.append(dJ[:size])
+        if self._couplings:
+            rows.append(_coupling_terms(self._couplings, self.model.nv, q, v)[3])
         return np.vstack(rows)
 
     # ------------------------------------------------------------------------------ assembly
@@ -525,7 +663,7 @@ class ClosedChainRobot:
         residual = None
         for _ in range(max_iterations):
             pin.framesForwardKinematics(model, data, q)
-            residual = self._residual()
+            residual = self._residual(q)
             if np.abs(residual).max() <= tol:
                 return q, residual
             J = self.closure_jacobian(q, kinematics_done=True)[:, self.dependent_indices]
@@ -550,6 +688,10 @@ class ClosedChainRobot:
             if value > largest:
                 worst, largest = closure, value
             start += closure.size
+        for coupling in self.joint_couplings:  # the last rows, one each
+            if abs(residual[start]) > largest:
+                worst, largest = coupling, abs(residual[start])
+            start += 1
         return f"{worst.name!r}{worst.where}"
 
     # ------------------------------------------------------------------------------ mobility
@@ -567,7 +709,9 @@ class ClosedChainRobot:
         mobility = self.model.nv - rank
         named = len(self.independent_indices)
         counts = (
-            f"({self.model.nv} joint velocities, {rank} independent closure equations) but {self.dof} "
+            f"({self.model.nv} joint velocities, {rank} independent closure equations"
+            + "".join(f", joint coupling {c.name!r}{c.where} among them" for c in self.joint_couplings)
+            + f") but {self.dof} "
             f"actuator(s) ({', '.join(self.actuated_joints) or 'none'})"
             + (f" and {len(self.passive_joints)} passive joint(s)" if self.passive_joints else "")
         )
@@ -1005,6 +1149,8 @@ class ClosedChainRobot:
             "passive_joints": list(self.passive_joints),
             "joint_springs": {name: list(values) for name, values in self.joint_springs.items()},
             "idle_dof": self.idle_dof,
+            "joint_couplings": [asdict(c) for c in self.joint_couplings],
+            "notes": list(self.notes),
         }
 
     def _closure_record(self, closure: Closure) -> dict:
@@ -1043,9 +1189,12 @@ class ClosedChainRobot:
         """A few lines a person reads: the robot, its closures and its mobility classification."""
         c = self.classification(q)
         kinds = ", ".join(
-            f"{sum(x.kind == k for x in self.closures)} {'point' if k == '3d' else 'weld'}"
-            for k in ("3d", "6d")
-            if any(x.kind == k for x in self.closures)
+            [
+                f"{sum(x.kind == k for x in self.closures)} {'point' if k == '3d' else 'weld'}"
+                for k in ("3d", "6d")
+                if any(x.kind == k for x in self.closures)
+            ]
+            + ([f"{len(self.joint_couplings)} joint coupling"] if self.joint_couplings else [])
         )
         idle = "; ".join(" + ".join(joints) for joints in c["idle"]) or "none"
         lines = [
@@ -1060,13 +1209,22 @@ class ClosedChainRobot:
             f"  idle motions: {idle}",
             f"  end effector: {self.end_effector_name}; cond(J_p) = {c['cond_J_p']:.3g} here",
         ]
+        lines += [
+            f"  coupled: {c.joint1} follows {c.joint2 or 'nothing (held)'} "
+            f"(joint coupling {c.name!r}{c.where})"
+            for c in self.joint_couplings
+        ]
+        lines += [f"  note: {note}" for note in self.notes]
         return "\n".join(lines)
 
     def __repr__(self) -> str:
         kinds = ", ".join(
-            f"{sum(c.kind == k for c in self.closures)} {k}"
-            for k in ("3d", "6d")
-            if any(c.kind == k for c in self.closures)
+            [
+                f"{sum(c.kind == k for c in self.closures)} {k}"
+                for k in ("3d", "6d")
+                if any(c.kind == k for c in self.closures)
+            ]
+            + ([f"{len(self.joint_couplings)} joint"] if self.joint_couplings else [])
         )
         extra = (f", {len(self.passive_joints)} passive" if self.passive_joints else "") + (
             f", {self.idle_dof} idle" if self.idle_dof else ""

@@ -29,13 +29,22 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
   ``x1 + R1 relpos - x2 - R2 anchor``). ``torquescale`` only weighs MuJoCo's soft constraint and
   does not change which poses satisfy it. An equality on the world body (``body2`` left out, or
   ``body1="world"``), or on a body without joints fixed to the world, holds the other body to the
-  ground: that frame is on joint 0, placed in the world. Any other equality (``joint``,
-  ``tendon``, ``flex``), a disabled one, or one between two parts of one rigid body is an error
-  naming it and its line;
+  ground: that frame is on joint 0, placed in the world. A ``joint`` equality (joint1 - its qpos0
+  = polycoef's polynomial of joint2 - its qpos0) is a
+  :class:`~delta_pin.model.closed_chain.JointCoupling`, one closure equation of its own. Any other
+  equality (``tendon``, ``flex``), a disabled one, or one between two parts of one rigid body is an
+  error naming it and its line;
 * actuators: ``motor`` (and ``general`` without dynamics or bias, i.e. a torque/force source) on a
   hinge or slide joint give the actuated joints, in actuator order (``gear`` only scales the
-  control and is not part of the model); position/velocity servos, or transmissions other than
-  a joint, are errors naming the actuator and its line;
+  control and is not part of the model). An actuator on a fixed tendon whose joints are one joint
+  and joints linearly coupled to it (a gripper's two drivers) actuates that joint: its force F
+  on the tendon and F m on that joint (m = gear x sum of coef x d q_joint / d q_that joint) move the
+  mechanism alike, the difference being a force the coupling takes. A position or velocity servo
+  (an affine bias: ``position``, ``velocity``, a ``general`` with ``biastype="affine"``) is read as a
+  force source, and that is said (``robot.summary()``'s notes and a warning): the servo law, its
+  gains and its force range are not applied, the controller's torques replace them. Activation
+  dynamics, a non-fixed gain, a spatial tendon, a tendon over joints that move independently, or
+  another transmission are errors naming the actuator and its line;
 * gravity: ``opt.gravity`` (``g=`` overrides it with g along -z);
 * reference configuration: the keyframe named ``home`` if there is one, else ``qpos0``;
 * visuals: geoms of the primitive types (box, sphere, capsule, cylinder, ellipsoid) become a
@@ -60,7 +69,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import OptionalDependencyError, URDFConventionError
-from delta_pin.model.closed_chain import ClosedChainRobot, free_motions, independent_joints
+from delta_pin.model.closed_chain import ClosedChainRobot, JointCoupling, free_motions, independent_joints
 from delta_pin.model.closures import Closure
 
 __all__ = ["mjcf_to_pinocchio", "read_mjcf"]
@@ -223,7 +232,22 @@ def _where(source: str, elements: list, index: int, name: str) -> str:
         element = next((e for e in elements if e.get("name") == name), None)
     if element is None and index < len(elements):
         element = elements[index]
-    return f"{source} line {element.sourceline}" if element is not None else source
+    return f"{source} line {_opening_line(element)}" if element is not None else source
+
+
+def _opening_line(element) -> int:
+    """The line an element's start tag opens on: libxml2's ``sourceline`` is the line where a start
+    tag written over several lines closes."""
+    line = element.sourceline
+    try:
+        lines = Path(element.getroottree().docinfo.URL).read_text(encoding="utf-8").splitlines()
+    except (OSError, TypeError, UnicodeDecodeError):
+        return line
+    opening = f"<{element.tag}"
+    for number in range(min(line, len(lines)), 0, -1):
+        if opening in lines[number - 1]:
+            return number
+    return line
 
 
 def _closures(mujoco, m, bodies, path: Path, source: str) -> list[Closure]:
@@ -234,17 +258,16 @@ def _closures(mujoco, m, bodies, path: Path, source: str) -> list[Closure]:
         label = repr(name) if name else f"#{e} (unnamed)"
         where = _where(source, elements, e, name)
         kind = int(m.eq_type[e])
+        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+            continue  # a joint coupling (_joint_couplings)
         if kind not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)):
             type_name = mujoco.mjtEq(kind).name.removeprefix("mjEQ_").lower()
             raise URDFConventionError(
                 f"equality {label} ({where}) is a {type_name!r} equality; a closed-chain robot is closed by "
-                "'connect' (a point) and 'weld' (a rigid joint) equalities only"
+                "'connect' (a point) and 'weld' (a rigid joint) equalities, and 'joint' equalities couple "
+                "joints"
             )
-        if not bool(m.eq_active0[e]):
-            raise URDFConventionError(
-                f'equality {label} ({where}) is disabled (active="false"); a loop closure must hold '
-                "from the start: remove it or enable it"
-            )
+        _require_active(m, e, label, where)
         data = np.array(m.eq_data[e], dtype=float)
         id1, id2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
         if int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE):
@@ -274,37 +297,147 @@ def _closures(mujoco, m, bodies, path: Path, source: str) -> list[Closure]:
     return closures
 
 
-def _actuated(mujoco, m, model: pin.Model, path: Path, source: str) -> list[str]:
+def _require_active(m, e: int, label: str, where: str) -> None:
+    if not bool(m.eq_active0[e]):
+        raise URDFConventionError(
+            f'equality {label} ({where}) is disabled (active="false"); a loop closure must hold '
+            "from the start: remove it or enable it"
+        )
+
+
+def _joint_couplings(mujoco, m, path: Path, source: str) -> list[JointCoupling]:
+    """The file's ``<equality joint>`` elements as joint couplings (module docstring): joint1 -
+    qpos0 = polycoef's polynomial of joint2 - qpos0 (joint1 held at qpos0 + polycoef[0] without
+    joint2).
+
+    Raises:
+        URDFConventionError: a disabled one (named, with its line).
+    """
+    elements = _elements(path, "equality")
+    couplings = []
+    for e in range(m.neq):
+        if int(m.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT):
+            continue
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or ""
+        label = repr(name) if name else f"#{e} (unnamed)"
+        where = _where(source, elements, e, name)
+        _require_active(m, e, label, where)
+        id1, id2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        joint1 = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, id1, "joint")
+        joint2 = None if id2 < 0 else _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, id2, "joint")
+        coefficients = tuple(float(c) for c in m.eq_data[e, :5])
+        while len(coefficients) > 2 and coefficients[-1] == 0.0:
+            coefficients = coefficients[:-1]
+        references = [0.0 if joint < 0 else float(m.qpos0[m.jnt_qposadr[joint]]) for joint in (id1, id2)]
+        coupling = JointCoupling(
+            name or f"equality_{e}", joint1, joint2, coefficients, *references, source=where
+        )
+        couplings.append(coupling)
+    return couplings
+
+
+def _tendon_joint(mujoco, m, a: int, label: str, where: str, couplings: list[JointCoupling]) -> tuple:
+    """(joint name, moment m) an actuator on a fixed tendon drives (module docstring): the one joint
+    the tendon's joints are, or are linearly coupled to.
+
+    Raises:
+        URDFConventionError: a spatial tendon, or joints that move independently of each other.
+    """
+    tendon = int(m.actuator_trnid[a, 0])
+    tendon_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_TENDON, tendon, "tendon")
+    wraps = range(int(m.tendon_adr[tendon]), int(m.tendon_adr[tendon]) + int(m.tendon_num[tendon]))
+    if any(int(m.wrap_type[w]) != int(mujoco.mjtWrap.mjWRAP_JOINT) for w in wraps):
+        raise URDFConventionError(
+            f"actuator {label} ({where}) pulls the spatial tendon {tendon_name!r}; delta-pin's actuators "
+            'drive one hinge or slide joint (joint="...") or a fixed tendon over joints coupled to one'
+        )
+    # joint1 = c0 + c1 joint2 (relative to qpos0) makes d joint1 / d joint2 = c1: joint1 follows joint2
+    follows = {
+        c.joint1: (c.joint2, c.coefficients[1])
+        for c in couplings
+        if c.joint2 is not None and len(c.coefficients) == 2
+    }
+    gear = float(m.actuator_gear[a, 0])
+    terms = []
+    for w in wraps:
+        joint = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, int(m.wrap_objid[w]), "joint")
+        leader, rate = follows.get(joint, (joint, 1.0))
+        terms.append((joint, leader, gear * float(m.wrap_prm[w]) * rate))
+    leaders = sorted({leader for _, leader, _ in terms})
+    if len(leaders) != 1:
+        raise URDFConventionError(
+            f"actuator {label} ({where}) pulls tendon {tendon_name!r} over joints "
+            f"{', '.join(joint for joint, _, _ in terms)}, which no linear <equality joint> ties to one "
+            "of them: delta-pin's actuators drive one joint; give each joint its own <motor>, or couple "
+            "them"
+        )
+    return leaders[0], sum(moment for _, _, moment in terms), tendon_name, [joint for joint, _, _ in terms]
+
+
+def _actuated(mujoco, m, path: Path, source: str, couplings: list[JointCoupling]) -> tuple[list, list, list]:
+    """(the actuated joints in actuator order, notes on how the actuators were read, the notes of
+    those read as force sources although the file makes them servos)."""
     elements = _elements(path, "actuator", _ACTUATOR_TAGS)
-    names = []
+    names, notes, servos = [], [], []
     for a in range(m.nu):
         name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or ""
         label = repr(name) if name else f"#{a} (unnamed)"
         where = _where(source, elements, a, name)
-        if int(m.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
-            kind = mujoco.mjtTrn(int(m.actuator_trntype[a])).name.removeprefix("mjTRN_").lower()
+        transmission = int(m.actuator_trntype[a])
+        if transmission not in (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_TENDON)):
+            kind = mujoco.mjtTrn(transmission).name.removeprefix("mjTRN_").lower()
             raise URDFConventionError(
                 f"actuator {label} ({where}) drives a {kind!r} transmission; delta-pin's actuators drive one "
-                'hinge or slide joint (joint="...")'
+                'hinge or slide joint (joint="...") or a fixed tendon over joints coupled to one'
             )
-        servo = (
-            int(m.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE)
-            or int(m.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_NONE)
-            or int(m.actuator_gaintype[a]) != int(mujoco.mjtGain.mjGAIN_FIXED)
-        )
-        if servo:
+        if int(m.actuator_dyntype[a]) != int(mujoco.mjtDyn.mjDYN_NONE) or int(m.actuator_gaintype[a]) != int(
+            mujoco.mjtGain.mjGAIN_FIXED
+        ):
             raise URDFConventionError(
-                f"actuator {label} ({where}) is not a torque source (it has activation dynamics, a bias or a "
-                'non-fixed gain: a position/velocity servo?); use <motor joint="..."/>'
+                f"actuator {label} ({where}) is not a force source (it has activation dynamics or a "
+                'non-fixed gain: a filtered servo, a cylinder, a muscle?); use <motor joint="..."/>'
             )
-        joint = int(m.actuator_trnid[a, 0])
-        joint_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, joint, "joint")
-        if int(m.jnt_type[joint]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-            raise URDFConventionError(
-                f"actuator {label} ({where}) drives joint {joint_name!r}, which is not a hinge or a slide"
+        if transmission == int(mujoco.mjtTrn.mjTRN_TENDON):
+            joint_name, moment, tendon, joints = _tendon_joint(mujoco, m, a, label, where, couplings)
+            notes.append(
+                f"actuator {label} ({where}) pulls tendon {tendon!r} ({' + '.join(joints)}): read as a "
+                f"torque on {joint_name} = {moment:.6g} x its force"
             )
+        else:
+            joint = int(m.actuator_trnid[a, 0])
+            joint_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, joint, "joint")
+            if int(m.jnt_type[joint]) not in (
+                int(mujoco.mjtJoint.mjJNT_HINGE),
+                int(mujoco.mjtJoint.mjJNT_SLIDE),
+            ):
+                raise URDFConventionError(
+                    f"actuator {label} ({where}) drives joint {joint_name!r}, which is not a hinge or a slide"
+                )
+        if int(m.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_NONE):
+            gain, (b0, kp, kv) = (
+                float(m.actuator_gainprm[a, 0]),
+                (float(x) for x in m.actuator_biasprm[a, :3]),
+            )
+            kind = "position" if kp != 0.0 else "velocity" if kv != 0.0 else "biased"
+            law = f"{gain:.6g} ctrl" + "".join(
+                f" {'-' if value < 0 else '+'} {abs(value):.6g}{term}"
+                for value, term in ((b0, ""), (kp, " length"), (kv, " length rate"))
+                if value != 0.0
+            )
+            limits = (
+                f", within [{m.actuator_forcerange[a, 0]:g}, {m.actuator_forcerange[a, 1]:g}]"
+                if bool(m.actuator_forcelimited[a])
+                else ""
+            )
+            servo = (
+                f"actuator {label} ({where}) is a {kind} servo in the file (force = {law}{limits}): read "
+                f"as a force source on {joint_name}; its servo law, gains and force range are not applied "
+                "(the controller's torques replace them)"
+            )
+            notes.append(servo)
+            servos.append(servo)
         names.append(joint_name)
-    return names
+    return names, notes, servos
 
 
 def _velocity_rows(model: pin.Model, joint: str) -> slice:
@@ -433,6 +566,7 @@ def read_mjcf(
         raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {message}") from None
     model, bodies, q_maps = mjcf_to_pinocchio(m, source=source)
     springs, sprung = _joint_dynamics(mujoco, m, model, source)
+    couplings = _joint_couplings(mujoco, m, path, source)
     model.name = bytes(m.names).split(b"\0", 1)[0].decode() or path.stem  # <mujoco model="...">
     if g is not None:
         model.gravity.linear = np.array([0.0, 0.0, -float(g)])
@@ -442,7 +576,9 @@ def read_mjcf(
             f"{source} has no <equality> connect or weld: a closed-chain robot needs its loop closures "
             "(see docs/architecture.md section 13)"
         )
-    motors = _actuated(mujoco, m, model, path, source)
+    motors, notes, servos = _actuated(mujoco, m, path, source, couplings)
+    for servo in servos:  # a gain the file gives and the model leaves out: said, not dropped silently
+        warnings.warn(servo, stacklevel=3)
     if actuated is None:
         actuated = motors
     keys = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(m.nkey)]
@@ -454,7 +590,7 @@ def read_mjcf(
         # independent joints are chosen (closed_chain.independent_joints)
         # a free joint whose motion the closures leave free (a floating base: no motor drives
         # it); one the closures fix (a Delta's platform written as a free body) is not passive
-        motions = free_motions(model, closures, reference, held=actuated)
+        motions = free_motions(model, closures, reference, held=actuated, couplings=couplings)
         free = []
         for j in range(m.njnt):
             name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
@@ -465,9 +601,9 @@ def read_mjcf(
                 free.append(name)
         passive = free + [name for name in sprung if name not in actuated]
         if not actuated:
-            passive += independent_joints(model, closures, reference, exclude=passive)
+            passive += independent_joints(model, closures, reference, exclude=passive, couplings=couplings)
     return ClosedChainRobot(
         model, closures, actuated, passive=passive, joint_springs=springs, name=model.name, source=source,
         base_dir=str(path.resolve().parent), end_effector=end_effector, reference_configuration=reference,
-        visual_model=_visual_model(mujoco, m, bodies, model),
+        visual_model=_visual_model(mujoco, m, bodies, model), joint_couplings=couplings, notes=notes,
     )  # fmt: skip

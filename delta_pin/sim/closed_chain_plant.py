@@ -21,18 +21,26 @@ Closures with redundant equations (a planar loop closed by a 3D point or a 6D we
 KKT system singular; for them the proximal solver runs with mu = 1e-9 until the constraint
 accelerations agree to 1e-13 (Pinocchio's ``ProximalSettings``), which converges to the exact
 accelerations (tested against the projected dynamics).
+
+Joint couplings (``robot.joint_couplings``, MuJoCo's ``<equality joint>``) are not constraints
+Pinocchio's ``constraintDynamics`` knows; their multipliers lambda (one per coupling) are added
+here. For a fixed state, ddq is affine in the joint torques, so with a(tau) from
+``constraintDynamics`` on the frame closures and D = [a(tau + J_k^T) - a(tau)] (one more call per
+coupling), ddq = a(tau) + D lambda with (J D) lambda = -(J a(tau) + J_dot v) - Kd J v - Kp r: the
+coupling rows J (r their residual) held at the acceleration level with the same Baumgarte gains.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import asdict
 
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
+from delta_pin.errors import AssemblyError, InvalidParameterError, NativeUnavailableError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import Plant
@@ -202,16 +210,30 @@ class ClosedChainPlant(Plant):
             )
         if self._damper_v.size:
             self._tau[self._damper_v] -= self._damper_d * v[self._damper_v]
+        if not self.robot.joint_couplings:
+            return self._constrained(q, v, self._tau)
+        return self._coupled(q, v)
+
+    def _constrained(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """ddq by ``pin.constraintDynamics`` on the frame closures (a view into ``data``)."""
         return pin.constraintDynamics(
-            self.model,
-            self.data,
-            q,
-            v,
-            self._tau,
-            self.constraint_models,
-            self.constraint_datas,
-            self.settings,
+            self.model, self.data, q, v, tau, self.constraint_models, self.constraint_datas, self.settings
         )
+
+    def _coupled(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """ddq with the joint couplings' multipliers added (module docstring)."""
+        r, J, drift = self.robot.coupling_terms(q, v)
+        free = self._constrained(q, v, self._tau).copy()
+        D = np.empty((self.model.nv, len(r)))
+        for k in range(len(r)):
+            D[:, k] = self._constrained(q, v, self._tau + J[k]) - free
+        kp, kd = self.baumgarte_gains
+        target = -(J @ free + drift) - kd * (J @ v) - kp * r
+        try:
+            multipliers = np.linalg.solve(J @ D, target)
+        except np.linalg.LinAlgError:  # a coupling the closures already imply: redundant rows
+            multipliers = np.linalg.lstsq(J @ D, target, rcond=None)[0]
+        return free + D @ multipliers
 
     # ------------------------------------------------------------------ state interface
     def complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -296,6 +318,22 @@ class ClosedChainPlant(Plant):
         self.projections += 1
         return x, self.closure_residual(x)
 
+    def sampled_core(self, step: float, count: int):
+        """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
+        ``None`` where it does not apply: active coordinates, idle motions or passive joints (their
+        projection keeps state of its own), a joint without a configuration rate there, or the
+        core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
+        if self.coordinates != "full" or self.robot.has_unactuated_motion:
+            return None
+        if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
+            return None
+        from delta_pin.sim.compiled_plant import build_core_plant
+
+        try:
+            return build_core_plant(self, step / 2.0, count)
+        except NativeUnavailableError:
+            return None
+
     def metadata(self):
         return {
             "plant": self.name,
@@ -306,6 +344,7 @@ class ClosedChainPlant(Plant):
             "payload_frame": self.model.frames[self.payload_frame].name,
             "payload": getattr(self.payload_mass, "__name__", None),
             "redundant_closure_equations": self.redundant,
+            "joint_couplings": [c.name for c in self.robot.joint_couplings],
             "idle_dof": self.robot.idle_dof,
             "passive_joints": list(self.robot.passive_joints),
             "joint_springs": {name: list(values) for name, values in self.robot.joint_springs.items()},

@@ -251,11 +251,29 @@ def _delta_with(tmp_path, old: str, new: str) -> Path:
 def test_unsupported_equality_is_named_with_its_line(tmp_path):
     path = _delta_with(
         tmp_path,
+        "  <equality>",
+        '  <tendon><fixed name="pull"><joint joint="active_1" coef="1"/></fixed></tendon>\n  <equality>\n'
+        '    <tendon name="hold" tendon1="pull"/>',
+    )
+    with pytest.raises(
+        URDFConventionError, match=r"equality 'hold' \(robot.xml line \d+\) is a 'tendon' equality"
+    ):
+        load_robot(path)
+
+
+def test_a_joint_equality_is_a_coupling_named_where_it_takes_a_motors_freedom(tmp_path):
+    """A joint equality is a closure equation of its own (a JointCoupling): tying two of the
+    Delta's motors together leaves 2 degrees of freedom for 3 motors, and the error names it."""
+    path = _delta_with(
+        tmp_path,
         "  </equality>",
         '    <joint name="couple" joint1="active_1" joint2="active_2"/>\n  </equality>',
     )
+    line = next(n for n, text in enumerate(path.read_text().splitlines(), 1) if 'name="couple"' in text)
     with pytest.raises(
-        URDFConventionError, match=r"equality 'couple' \(robot.xml line \d+\) is a 'joint' equality"
+        AssemblyError,
+        match=rf"2 degree\(s\) of freedom .*joint coupling 'couple' \(robot.xml line {line}\) among "
+        r"them\) but 3 actuator\(s\)",
     ):
         load_robot(path)
 
@@ -272,14 +290,30 @@ def test_actuator_on_unknown_joint_names_the_line(tmp_path):
         load_robot(path)
 
 
-def test_servo_and_site_actuators_are_refused(tmp_path):
+def test_servos_are_read_as_force_sources_and_said_so_filtered_and_site_actuators_are_refused(tmp_path):
+    """A position servo is a force source with a servo law: read as the force source, and the
+    law left out is said (a warning and the summary's notes), not dropped silently. Activation
+    dynamics (a filtered servo) would be a state of its own: refused."""
     path = _delta_with(
         tmp_path,
         '<motor name="motor_3" joint="active_3"/>',
         '<position name="servo" joint="active_3" kp="10"/>',
     )
+    said = (
+        r"actuator 'servo' \(robot.xml line \d+\) is a position servo in the file "
+        r"\(force = 10 ctrl - 10 length\)"
+    )
+    with pytest.warns(UserWarning, match=said):
+        robot = load_robot(path)
+    assert robot.actuated_joints == ("active_1", "active_2", "active_3")
+    assert re.search("note: " + said + r": read as a force source on active_3", robot.summary())
+    path = _delta_with(
+        tmp_path,
+        '<motor name="motor_3" joint="active_3"/>',
+        '<position name="servo" joint="active_3" kp="10" timeconst="0.01"/>',
+    )
     with pytest.raises(
-        URDFConventionError, match=r"actuator 'servo' \(robot.xml line \d+\) is not a torque source"
+        URDFConventionError, match=r"actuator 'servo' \(robot.xml line \d+\) is not a force source"
     ):
         load_robot(path)
     path = _delta_with(
