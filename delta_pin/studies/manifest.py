@@ -1,41 +1,71 @@
-"""The manifest of a study's output folder: a folder is whole, or marked as not.
+"""The manifest of a study's output folder: a folder is whole, or marked as not, and only what
+delta-pin provably wrote is ever removed from it.
 
-``reproduce``, ``compare`` and ``sweep`` write into one folder: their outputs, and a ``cache/``
-of finished runs (whose keys hold each run's spec and robot arguments, so it may be shared and
-reused). :func:`begin` is called before any work: it refuses a folder that holds the outputs of a
-different study (another command, other options or another robot: one line naming the first
-difference) unless ``overwrite``, then marks the folder incomplete (``manifest.json`` with
-``"complete": false``) and removes every earlier output -- everything but ``cache/`` -- so that no
-stale file of an earlier run sits beside new ones. :meth:`OutputFolder.finish` writes the
-complete manifest, atomically, once the last output is written: the command, its options, the
-robot arguments, the delta-pin version and git commit, and the SHA-256 of every output file.
+``reproduce``, ``compare``, ``sweep`` and ``run`` write into one folder: their outputs, and (the
+studies) a ``cache/`` of finished runs (whose keys hold each run's spec and robot arguments, so it
+may be shared and reused).
+
+:func:`claim` is called once every input check has passed, before any work. It takes the folder's
+lock (:data:`LOCK`, an exclusive ``fcntl.flock`` that the kernel releases when the process ends,
+however it ends), so that a second writer is refused in one line naming the holder's pid instead
+of mixing its outputs with the first's. It refuses a folder that holds the outputs of a different
+study (another command, other options or another robot: one line naming the first difference)
+unless ``overwrite``, and works out which earlier outputs may go: only files listed in a complete
+manifest delta-pin wrote, whose resolved paths lie inside the folder (outside ``cache/``) and
+whose SHA-256 still matches the manifest's. A listed output that was changed since is refused in
+one line (never removed, never overwritten); any other file (a user's notes, the files of an
+interrupted run, which no manifest lists with a hash) is left alone.
+
+:meth:`OutputFolder.start` then marks the folder incomplete (``manifest.json`` with ``"complete":
+false``) and removes those earlier outputs, so that no stale file of an earlier run sits beside
+new ones; a study calls it once its runs are done (a Ctrl-C, a refused scheduler or a crash while
+they run leaves the earlier outputs and their manifest whole). :meth:`OutputFolder.finish` writes
+the complete manifest, atomically, once the last output is written: the command, its options, the
+robot arguments, the delta-pin version and git commit, and the SHA-256 of every output file. The
+lock is released when the ``with`` block of the folder ends (or the process does).
 
 A folder whose manifest says ``"complete": false`` was interrupted (Ctrl-C, SIGKILL, a crash): the
 same command resumes it from its cache; a different one is refused like any other. A non-empty
 folder without a manifest (not written by these commands, or by a delta-pin before manifests)
-is refused too: its files cannot be told apart from the new ones.
+is refused too: its files cannot be told apart from the new ones. ``run`` writes a fixed set of
+files (``outputs``): only those names must be delta-pin's own, and it replaces an earlier ``run``
+whatever its options.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
-import shutil
 import subprocess
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from delta_pin.errors import InvalidParameterError
 from delta_pin.utils.atomic import write_text_atomically
 
-__all__ = ["CACHE", "MANIFEST", "MANIFEST_FORMAT", "OutputFolder", "begin", "read_manifest", "sha256"]
+__all__ = [
+    "CACHE",
+    "LOCK",
+    "MANIFEST",
+    "MANIFEST_FORMAT",
+    "FolderLock",
+    "OutputFolder",
+    "begin",
+    "claim",
+    "lock",
+    "read_manifest",
+    "sha256",
+]
 
 MANIFEST = "manifest.json"
 CACHE = "cache"
+LOCK = ".delta-pin.lock"  # holds the pid of the process writing the folder; never removed
 MANIFEST_FORMAT = "delta-pin-output-folder"
 MANIFEST_VERSION = 1
+_NOT_OUTPUTS = (MANIFEST, LOCK)  # files of the folder's own bookkeeping, at its top level
 
 
 def sha256(path: Path) -> str:
@@ -52,6 +82,69 @@ def _plain(value):
     return json.loads(json.dumps(value, sort_keys=True, default=str))
 
 
+# ------------------------------------------------------------------------------------- the lock
+class FolderLock:
+    """An exclusive ``flock`` on ``out/LOCK``, held until :meth:`release` or the end of the process
+    (the kernel drops a dead process's locks, so a SIGKILL never leaves a folder locked)."""
+
+    def __init__(self, path: Path, fd: int):
+        self.path = path
+        self._fd: int | None = fd
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def release(self) -> None:
+        """Unlock (closing the file drops the lock); the lock file stays, so that two processes
+        never lock two different files of one name."""
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)
+
+    def __del__(self):  # a safety net; the owner releases it
+        self.release()
+
+
+def _holder(fd: int) -> str:
+    """The pid written in a lock file (the holder writes it right after locking: retried briefly)."""
+    for _ in range(20):
+        text = os.pread(fd, 64, 0).decode(errors="replace").strip()
+        if text:
+            return text
+        time.sleep(0.01)
+    return "unknown"
+
+
+def lock(out: str | Path) -> FolderLock:
+    """Lock folder ``out`` (created if needed) for this process, without waiting.
+
+    Raises:
+        InvalidParameterError: another process (or another writer of this one) holds the lock; the
+            message names its pid.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / LOCK
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = _holder(fd)
+        os.close(fd)
+        raise InvalidParameterError(
+            f"the output folder {out} is being written by another delta-pin (pid {holder}, which holds "
+            f"{path}); wait until it ends, or give another folder"
+        ) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+    return FolderLock(path, fd)
+
+
+# ---------------------------------------------------------------------------------- the manifest
 def read_manifest(out: str | Path) -> dict | None:
     """The manifest of folder ``out`` (``None`` if it has none).
 
@@ -75,7 +168,7 @@ def read_manifest(out: str | Path) -> dict | None:
 
 
 def _outputs(out: Path) -> list[Path]:
-    """Every file of ``out`` but the manifest and the cache, sorted."""
+    """Every file of ``out`` but the manifest, the lock and the cache, sorted."""
     if not out.is_dir():
         return []
     found = []
@@ -83,10 +176,59 @@ def _outputs(out: Path) -> list[Path]:
         here = Path(root)
         if here == out:
             dirs[:] = [d for d in dirs if d != CACHE]
-            files = [f for f in files if f != MANIFEST]
+            files = [f for f in files if f not in _NOT_OUTPUTS]
         dirs.sort()
         found += [here / name for name in sorted(files)]
     return found
+
+
+def _signature(path: Path) -> tuple:
+    """What changes when a file is written (an atomic write replaces the inode)."""
+    stat = path.stat()
+    return (stat.st_ino, stat.st_size, stat.st_mtime_ns)
+
+
+def _inside(out: Path, name) -> Path | None:
+    """The file a manifest names ``name``, if it is one delta-pin may have written there: a
+    relative name whose resolved path lies inside ``out`` (not a link, not in ``cache/``, not the
+    manifest or the lock); ``None`` otherwise."""
+    if not isinstance(name, str) or not name:
+        return None
+    root = out.resolve()
+    path = out / name
+    try:
+        resolved = path.resolve()
+        relative = resolved.relative_to(root)
+    except (OSError, ValueError, RuntimeError):
+        return None
+    if path.is_symlink() or not relative.parts or relative.parts[0] == CACHE:
+        return None
+    if len(relative.parts) == 1 and relative.parts[0] in _NOT_OUTPUTS:
+        return None
+    return resolved
+
+
+def _earlier_outputs(out: Path, old: dict | None) -> list[Path]:
+    """The earlier outputs that are provably delta-pin's: listed in a complete manifest, inside
+    ``out``, and unchanged since (their SHA-256 is the listed one).
+
+    Raises:
+        InvalidParameterError: a listed output that was changed since (never removed).
+    """
+    if old is None or old.get("complete") is not True or not isinstance(old.get("files"), dict):
+        return []
+    removable = []
+    for name, digest in sorted(old["files"].items()):
+        path = _inside(out, name)
+        if path is None or not path.is_file():
+            continue  # not in the folder (any more), or not a file delta-pin writes: left alone
+        if sha256(path) != digest:
+            raise InvalidParameterError(
+                f"the output folder {out} holds {name}, listed in its {MANIFEST} but changed since "
+                "delta-pin wrote it (its SHA-256 differs): move it out of the folder, or give another folder"
+            )
+        removable.append(path)
+    return removable
 
 
 def _first_difference(old, new, where: str = "") -> str | None:
@@ -126,21 +268,191 @@ def _git_commit() -> str | None:
 
 @dataclass
 class OutputFolder:
-    """A folder :func:`begin` accepted and marked incomplete; :meth:`finish` marks it whole."""
+    """A folder :func:`claim` accepted and locked: :meth:`start` marks it incomplete and removes
+    the earlier outputs, :meth:`finish` marks it whole; leaving its ``with`` block unlocks it.
+
+    Attributes:
+        out: the folder.
+        header: the manifest's fields but ``complete``, ``finished`` and ``files``.
+        lock: the folder's lock, held until :meth:`release`.
+        earlier: the earlier outputs :meth:`start` removes (provably delta-pin's).
+        kept: the other files found at :func:`claim` (relative name -> signature): never listed as
+            outputs unless written again.
+        started: whether :meth:`start` has run.
+    """
 
     out: Path
     header: dict
+    lock: FolderLock
+    earlier: list[Path] = field(default_factory=list)
+    kept: dict[str, tuple] = field(default_factory=dict)
+    started: bool = False
 
-    def finish(self) -> dict:
-        """Write the complete manifest (every output file with its SHA-256), atomically; return it."""
-        files = {path.relative_to(self.out).as_posix(): sha256(path) for path in _outputs(self.out)}
-        manifest = {**self.header, "complete": True, "finished": _now(), "files": files}
+    def __enter__(self) -> OutputFolder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    def release(self) -> None:
+        """Unlock the folder (done by leaving the ``with`` block, or by the end of the process)."""
+        self.lock.release()
+
+    def _check_held(self) -> None:
+        if not self.lock.held:
+            raise InvalidParameterError(f"the output folder {self.out} is no longer locked by this writer")
+
+    def start(self) -> None:
+        """Mark the folder incomplete and remove the earlier outputs (once; later calls do nothing)."""
+        self._check_held()
+        if self.started:
+            return
+        marked = {**self.header, "complete": False}
+        write_text_atomically(self.out / MANIFEST, json.dumps(marked, indent=1) + "\n")
+        root = self.out.resolve()
+        for path in self.earlier:
+            path.unlink(missing_ok=True)
+            parent = path.parent
+            while parent != root and root in parent.parents:  # folders the removal emptied (figures/)
+                try:
+                    parent.rmdir()
+                except OSError:
+                    break
+                parent = parent.parent
+        self.started = True
+
+    def finish(self, files: list[Path] | None = None) -> dict:
+        """Write the complete manifest, atomically, and return it: ``files`` (the outputs this
+        command wrote inside the folder; ``None``: every file of the folder but those found at
+        :func:`claim` and not written since), each with its SHA-256."""
+        self.start()
+        if files is None:
+            files = [
+                path
+                for path in _outputs(self.out)
+                if self.kept.get(path.relative_to(self.out).as_posix()) != _signature(path)
+            ]
+        listed = {}
+        for path in files:
+            name = Path(path).resolve().relative_to(self.out.resolve()).as_posix()
+            listed[name] = sha256(Path(path))
+        manifest = {
+            **self.header,
+            "complete": True,
+            "finished": _now(),
+            "files": dict(sorted(listed.items())),
+        }
         write_text_atomically(self.out / MANIFEST, json.dumps(manifest, indent=1) + "\n")
         return manifest
 
 
 def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S%z")
+
+
+def _refuse_foreign(out: Path, old: dict | None, outputs: list[str] | None) -> None:
+    """Refuse files that may be anyone's: with ``outputs`` (the names a command writes), those of
+    them that exist and no complete manifest lists; else any file of a folder without a manifest."""
+    if outputs is not None:
+        listed = old.get("files") if old is not None and old.get("complete") is True else None
+        listed = listed if isinstance(listed, dict) else {}
+        for name in outputs:
+            if (out / name).exists() and name not in listed:
+                raise InvalidParameterError(
+                    f"the output folder {out} holds {name}, which no {MANIFEST} of delta-pin lists: it may "
+                    "be anyone's file; move it away, or give another folder"
+                )
+        return
+    found = _outputs(out)
+    if old is None and found:  # never removed, even with overwrite: they may be anyone's files
+        raise InvalidParameterError(
+            f"the output folder {out} holds {len(found)} file(s) (e.g. {found[0].relative_to(out)}) "
+            f"and no {MANIFEST}: not the outputs of a delta-pin study; give an empty or new folder, "
+            "or remove them"
+        )
+
+
+def claim(
+    out: str | Path,
+    command: str,
+    options: dict,
+    *,
+    robot_args: dict | None = None,
+    overwrite: bool = False,
+    command_line: list[str] | None = None,
+    outputs: list[str] | None = None,
+    replace_same_command: bool = False,
+) -> OutputFolder:
+    """Lock ``out`` for ``command`` with ``options`` (what decides its outputs) and work out which
+    earlier outputs :meth:`OutputFolder.start` will remove; nothing but the lock file is written.
+
+    Args:
+        out: the output folder (created if needed).
+        command: ``"reproduce"``, ``"compare"``, ``"sweep"`` or ``"run"``.
+        options: JSON-ready options that decide the outputs (not where the runs execute).
+        robot_args: the robot's xacro arguments (part of what must match).
+        overwrite: replace the outputs of a different study instead of refusing the folder.
+        command_line: the command as typed, recorded in the manifest.
+        outputs: the names (relative to ``out``) the command writes, when it writes a fixed set
+            (``run``): only those must be delta-pin's; ``None``: every file of the folder must be.
+        replace_same_command: an earlier output of the same ``command`` is replaced whatever its
+            options (``run``); any other command's is refused, even with ``overwrite``.
+
+    Raises:
+        InvalidParameterError: another process writes the folder (naming its pid); the folder
+            holds a different study's outputs (the message names the first difference; unless
+            ``overwrite``), files without a manifest (always: those may be anyone's files), or a
+            listed output changed since it was written.
+    """
+    from delta_pin import __version__
+
+    out = Path(out)
+    identity = _plain({"command": command, "options": options, "robot_args": robot_args or {}})
+    _refuse_foreign(out, read_manifest(out), outputs)  # before the lock: a user's folder is not written
+    folder_lock = lock(out)
+    try:
+        old = read_manifest(out)  # again, under the lock: another writer may have finished since
+        _refuse_foreign(out, old, outputs)
+        if old is not None and not (overwrite and not replace_same_command):
+            before = {key: old.get(key) for key in ("command", "options", "robot_args")}
+            if replace_same_command and old.get("command") == command:
+                difference = None
+            elif replace_same_command:
+                difference = f"command: {json.dumps(old.get('command'))} before, {json.dumps(command)} now"
+            else:
+                difference = _first_difference(before, identity)
+            if difference:
+                state = "a " if old.get("complete") else "an interrupted "
+                remedy = (
+                    "give another folder"
+                    if replace_same_command
+                    else "give another folder, or --overwrite (overwrite=True) to replace its outputs (its "
+                    "cache/ is kept and reused)"
+                )
+                raise InvalidParameterError(
+                    f"the output folder {out} holds the outputs of {state}delta-pin {old.get('command')} "
+                    f"with other options ({difference}; see its {MANIFEST}); {remedy}"
+                )
+        earlier = _earlier_outputs(out, old)
+        gone = set(earlier)
+        kept = {
+            path.relative_to(out).as_posix(): _signature(path)
+            for path in _outputs(out)
+            if path.resolve() not in gone
+        }
+    except BaseException:
+        folder_lock.release()
+        raise
+    header = {
+        "format": MANIFEST_FORMAT,
+        "version": MANIFEST_VERSION,
+        **identity,
+        "command_line": command_line,
+        "delta_pin": __version__,
+        "git_commit": _git_commit(),
+        "started": _now(),
+    }
+    return OutputFolder(out, header, folder_lock, earlier, kept)
 
 
 def begin(
@@ -152,59 +464,17 @@ def begin(
     overwrite: bool = False,
     command_line: list[str] | None = None,
 ) -> OutputFolder:
-    """Accept ``out`` for ``command`` with ``options`` (what decides its outputs) and mark it
-    incomplete, removing the outputs of any earlier run (``cache/`` is kept).
-
-    Args:
-        out: the output folder (created if needed).
-        command: ``"reproduce"``, ``"compare"`` or ``"sweep"``.
-        options: JSON-ready options that decide the outputs (not where the runs execute).
-        robot_args: the robot's xacro arguments (part of what must match).
-        overwrite: replace the outputs of a different study instead of refusing the folder.
-        command_line: the command as typed, recorded in the manifest.
-
-    Raises:
-        InvalidParameterError: the folder holds a different study's outputs (the message names the
-            first difference; unless ``overwrite``), or files without a manifest (always: those
-            may be anyone's files).
-    """
-    from delta_pin import __version__
-
-    out = Path(out)
-    identity = _plain({"command": command, "options": options, "robot_args": robot_args or {}})
-    old = read_manifest(out)
-    outputs = _outputs(out)
-    if old is None and outputs:  # never removed, even with overwrite: they may be anyone's files
-        raise InvalidParameterError(
-            f"the output folder {out} holds {len(outputs)} file(s) (e.g. {outputs[0].relative_to(out)}) "
-            f"and no {MANIFEST}: not the outputs of a delta-pin study; give an empty or new folder, "
-            "or remove them"
-        )
-    if old is not None and not overwrite:
-        before = {key: old.get(key) for key in ("command", "options", "robot_args")}
-        difference = _first_difference(before, identity)
-        if difference:
-            state = "a " if old.get("complete") else "an interrupted "
-            raise InvalidParameterError(
-                f"the output folder {out} holds the outputs of {state}delta-pin {old.get('command')} "
-                f"with other options "
-                f"({difference}; see its {MANIFEST}); give another folder, or --overwrite "
-                "(overwrite=True) to replace its outputs (its cache/ is kept and reused)"
-            )
-    header = {
-        "format": MANIFEST_FORMAT,
-        "version": MANIFEST_VERSION,
-        **identity,
-        "command_line": command_line,
-        "delta_pin": __version__,
-        "git_commit": _git_commit(),
-        "started": _now(),
-    }
-    out.mkdir(parents=True, exist_ok=True)
-    write_text_atomically(out / MANIFEST, json.dumps({**header, "complete": False}, indent=1) + "\n")
-    for path in outputs:  # the earlier run's outputs: the new run writes its own
-        path.unlink(missing_ok=True)
-    for child in sorted(out.iterdir()):
-        if child.is_dir() and child.name != CACHE and not _outputs(child):
-            shutil.rmtree(child, ignore_errors=True)  # folders the removal emptied (figures/)
-    return OutputFolder(out, header)
+    """:func:`claim` for a study, marking a folder without earlier outputs incomplete at once (so
+    that a study interrupted while it runs leaves a marked folder); a folder with an earlier
+    study's manifest is marked, and its earlier outputs removed, by the caller's
+    :meth:`OutputFolder.start` once the runs are done. Use it as ``with begin(...) as folder:``."""
+    folder = claim(
+        out, command, options, robot_args=robot_args, overwrite=overwrite, command_line=command_line
+    )
+    try:
+        if read_manifest(out) is None:
+            folder.start()
+    except BaseException:
+        folder.release()
+        raise
+    return folder

@@ -201,81 +201,83 @@ def reproduce(
     start = time.perf_counter()
     settings = settings or (ReproduceSettings.quick() if quick else ReproduceSettings.full())
     out = Path(out)
-    folder = manifest.begin(
+    with manifest.begin(
         out,
         "reproduce",
         {"quick": quick, "settings": asdict(settings)},
         robot_args=robot_args,
         overwrite=overwrite,
         command_line=command_line,
-    )
-    figures = out / "figures"
-    cache = out / "cache"
-    plant = settings.plant
-    grid = list(settings.grid)
-    options = {"workers": workers, "scheduler": scheduler, "progress": progress, "robot_args": robot_args}
+    ) as folder:
+        figures = out / "figures"
+        cache = out / "cache"
+        plant = settings.plant
+        grid = list(settings.grid)
+        options = {"workers": workers, "scheduler": scheduler, "progress": progress, "robot_args": robot_args}
 
-    main_specs = _main_specs(settings)
-    surface_specs = _surface_specs(settings)
-    digital_by_rate, digital_trade = digital_specs(settings.digital) if settings.digital else ({}, {})
-    digital = [*digital_by_rate.values(), *digital_trade.values()]
-    every = main_specs + [s for specs in surface_specs.values() for s in specs] + digital
-    print(
-        f"delta-pin reproduce: {len(main_specs)} main runs ({plant} plant, continuous), "
-        f"{len(every) - len(main_specs) - len(digital)} surface runs ({len(grid)} x {len(grid)} grids) "
-        f"and {_distinct(digital)} digital-drive runs",
-        flush=True,
-    )
-    # only the main runs are read back (figures, metrics, meshcat pages): the surface and digital
-    # points keep their metrics, not their runs (compressing those 769 runs cost the main process
-    # ~37 s of --full)
-    points = run_sweep(every, cache, save_runs=lambda spec: spec in main_specs, **options)
-    # the points come in the order of ``every``; their keys cover the robot arguments too, so a
-    # cache folder shared with another robot never answers for this one
-    main_points, surface_points = points[: len(main_specs)], iter(points[len(main_specs) :])
+        main_specs = _main_specs(settings)
+        surface_specs = _surface_specs(settings)
+        digital_by_rate, digital_trade = digital_specs(settings.digital) if settings.digital else ({}, {})
+        digital = [*digital_by_rate.values(), *digital_trade.values()]
+        every = main_specs + [s for specs in surface_specs.values() for s in specs] + digital
+        print(
+            f"delta-pin reproduce: {len(main_specs)} main runs ({plant} plant, continuous), "
+            f"{len(every) - len(main_specs) - len(digital)} surface runs ({len(grid)} x {len(grid)} grids) "
+            f"and {_distinct(digital)} digital-drive runs",
+            flush=True,
+        )
+        # only the main runs are read back (figures, metrics, meshcat pages): the surface and digital
+        # points keep their metrics, not their runs (compressing those 769 runs cost the main process
+        # ~37 s of --full)
+        points = run_sweep(every, cache, save_runs=lambda spec: spec in main_specs, **options)
+        folder.start()  # the runs are done: the folder is marked, the earlier outputs go
+        # the points come in the order of ``every``; their keys cover the robot arguments too, so a
+        # cache folder shared with another robot never answers for this one
+        main_points, surface_points = points[: len(main_specs)], iter(points[len(main_specs) :])
 
-    runs, metrics = {}, []
-    for spec, point in zip(main_specs, main_points):
-        if not point.ok:
-            metrics.append({"controller": _label(spec), "path": spec.path, "error": point.error})
-            continue
-        run = load_run(cache / f"{point.key}.npz")
-        runs[(_label(spec), spec.path)] = run
-        m = compute_metrics(run).as_dict()
-        metrics.append(
-            {
-                "controller": _label(spec),
-                "path": spec.path,
-                "plant": plant,
-                **m,
-                "settling_time": settling_time(run),
-            }
+        runs, metrics = {}, []
+        for spec, point in zip(main_specs, main_points):
+            if not point.ok:
+                metrics.append({"controller": _label(spec), "path": spec.path, "error": point.error})
+                continue
+            run = load_run(cache / f"{point.key}.npz")
+            runs[(_label(spec), spec.path)] = run
+            m = compute_metrics(run).as_dict()
+            metrics.append(
+                {
+                    "controller": _label(spec),
+                    "path": spec.path,
+                    "plant": plant,
+                    **m,
+                    "settling_time": settling_time(run),
+                }
+            )
+        surfaces = {}
+        for key, specs in surface_specs.items():
+            values = np.full((len(grid), len(grid)), np.nan)
+            for k, point in zip(range(len(specs)), surface_points):
+                if point.ok:
+                    values[k // len(grid), k % len(grid)] = point.metrics["rho_hat_max"]
+            surfaces[key] = values
+        claims = _claims(runs, metrics, surfaces, grid)
+        result = ReproductionResult(out, runs, metrics, surfaces, grid, claims, 0.0, settings)
+        if digital:
+            result.digital_rates, result.digital_trade_off = digital_rows(
+                digital_by_rate, digital_trade, points[len(points) - len(digital) :]
+            )
+        _write_figures(result, figures, workers)
+        _write_tables(result)
+        pages = _write_meshcat_pages(result)
+        result.wall_time = time.perf_counter() - start
+        _write_report(result, quick, plant, pages, robot_args)
+        folder.finish()  # the folder is whole: its manifest lists every output with its SHA-256
+        drawn = len(list(figures.glob("*.png")))
+        print(
+            f"wrote {out}/index.html, report.md, metrics.csv, metrics.md and {drawn} "
+            f"figures in {result.wall_time:.0f} s",
+            flush=True,
         )
-    surfaces = {}
-    for key, specs in surface_specs.items():
-        values = np.full((len(grid), len(grid)), np.nan)
-        for k, point in zip(range(len(specs)), surface_points):
-            if point.ok:
-                values[k // len(grid), k % len(grid)] = point.metrics["rho_hat_max"]
-        surfaces[key] = values
-    claims = _claims(runs, metrics, surfaces, grid)
-    result = ReproductionResult(out, runs, metrics, surfaces, grid, claims, 0.0, settings)
-    if digital:
-        result.digital_rates, result.digital_trade_off = digital_rows(
-            digital_by_rate, digital_trade, points[len(points) - len(digital) :]
-        )
-    _write_figures(result, figures, workers)
-    _write_tables(result)
-    pages = _write_meshcat_pages(result)
-    result.wall_time = time.perf_counter() - start
-    _write_report(result, quick, plant, pages, robot_args)
-    folder.finish()  # the folder is whole: its manifest lists every output with its SHA-256
-    print(
-        f"wrote {out}/index.html, report.md, metrics.csv, metrics.md and {len(list(figures.glob('*.png')))} "
-        f"figures in {result.wall_time:.0f} s",
-        flush=True,
-    )
-    return result
+        return result
 
 
 # ------------------------------------------------------------------------------------------- claims
@@ -663,59 +665,60 @@ def compare(
 
     out = Path(out)
     check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
-    folder = manifest.begin(
+    with manifest.begin(
         out,
         "compare",
         {"specs": [spec.as_dict() for spec in specs]},
         robot_args=robot_args,
         overwrite=overwrite,
         command_line=command_line,
-    )
-    points = run_sweep(
-        specs,
-        out / "cache",
-        save_runs=True,
-        workers=workers,
-        scheduler=scheduler,
-        progress=progress,
-        robot_args=robot_args,
-    )
-    metrics, runs = [], {}
-    for spec, point in zip(specs, points):
-        if not point.ok:
-            metrics.append({"controller": _label(spec), "path": spec.path, "error": point.error})
-            continue
-        run = load_run(out / "cache" / f"{point.key}.npz")
-        runs[(_label(spec), spec.path)] = run
-        metrics.append(
-            {
-                "controller": _label(spec),
-                "path": spec.path,
-                "plant": spec.plant,
-                **compute_metrics(run).as_dict(),
-                "settling_time": settling_time(run),
-            }
+    ) as folder:
+        points = run_sweep(
+            specs,
+            out / "cache",
+            save_runs=True,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            robot_args=robot_args,
         )
-    result = ReproductionResult(out, runs, metrics, {}, [], [], 0.0)
-    _write_tables(result)
-    for path in sorted({spec.path for spec in specs}):
-        chosen = {label: run for (label, p), run in runs.items() if p == path}
-        if chosen:
-            plots.save_figure(
-                plots.plot_error_comparison(chosen, log=True), out / "figures" / f"errors_{path}.png"
+        folder.start()  # the runs are done: the folder is marked, the earlier outputs go
+        metrics, runs = [], {}
+        for spec, point in zip(specs, points):
+            if not point.ok:
+                metrics.append({"controller": _label(spec), "path": spec.path, "error": point.error})
+                continue
+            run = load_run(out / "cache" / f"{point.key}.npz")
+            runs[(_label(spec), spec.path)] = run
+            metrics.append(
+                {
+                    "controller": _label(spec),
+                    "path": spec.path,
+                    "plant": spec.plant,
+                    **compute_metrics(run).as_dict(),
+                    "settling_time": settling_time(run),
+                }
             )
-            plots.save_figure(plots.plot_paths_3d(chosen), out / "figures" / f"paths_{path}.png")
-    table = {}
-    for row in metrics:
-        if "error" not in row:
-            table.setdefault(row["controller"], {})[f"path {row['path']}"] = row
-    for metric in ("iae", "ise", "control_effort"):
-        plots.save_figure(
-            plots.plot_metric_bars(table, metric, log=metric != "control_effort"),
-            out / "figures" / f"{metric}.png",
-        )
-    folder.finish()
-    return metrics
+        result = ReproductionResult(out, runs, metrics, {}, [], [], 0.0)
+        _write_tables(result)
+        for path in sorted({spec.path for spec in specs}):
+            chosen = {label: run for (label, p), run in runs.items() if p == path}
+            if chosen:
+                plots.save_figure(
+                    plots.plot_error_comparison(chosen, log=True), out / "figures" / f"errors_{path}.png"
+                )
+                plots.save_figure(plots.plot_paths_3d(chosen), out / "figures" / f"paths_{path}.png")
+        table = {}
+        for row in metrics:
+            if "error" not in row:
+                table.setdefault(row["controller"], {})[f"path {row['path']}"] = row
+        for metric in ("iae", "ise", "control_effort"):
+            plots.save_figure(
+                plots.plot_metric_bars(table, metric, log=metric != "control_effort"),
+                out / "figures" / f"{metric}.png",
+            )
+        folder.finish()
+        return metrics
 
 
 def sweep(
@@ -741,34 +744,46 @@ def sweep(
     if metric not in METRIC_NAMES:
         raise InvalidParameterError(f"metric={metric!r} must be one of {', '.join(METRIC_NAMES)}")
     check_specs(specs, load_delta(**(robot_args or {})))  # bad gains or magnitudes fail before any run
-    folder = manifest.begin(
+    with manifest.begin(
         out,
         "sweep",
         {"base": base.as_dict(), "axes": axes, "metric": metric},
         robot_args=robot_args,
         overwrite=overwrite,
         command_line=command_line,
-    )
-    points = run_sweep(
-        specs, out / "cache", workers=workers, scheduler=scheduler, progress=progress, robot_args=robot_args
-    )
-    rows = points.rows()
-    buffer = io.StringIO()
-    fields = sorted({key for row in rows for key in row})
-    writer = csv.DictWriter(buffer, fieldnames=fields)
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text_atomically(out / "results.csv", buffer.getvalue())
-    names = list(axes)
-    if len(names) == 2:
-        x, y = (list(axes[n]) for n in names)
-        values = np.full((len(x), len(y)), np.nan)
-        for k, point in enumerate(points):
-            if point.ok and point.metrics.get(metric) is not None:
-                values[k // len(y), k % len(y)] = point.metrics[metric]
-        fig = plots.plot_rho_surface(
-            x, y, values, names[0], names[1], z_label=metric, title=f"{metric} over ({names[0]}, {names[1]})"
+    ) as folder:
+        points = run_sweep(
+            specs,
+            out / "cache",
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            robot_args=robot_args,
         )
-        plots.save_figure(fig, out / f"{metric}_{names[0]}_{names[1]}.png")
-    folder.finish()
-    return rows
+        folder.start()  # the runs are done: the folder is marked, the earlier outputs go
+        rows = points.rows()
+        buffer = io.StringIO()
+        fields = sorted({key for row in rows for key in row})
+        writer = csv.DictWriter(buffer, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+        write_text_atomically(out / "results.csv", buffer.getvalue())
+        names = list(axes)
+        if len(names) == 2:
+            x, y = (list(axes[n]) for n in names)
+            values = np.full((len(x), len(y)), np.nan)
+            for k, point in enumerate(points):
+                if point.ok and point.metrics.get(metric) is not None:
+                    values[k // len(y), k % len(y)] = point.metrics[metric]
+            fig = plots.plot_rho_surface(
+                x,
+                y,
+                values,
+                names[0],
+                names[1],
+                z_label=metric,
+                title=f"{metric} over ({names[0]}, {names[1]})",
+            )
+            plots.save_figure(fig, out / f"{metric}_{names[0]}_{names[1]}.png")
+        folder.finish()
+        return rows

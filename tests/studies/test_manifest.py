@@ -10,7 +10,7 @@ import pytest
 from delta_pin.cli import main
 from delta_pin.errors import InvalidParameterError
 from delta_pin.studies import reproduce as reproduce_module
-from delta_pin.studies.manifest import CACHE, MANIFEST, sha256
+from delta_pin.studies.manifest import CACHE, LOCK, MANIFEST, sha256
 from delta_pin.studies.reproduce import ReproduceSettings, reproduce
 
 from .test_reproduce import TINY
@@ -25,11 +25,11 @@ def _manifest(out):
 
 
 def _outputs(out):
-    """Every file but the manifest and the cache, as manifest paths."""
+    """Every file but the manifest, the lock and the cache, as manifest paths."""
     return {
         p.relative_to(out).as_posix()
         for p in out.rglob("*")
-        if p.is_file() and p.name != MANIFEST and p.relative_to(out).parts[0] != CACHE
+        if p.is_file() and p.relative_to(out).parts[0] not in (MANIFEST, LOCK, CACHE)
     }
 
 
