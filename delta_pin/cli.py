@@ -52,6 +52,18 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _page_file(text: str) -> Path:
+    """An argparse type: the file name of a page (``--html``), refusing a folder's (``o/x/``)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a file name: give one, e.g. run.html")
+    if text.endswith(("/", os.sep)) or (os.altsep and text.endswith(os.altsep)):
+        folder = text.rstrip("/" + os.sep + (os.altsep or ""))
+        raise argparse.ArgumentTypeError(
+            f"{text!r} names a folder, not a page: give a file name, e.g. {folder or ''}/run.html"
+        )
+    return Path(text)
+
+
 def _integer(minimum: int):
     """An argparse type: an integer >= ``minimum``, naming the value otherwise."""
 
@@ -275,8 +287,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} with --robot PATH only: give "
             "--robot too"
         )
-    from delta_pin.studies.experiments import check_specs, run_spec
-    from delta_pin.studies.metrics import compute_metrics, window_note
+    from delta_pin.studies.experiments import check_specs
 
     spec = _spec_from_args(
         args,
@@ -294,12 +305,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
     )
     out = Path(args.out)
     _check_output_dir("--out", out)
-    if args.html is not None:
-        _check_output_file("--html", args.html)
+    _check_page(args.html, out)
     _check_memory([spec], args)
     robot = _load_robot(args)
     check_specs([spec], robot)  # a bad gain, magnitude or seed fails before the run
-    _remove_earlier_run(out)
+    options = {"spec": spec.as_dict(), "urdf": None if args.urdf is None else str(args.urdf.resolve())}
+    with _claim_run_folder(args, out, options, _parse_settings(args.settings)) as folder:
+        return _write_run(args, out, spec, robot, folder)
+
+
+def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
+    """Simulate ``spec`` and write run.npz, summary.json (and --html) into the locked ``folder``."""
+    from delta_pin.studies.experiments import run_spec
+    from delta_pin.studies.metrics import compute_metrics, window_note
+
     print(
         f"delta-pin run: {spec.controller} on path {spec.path}, {spec.plant} plant, {spec.mode} mode, "
         f"{spec.duration:g} s ...",
@@ -307,6 +326,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     )
     run = run_spec(spec, robot, progress=None)  # a progress bar on a terminal
     metrics = compute_metrics(run)
+    folder.start()  # the new run is computed: the earlier one's files go now, not before
     run.save(out / "run.npz")
     warnings = []
     if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
@@ -327,11 +347,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         "closure_projections": run.metadata.get("closure_projections"),
         "closure_gap_projected_max": run.metadata.get("closure_gap_projected_max"),
         "warnings": warnings,
-        "outputs": [str(path) for path in written],  # what a rerun into this --out removes first
+        # the files this run wrote, absolute (a rerun removes only those that manifest.json lists)
+        "outputs": [str(path.resolve()) for path in [*written, out / "summary.json"]],
     }
     for warning in warnings:
         print(f"  warning: {warning}", flush=True)
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    _finish_run_folder(folder, out, [*written, out / "summary.json"])
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
     if run.metadata.get("closure_projections"):
@@ -352,14 +374,23 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
     """``run --robot PATH [--frame NAME]``: one controller on any closed-chain robot, on its
     constrained Pinocchio plant with the projected nominal model; with ``--frame`` the frame
     draws a circle (task space), else the actuated joints follow a sinusoid (joint space)."""
-    from delta_pin.studies.closed_chain_run import run_closed_chain
-
     out = Path(args.out)
     _check_output_dir("--out", out)
-    if args.html is not None:
-        _check_output_file("--html", args.html)
+    _check_page(args.html, out)
     robot = _closed_chain_robot(args)
-    _remove_earlier_run(out)
+    options = {
+        name: getattr(args, name)
+        for name in ("robot", "actuated", "passive", "free_flyer", "controller", "frame", "mode", "dt",
+                     "t_end", "radius", "period", "sampling_aware")
+    }  # fmt: skip
+    with _claim_run_folder(args, out, options) as folder:
+        return _write_robot_run(args, out, robot, folder)
+
+
+def _write_robot_run(args: argparse.Namespace, out: Path, robot, folder) -> int:
+    """Simulate ``run --robot`` and write run.npz, summary.json (and --html) into ``folder``."""
+    from delta_pin.studies.closed_chain_run import run_closed_chain
+
     run, description = run_closed_chain(
         robot, controller=args.controller, frame=args.frame, mode=args.mode, dt=args.dt,
         t_end=args.t_end, radius=args.radius, period=args.period, sampling_aware=args.sampling_aware,
@@ -368,6 +399,7 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
     from delta_pin.studies.metrics import compute_metrics, window_note
 
     metrics = compute_metrics(run)
+    folder.start()  # the new run is computed: the earlier one's files go now, not before
     run.save(out / "run.npz")
     written = [out / "run.npz"]
     if args.html is not None:
@@ -381,9 +413,10 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
         "closure_residual_max": float(run.closure_residual.max()),
         "closure_projections": run.metadata.get("closure_projections"),
         "warnings": [],
-        "outputs": [str(path) for path in written],
+        "outputs": [str(path.resolve()) for path in [*written, out / "summary.json"]],
     }
     write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    _finish_run_folder(folder, out, [*written, out / "summary.json"])
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
     print(f"  {'closure_residual_max':<28} {summary['closure_residual_max']:.3g}")
@@ -395,20 +428,62 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
     return 0
 
 
-def _remove_earlier_run(out: Path) -> None:
-    """Remove what an earlier ``run`` wrote into ``out`` (its run.npz, summary.json and the page
-    its summary lists, or run.html beside a summary written before the list existed), so that no
-    stale file sits beside the new results."""
-    summary = out / "summary.json"
-    if not summary.is_file():
+RUN_FILES = ("run.npz", "summary.json")  # what `run` writes into --out, besides --html
+
+
+def _check_page(page: Path | None, out: Path) -> None:
+    """Refuse, before any work, an --html that cannot be written or would take the place of the
+    output folder or of one of the run's own files (run.npz was overwritten by the page, exit 0;
+    a page named like the folder failed after the whole simulation)."""
+    if page is None:
         return
+    _check_output_file("--html", page)
+    from delta_pin.studies.manifest import LOCK, MANIFEST
+
+    where, folder = page.resolve(), out.resolve()
+    if where == folder or where in folder.parents:
+        raise InvalidParameterError(
+            f"--html {page} is the output folder --out {out} or a folder above it; give a page's file "
+            f"name, e.g. {out / 'run.html'}"
+        )
+    if where.parent == folder and where.name in (*RUN_FILES, MANIFEST, LOCK):
+        raise InvalidParameterError(
+            f"--html {page} would overwrite the run's own {where.name} in --out {out}; give another file "
+            f"name, e.g. {out / 'run.html'}"
+        )
+
+
+def _inside(path: Path, out: Path) -> str | None:
+    """``path`` relative to folder ``out`` (POSIX), if it lies inside it; else ``None``."""
     try:
-        listed = json.loads(summary.read_text()).get("outputs")
-    except (OSError, ValueError, AttributeError):
-        listed = None
-    names = [Path(p) for p in listed] if isinstance(listed, list) else [out / "run.npz", out / "run.html"]
-    for path in [*names, summary]:
-        path.unlink(missing_ok=True)
+        return path.resolve().relative_to(out.resolve()).as_posix()
+    except ValueError:
+        return None
+
+
+def _claim_run_folder(args: argparse.Namespace, out: Path, options: dict, robot_args: dict | None = None):
+    """Lock --out for `run` and check that the files it will write there are an earlier run's own
+    (listed in its manifest.json, unchanged) or absent; nothing is removed yet (the earlier run
+    stays whole until the new one has been computed: :meth:`OutputFolder.start`)."""
+    from delta_pin.studies.manifest import claim
+
+    page = None if args.html is None else _inside(args.html, out)
+    names = [*RUN_FILES, *([] if page is None else [page])]
+    return claim(
+        out,
+        "run",
+        options,
+        robot_args=robot_args,
+        command_line=args.command_line,
+        outputs=names,
+        replace_same_command=True,
+    )
+
+
+def _finish_run_folder(folder, out: Path, written: list[Path]) -> None:
+    """List the run's files inside --out in its manifest, with their SHA-256 (a page outside --out
+    is the user's to keep: never listed, never removed by a later run)."""
+    folder.finish([path for path in written if _inside(path, out) is not None])
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -714,9 +789,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         type=Path,
         required=True,
-        help="output directory (run.npz, summary.json); a rerun first removes an earlier run's files",
+        help="output directory (run.npz, summary.json, manifest.json); a rerun replaces an earlier run's "
+        "files once the new run is computed, and refuses files that are not an earlier run's own",
     )
-    run.add_argument("--html", type=Path, default=None, help="also export a standalone meshcat page")
+    run.add_argument(
+        "--html", type=_page_file, default=None, help="also export a standalone meshcat page (a file name)"
+    )
     _add_force_argument(run)
     _add_robot_arguments(run)
     _robot_file_arguments(run)

@@ -43,6 +43,18 @@ CASES = [
     (["run", "--out", "{file}"], 2, "--out {file} is a file; give a directory"),
     (["run", "--out", "{file}/sub"], 2, "{file} is a file, not a folder"),
     (["run", "--out", "{out}", "--html", "{dir}"], 2, "--html {dir} is a directory"),
+    # an --html in place of the run's own files, or of its folder: refused before the run (issue 25)
+    (
+        ["run", "--out", "{out}", "--html", "{out}/run.npz"],
+        2,
+        "--html {out}/run.npz would overwrite the run's",
+    ),
+    (["run", "--out", "{out}", "--html", "{out}/summary.json"], 2, "overwrite the run's own summary.json"),
+    (["run", "--out", "{out}", "--html", "{out}/"], 2, "'{out}/' names a folder, not a page: give a file"),
+    (["run", "--out", "{out}", "--html", "{out}"], 2, "--html {out} is the output folder --out {out}"),
+    (["run", "--out", "{out}", "--html", ""], 2, "'' is not a file name"),
+    (["run", "--t-end", "-1", "--out", "{out}"], 2, "--t-end: -1 must be a finite number of seconds > 0"),
+    (["run", "--dt", "inf", "--out", "{out}"], 2, "--dt: inf must be a finite number of seconds > 0"),
     (["run", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
     (["run", "--dt", "1e-12", "--out", "{out}"], 2, "--dt 1e-12"),
     (["run", "--dt", "-1", "--out", "{out}"], 2, "--dt: -1 must be a finite number of seconds > 0"),
@@ -337,20 +349,27 @@ def test_run_summary_says_the_last_5_s_indices_are_nan_on_a_short_run(tmp_path, 
     assert summary["metrics"]["iae"] > 0
 
 
-def test_a_rerun_removes_the_earlier_run_s_page(tmp_path):
-    """A rerun of `run` without --html left the earlier run.html beside the new results."""
+def test_a_rerun_removes_the_earlier_run_s_page(tmp_path, capsys):
+    """A rerun of `run` without --html left the earlier run.html beside the new results. It goes,
+    as the earlier run's own (listed in its manifest.json, unchanged); a user's file stays, and a
+    summary.json that no manifest lists (an older delta-pin's, or anyone's) is refused, not
+    removed: it used to take the run.html beside it along (issue 25)."""
     out = tmp_path / "out"
     argv = ["run", "--plant", "analytic", "--mode", "sampled", "--sampling-aware", "--t-end", "0.1"]
     assert main([*argv, "--out", str(out), "--html", str(out / "run.html")]) == 0
     assert (out / "run.html").is_file()
     first = (out / "run.npz").stat().st_mtime_ns
-    assert main([*argv, "--out", str(out)]) == 0
-    assert not (out / "run.html").exists()
-    assert (out / "run.npz").stat().st_mtime_ns >= first
-    assert json.loads((out / "summary.json").read_text())["outputs"] == [str(out / "run.npz")]
-    # a summary written before the list of outputs existed: its run.html goes too
-    (out / "run.html").write_text("old page")
-    (out / "summary.json").write_text("{}")
     (out / "keep.txt").write_text("not a run's")
     assert main([*argv, "--out", str(out)]) == 0
     assert not (out / "run.html").exists() and (out / "keep.txt").exists()
+    assert (out / "run.npz").stat().st_mtime_ns >= first
+    assert json.loads((out / "summary.json").read_text())["outputs"] == [
+        str((out / name).resolve()) for name in ("run.npz", "summary.json")
+    ]
+    # a summary written before manifests existed: refused, and nothing removed
+    (out / "manifest.json").unlink()
+    (out / "run.html").write_text("old page")
+    capsys.readouterr()
+    assert main([*argv, "--out", str(out)]) == 2
+    assert "holds run.npz, which no manifest.json of delta-pin lists" in _one_line(capsys)
+    assert (out / "run.html").read_text() == "old page" and (out / "keep.txt").exists()
