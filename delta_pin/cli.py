@@ -328,6 +328,7 @@ def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
     metrics = compute_metrics(run)
     folder.start()  # the new run is computed: the earlier one's files go now, not before
     run.save(out / "run.npz")
+    folder.record([out / "run.npz"])
     warnings = []
     if metrics.torque_limit_hits and metrics.torque_limit_hits > 0.5 * len(run.t):
         warnings.append(
@@ -339,6 +340,8 @@ def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
         from delta_pin.viz.meshcat_export import export_html
 
         written.append(export_html(run, args.html, robot))
+        if _inside(written[-1], out) is not None:
+            folder.record(written[-1:])
     summary = {
         "spec": spec.as_dict(),
         "metrics": metrics.as_dict(),
@@ -401,11 +404,14 @@ def _write_robot_run(args: argparse.Namespace, out: Path, robot, folder) -> int:
     metrics = compute_metrics(run)
     folder.start()  # the new run is computed: the earlier one's files go now, not before
     run.save(out / "run.npz")
+    folder.record([out / "run.npz"])
     written = [out / "run.npz"]
     if args.html is not None:
         from delta_pin.viz.meshcat_export import export_html
 
         written.append(export_html(run, args.html, robot))
+        if _inside(written[-1], out) is not None:
+            folder.record(written[-1:])
     summary = {
         "robot": run.metadata["robot"],
         "run": description,

@@ -130,6 +130,26 @@ def test_refused_input_keeps_the_earlier_run(tmp_path, capsys, bad):
     assert _files(out) == before
 
 
+def test_a_run_that_fails_half_way_is_replaced_by_the_next(tmp_path, capsys, monkeypatch):
+    """A page that fails to export after run.npz was saved leaves an incomplete manifest; it lists
+    run.npz with its hash as written, so the next run replaces it instead of refusing it."""
+    import delta_pin.viz.meshcat_export as meshcat_export
+    from delta_pin.errors import InvalidParameterError
+
+    def broken(*args, **kwargs):
+        raise InvalidParameterError("this page cannot be drawn")
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(meshcat_export, "export_html", broken)
+    assert main([*RUN, "--out", str(out), "--html", str(out / "run.html")]) == 2
+    assert "this page cannot be drawn" in _one_line(capsys)
+    marked = json.loads((out / MANIFEST).read_text())
+    assert marked["complete"] is False and set(marked["written"]) == {"run.npz"}
+    monkeypatch.undo()
+    assert main([*RUN, "--out", str(out)]) == 0, capsys.readouterr().err
+    assert set(json.loads((out / MANIFEST).read_text())["files"]) == {"run.npz", "summary.json"}
+
+
 # ----------------------------------------------------------------------------------------- --html
 @pytest.mark.parametrize(
     ("page", "text"),

@@ -21,8 +21,10 @@ false``) and removes those earlier outputs, so that no stale file of an earlier 
 new ones; a study calls it once its runs are done (a Ctrl-C, a refused scheduler or a crash while
 they run leaves the earlier outputs and their manifest whole). :meth:`OutputFolder.finish` writes
 the complete manifest, atomically, once the last output is written: the command, its options, the
-robot arguments, the delta-pin version and git commit, and the SHA-256 of every output file. The
-lock is released when the ``with`` block of the folder ends (or the process does).
+robot arguments, the delta-pin version and git commit, and the SHA-256 of every output file
+(``run`` also lists each file in the incomplete manifest as it writes it, :meth:`OutputFolder.record`,
+so that a rerun may replace the files of a run that failed half-way). The lock is released when
+the ``with`` block of the folder ends (or the process does).
 
 A folder whose manifest says ``"complete": false`` was interrupted (Ctrl-C, SIGKILL, a crash): the
 same command resumes it from its cache; a different one is refused like any other. A non-empty
@@ -208,17 +210,24 @@ def _inside(out: Path, name) -> Path | None:
     return resolved
 
 
+def _listed(old: dict | None) -> dict:
+    """The outputs a manifest lists with their SHA-256: a complete one's ``files``, or the
+    ``written`` of an interrupted one that recorded its files as it wrote them (``run``)."""
+    if old is None:
+        return {}
+    listed = old.get("files") if old.get("complete") is True else old.get("written")
+    return listed if isinstance(listed, dict) else {}
+
+
 def _earlier_outputs(out: Path, old: dict | None) -> list[Path]:
-    """The earlier outputs that are provably delta-pin's: listed in a complete manifest, inside
-    ``out``, and unchanged since (their SHA-256 is the listed one).
+    """The earlier outputs that are provably delta-pin's: listed in a manifest (:func:`_listed`),
+    inside ``out``, and unchanged since (their SHA-256 is the listed one).
 
     Raises:
         InvalidParameterError: a listed output that was changed since (never removed).
     """
-    if old is None or old.get("complete") is not True or not isinstance(old.get("files"), dict):
-        return []
     removable = []
-    for name, digest in sorted(old["files"].items()):
+    for name, digest in sorted(_listed(old).items()):
         path = _inside(out, name)
         if path is None or not path.is_file():
             continue  # not in the folder (any more), or not a file delta-pin writes: left alone
@@ -279,6 +288,7 @@ class OutputFolder:
         kept: the other files found at :func:`claim` (relative name -> signature): never listed as
             outputs unless written again.
         started: whether :meth:`start` has run.
+        written: the files :meth:`record` listed so far (relative name -> SHA-256).
     """
 
     out: Path
@@ -287,6 +297,7 @@ class OutputFolder:
     earlier: list[Path] = field(default_factory=list)
     kept: dict[str, tuple] = field(default_factory=dict)
     started: bool = False
+    written: dict[str, str] = field(default_factory=dict)
 
     def __enter__(self) -> OutputFolder:
         return self
@@ -321,6 +332,16 @@ class OutputFolder:
                 parent = parent.parent
         self.started = True
 
+    def record(self, files: list[Path]) -> None:
+        """List ``files`` (just written inside the folder) with their SHA-256 in the incomplete
+        manifest (``written``), so that a rerun may replace them even if this command never
+        finishes (``run``: a page that fails to export after run.npz was saved)."""
+        self.start()
+        for path in files:
+            self.written[Path(path).resolve().relative_to(self.out.resolve()).as_posix()] = sha256(Path(path))
+        marked = {**self.header, "complete": False, "written": dict(sorted(self.written.items()))}
+        write_text_atomically(self.out / MANIFEST, json.dumps(marked, indent=1) + "\n")
+
     def finish(self, files: list[Path] | None = None) -> dict:
         """Write the complete manifest, atomically, and return it: ``files`` (the outputs this
         command wrote inside the folder; ``None``: every file of the folder but those found at
@@ -352,10 +373,9 @@ def _now() -> str:
 
 def _refuse_foreign(out: Path, old: dict | None, outputs: list[str] | None) -> None:
     """Refuse files that may be anyone's: with ``outputs`` (the names a command writes), those of
-    them that exist and no complete manifest lists; else any file of a folder without a manifest."""
+    them that exist and no manifest lists; else any file of a folder without a manifest."""
     if outputs is not None:
-        listed = old.get("files") if old is not None and old.get("complete") is True else None
-        listed = listed if isinstance(listed, dict) else {}
+        listed = _listed(old)
         for name in outputs:
             if (out / name).exists() and name not in listed:
                 raise InvalidParameterError(
