@@ -422,3 +422,38 @@ def test_a_disabled_joint_coupling_is_refused(tmp_path):
     with pytest.raises(URDFConventionError, match=disabled), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         dp.load_robot(path)
+
+
+def test_a_polynomial_joint_coupling_moves_as_mujoco_moves_it(tmp_path):
+    """polycoef "0.02 1 0.4 0 0" (right = 0.02 + left + 0.4 left^2 about qpos0) and the actuator
+    put on left_driver_joint itself (a tendon needs a linear coupling): the coupling row's
+    velocity row and drift agree with central differences of the residual and of J v (1e-8;
+    measured 4.2e-11 and 4.8e-11), and 0.1 s of free motion keeps it (1e-12) and moves as MuJoCo
+    moves it: 1e-8 at time constant 2e-4 s, 3e-9 at 1e-4 s (measured 2.6e-9 and 6.5e-10)."""
+    path = _robotiq_variant(tmp_path, 'polycoef="0 1 0 0 0"', 'polycoef="0.02 1 0.4 0 0"')
+    path.write_text(path.read_text().replace('tendon="split"', 'joint="left_driver_joint"'))
+    with pytest.warns(UserWarning, match=SERVO):
+        robot = dp.load_robot(path)
+    assert robot.joint_couplings[0].coefficients == (0.02, 1.0, 0.4)
+    x0 = start_state(robot, 0.3, seed=3)
+    q, v = x0[:8], x0[8:]
+    right, left = (robot.model.idx_qs[robot.model.getJointId(f"{s}_driver_joint")] for s in ("right", "left"))
+    assert abs(q[right] - (0.02 + q[left] + 0.4 * q[left] ** 2)) < 1e-15
+    h = 1e-6
+    differences = np.array(
+        [(robot.closure_residual(q + h * e) - robot.closure_residual(q - h * e)) / (2 * h) for e in np.eye(8)]
+    ).T
+    np.testing.assert_allclose(robot.closure_jacobian(q), differences, rtol=0, atol=1e-8)
+    rate = (robot.closure_jacobian(q + h * v) @ v - robot.closure_jacobian(q - h * v) @ v) / (2 * h)
+    np.testing.assert_allclose(robot.closure_drift(q, v), rate, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(
+        robot.closure_jacobian_derivative(q, v) @ v, robot.closure_drift(q, v), atol=1e-14
+    )
+    q_end, _, plant = plant_motion(robot, x0, 0.1, 1e-4, np.zeros(1))
+    assert plant.projections == 0
+    assert np.abs(q_end - q).max() > 0.2 and abs(robot.closure_residual(q_end)[-1]) < 1e-12
+    distances = []
+    for timestep, time_constant, bound in ((1e-4, 2e-4, 1e-8), (5e-5, 1e-4, 3e-9)):
+        distances.append(np.abs(mujoco_motion(path, x0, robot, 0.1, timestep, time_constant) - q_end).max())
+        assert distances[-1] < bound, (time_constant, distances[-1])
+    assert distances[1] < 0.5 * distances[0]
