@@ -22,6 +22,7 @@ import pinocchio as pin
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
 from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import InvalidParameterError
+from delta_pin.model.core_model import core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
@@ -210,6 +211,8 @@ class ClosedChainNominalModel(NominalModel):
         self.robot = robot.with_payload(mass, payload_frame) if mass > 0.0 else robot
         self.payload_mass = mass
         self.dof = robot.dof
+        self._core = core_model(self.robot)  # the compiled projection, where it applies
+        self._last_q = self.robot.reference_configuration.copy()
         self._disturbance = (
             np.zeros(self.dof)
             if nominal_disturbance is None
@@ -235,7 +238,18 @@ class ClosedChainNominalModel(NominalModel):
             self.normal_force = np.full(self.dof, float(self.friction_model.normal_force))
 
     def terms(self, q, q_dot):
-        M, C, G, _ = self.robot.reduced_terms(q, q_dot)
+        """M, C, G of the projected dynamics at the actuated coordinates: from the compiled core
+        where it takes the robot (:mod:`delta_pin.model.core_model`; assembly warm-started from the
+        previous call), else from ``robot.reduced_terms`` (the reference, tested equal to ~1e-12)."""
+        if self._core is not None:
+            alpha = self.robot._joint_vector(q, "alpha")
+            q_dot = self.robot._joint_vector(q_dot, "alpha_dot")
+            closed, configuration = self._core.configuration(alpha, self._last_q)
+            if closed:
+                self._last_q = configuration
+                M, C, G, _ = self._core.reduced_terms(configuration, q_dot)
+                return M, C, G
+        M, C, G, _ = self.robot.reduced_terms(q, q_dot)  # names what does not close
         return M, C, G
 
     def disturbance(self):

@@ -33,7 +33,6 @@ coupling rows J (r their residual) held at the acceleration level with the same 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 from dataclasses import asdict
 
@@ -42,6 +41,7 @@ import pinocchio as pin
 
 from delta_pin.errors import AssemblyError, InvalidParameterError, NativeUnavailableError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
+from delta_pin.model.core_model import core_supports
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import Plant
 
@@ -320,12 +320,10 @@ class ClosedChainPlant(Plant):
 
     def sampled_core(self, step: float, count: int):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where it does not apply: active coordinates, idle motions or passive joints (their
-        projection keeps state of its own), a joint without a configuration rate there, or the
-        core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
-        if self.coordinates != "full" or self.robot.has_unactuated_motion:
-            return None
-        if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
+        ``None`` where it does not apply: active coordinates, idle motions, passive joints or joint
+        couplings (:func:`~delta_pin.model.core_model.core_supports`), a joint without a
+        configuration rate there, or the core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
+        if self.coordinates != "full" or not core_supports(self.robot):
             return None
         from delta_pin.sim.compiled_plant import build_core_plant
 

@@ -9,7 +9,8 @@ import numpy as np
 
 from delta_pin.compiled.rk4 import all_finite
 from delta_pin.control.base import Controller, ControlOutput, Reference
-from delta_pin.errors import NonFiniteError, SimulationError
+from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
+from delta_pin.sim.compiled_plant import run_core_sampled
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import check_state, integrate_lsoda, rk4_step
 from delta_pin.sim.plants import Plant
@@ -82,6 +83,7 @@ def run_python_loop(
     progress: bool | None,
     sensor: Encoder | None = None,
     drive: Drive | None = None,
+    compiled: bool | None = None,
 ) -> LoopRecord:
     """Run ``controller`` on ``plant`` from the plant state x over the sample times t [s].
 
@@ -93,6 +95,11 @@ def run_python_loop(
     recorded as ``tau``; the controller's own output is the internal ``tau_command``). Continuous
     mode: the controller inside the integrator (RK4 on [x, z] with step dt / substeps, or LSODA).
     ``table`` holds the reference on the grid dt / per_sample.
+
+    In sampled mode a plant with a compiled copy (:meth:`Plant.sampled_core
+    <delta_pin.sim.plants.Plant.sampled_core>`) is integrated by the compiled core, which calls
+    the controller back once per sample (the same steps; ``compiled=False``: this loop's own
+    RK4, the reference; ``compiled=True``: required).
     """
     steps, dt = len(t) - 1, t[1] - t[0]
     h = dt / substeps
@@ -131,17 +138,28 @@ def run_python_loop(
         previous_reading = measured
         return measured, velocity
 
-    def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
-        """Control at t_k and record the sample; ``gap``: x's closure residual if known. Returns
-        the torque acting on the plant from t_k and the controller's output."""
-        joints = plant.joint_state(x)
-        alphas[k], alpha_dots[k] = joints
+    def control(k: int, x: np.ndarray, z: np.ndarray, joints) -> tuple[np.ndarray, ControlOutput]:
+        """The torque acting on the plant from t_k (sensor, controller, drive) and the
+        controller's output, recorded with its internals; ``joints``: x's (alpha, alpha_dot)."""
         reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
         tau, _, out = loop.control(t[k], x, reference, z, joints if sensor is None else read(*joints))
         if drive is not None:
             out.internals["tau_command"] = tau
             tau = drive.apply(tau)
         taus[k] = tau
+        for name, value in out.internals.items():
+            values = internals.get(name)
+            if values is None:
+                values = internals[name] = []
+            values.append(np.asarray(value, dtype=float))
+        return tau, out
+
+    def sample(k: int, x: np.ndarray, z: np.ndarray, gap: float | None = None):
+        """Control at t_k and record the sample; ``gap``: x's closure residual if known. Returns
+        the torque acting on the plant from t_k and the controller's output."""
+        joints = plant.joint_state(x)
+        alphas[k], alpha_dots[k] = joints
+        tau, out = control(k, x, z, joints)
         xyzs[k] = plant.platform_position(x)
         full = plant.configuration_state(x)
         if full is not None:
@@ -149,11 +167,6 @@ def run_python_loop(
                 record.q, record.v = np.zeros((len(t), len(full[0]))), np.zeros((len(t), len(full[1])))
             record.q[k], record.v[k] = full
         gaps[k] = plant.closure_residual(x) if gap is None else gap
-        for name, value in out.internals.items():
-            values = internals.get(name)
-            if values is None:
-                values = internals[name] = []
-            values.append(np.asarray(value, dtype=float))
         return tau, out
 
     def closed_loop(t_now: float, y: np.ndarray) -> np.ndarray:
@@ -165,6 +178,36 @@ def run_python_loop(
     stride = max(steps // 100, 1)
     gap = None  # the closure residual of x when the step computed it
     held = mode == "sampled" and USE_HELD_RK4
+    wants_core = mode == "sampled" and compiled is not False
+    core = plant.sampled_core(h, 2 * steps * substeps + 3) if wants_core else None
+    if compiled and core is None:
+        raise InvalidParameterError(
+            f"compiled=True: plant {plant.name!r} has no compiled sampled loop here (sampled mode, full "
+            "coordinates, no idle motions or passive joints); use compiled=None or False"
+        )
+    if core is not None:
+        # the compiled plant and loop; the controller called back once per sample
+        state = {"z": z, "out": None}
+
+        def compiled_control(k: int, x: np.ndarray) -> np.ndarray:
+            joints = plant.joint_state(x)
+            alphas[k], alpha_dots[k] = joints
+            if k:
+                state["z"] = controller.advance(state["z"], state["out"], dt)
+                check_state(t[k], x, state["z"], *joints)
+                if k % stride == 0:
+                    bar.update(round(stride * dt, 9))
+            tau, state["out"] = control(k, x, state["z"], joints)
+            return tau
+
+        recorded = run_core_sampled(core, x, steps, substeps, dt, compiled_control)
+        plant.projections += core.projections
+        record.xyz, record.closure_residual, record.q, record.v = (
+            recorded.xyz, recorded.gap, recorded.q, recorded.v,
+        )  # fmt: skip
+        bar.close()
+        record.internals = _stacked(internals)
+        return record
     if integrator == "lsoda":
         x, z = integrate_lsoda(
             closed_loop, sample, loop.check_state, plant.finish_step, x, z, t, rtol, atol, bar
@@ -194,8 +237,13 @@ def run_python_loop(
             check_state(t[k + 1], x, z, *plant.joint_state(x))  # = loop.check_state, one frame less
     sample(steps, x, z, gap)
     bar.close()
+    record.internals = _stacked(internals)
+    return record
+
+
+def _stacked(internals: dict[str, list]) -> dict[str, np.ndarray]:
+    """The controller's internals, one array (N, ...) each."""
     try:
-        record.internals = {name: np.array(values) for name, values in internals.items()}
+        return {name: np.array(values) for name, values in internals.items()}
     except ValueError:  # pragma: no cover - inconsistent shapes from a user controller
         raise NonFiniteError("controller internals changed shape during the run") from None
-    return record

@@ -123,6 +123,13 @@ class Plant(ABC):
         step."""
         return None
 
+    def sampled_core(self, step: float, count: int):
+        """This plant in the compiled core for the sampled loop
+        (:mod:`delta_pin.sim.compiled_plant`), with its time-varying truth tabulated at the RK4
+        stage times t = i step / 2, i < count; ``None`` (the default) where it has none: the
+        Python loop then steps :meth:`derivative`."""
+        return None
+
     def metadata(self) -> dict:
         """JSON-serialisable description stored with every run (``"plant"``: its name)."""
         return {"plant": self.name}

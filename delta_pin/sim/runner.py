@@ -101,14 +101,13 @@ def _runs_compiled(
 
 
 def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode):
-    """(compiled, plant) for a closed-chain robot: the Python loop (the compiled loops are the
-    Delta's) on its constrained Pinocchio plant, or the Delta's analytic plant where it is a
-    recognised Delta."""
-    if compiled:
+    """(compiled, plant) for a closed-chain robot: the Python loop, with its plant in the compiled
+    core in sampled mode (:meth:`~delta_pin.sim.plants.Plant.sampled_core`), on its constrained
+    Pinocchio plant, or the Delta's analytic plant where it is a recognised Delta."""
+    if compiled and mode != "sampled":
         raise InvalidParameterError(
-            f"compiled=True: the compiled loops are written for the Delta; {robot.name!r} runs the "
-            "Python loop "
-            "(compiled=None or False)"
+            f"compiled=True: {robot.name!r} has a compiled plant in sampled mode only; in continuous "
+            "mode it runs the Python loop (compiled=None or False)"
         )
     if integrator in ("bdf2", "radau"):
         raise InvalidParameterError(
@@ -120,7 +119,7 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
         # LSODA's small state, where the actuated joints carry the whole motion
         coordinates = "active" if mode == "continuous" and not robot.has_unactuated_motion else None
         plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
-    return False, plant
+    return compiled, plant
 
 
 def _runs_as_delta(robot, plant, trajectory) -> bool:
@@ -238,10 +237,10 @@ def simulate(
     check_substeps(substeps)
     if _runs_as_delta(robot, plant, trajectory):
         robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
+    core = None  # the compiled core's plant for a closed-chain robot's sampled loop: where it applies
     if isinstance(robot, ClosedChainRobot):
-        compiled, plant = _closed_chain_options(
-            robot, plant, integrator, compiled, friction, uncertainty, mode
-        )
+        core, plant = _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
+        compiled = False  # the Delta's compiled loops
         friction = uncertainty = None  # now the plant's
     integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
@@ -286,7 +285,7 @@ def simulate(
     record = run_python_loop(
         controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
         integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
-        sensor=sensor, drive=drive,
+        sensor=sensor, drive=drive, compiled=core,
     )  # fmt: skip
     wall = time.perf_counter() - wall
 

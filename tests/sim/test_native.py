@@ -1,4 +1,4 @@
-"""The native tree dynamics (delta_pin/native) against Pinocchio's Python binding, and its
+"""The compiled tree dynamics (delta_pin/core/tree_dynamics.cpp) against Pinocchio's Python binding, and its
 graceful absence."""
 
 import numpy as np
@@ -48,28 +48,21 @@ def test_joints_beyond_the_axis_joints_are_refused():
         native.TreeDynamics(native.load(), model, [], (0.0, 0.0), 1)
 
 
-def test_a_missing_compiler_is_named(monkeypatch, tmp_path):
-    monkeypatch.setattr(native, "PREBUILT", tmp_path / "no-prebuilt")  # the build-on-first-use path
-    monkeypatch.setenv("DELTA_PIN_CACHE", str(tmp_path))
-    monkeypatch.setenv("CXX", "no-such-c++")
-    with pytest.raises(native.NativeUnavailableError, match="no-such-c\\+\\+"):
-        native.build()
-    assert list(tmp_path.iterdir()) == []  # nothing half-written left behind
+def test_a_core_built_against_another_pinocchio_is_refused_in_one_line(monkeypatch):
+    """The core links the libpinocchio_default it was compiled against: another installed
+    Pinocchio is named with the rebuild command, not left to crash later."""
+    from delta_pin.compiled import _core, core
 
-
-def test_the_prebuilt_library_serves_only_the_pinocchio_and_source_it_was_built_from(monkeypatch, tmp_path):
-    """setup.py builds the library at install time with a stamp; a stamp that does not match (a
-    different ``pin``, an edited source) sends build() to the first-use path instead."""
-    (tmp_path / "prebuilt").mkdir()
-    (tmp_path / "prebuilt" / "tree_dynamics.so").write_bytes(b"not a library")
-    (tmp_path / "prebuilt" / "stamp.txt").write_text(native._stamp() + "\n")
-    monkeypatch.setattr(native, "PREBUILT", tmp_path / "prebuilt")
-    assert native.build() == tmp_path / "prebuilt" / "tree_dynamics.so"
-    (tmp_path / "prebuilt" / "stamp.txt").write_text("built against another Pinocchio\n")
-    monkeypatch.setenv("DELTA_PIN_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("CXX", "no-such-c++")  # the fallback is a build: here it fails at once, by name
-    with pytest.raises(native.NativeUnavailableError, match="no-such-c"):
-        native.build()
+    core.core.cache_clear()
+    monkeypatch.setattr(_core, "pinocchio_version", "0.0.1")
+    try:
+        with pytest.raises(native.NativeUnavailableError) as error:
+            core.core()
+        message = str(error.value)
+        assert "Pinocchio 0.0.1" in message and pin.__version__ in message and "pip install" in message
+        assert "\n" not in message
+    finally:
+        core.core.cache_clear()
 
 
 def test_the_native_path_can_be_turned_off(monkeypatch):

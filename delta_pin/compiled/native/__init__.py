@@ -1,70 +1,37 @@
-"""The constrained tree dynamics as a small C++ library, for compiled simulation loops.
+"""The constrained tree dynamics in the compiled core, for the compiled simulation loops.
 
 ``pin.constraintDynamics`` costs ~7.6 us per call from Python, a third of it in the binding. The
 compiled loops of :mod:`delta_pin.compiled.closed_loop` and :mod:`delta_pin.compiled.tree_loop`
-call C++ directly instead, through ``tree_dynamics.cpp``, a C ABI with two evaluations of the
-constrained tree (:data:`STAGES`): the same explicitly instantiated ``constraintDynamics`` of
-``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit; and
-``axis_tree.hpp``, delta-pin's own recursive algorithms for trees of 1-DOF axis joints, equal to it
-to ~1e-13 relative at ~40 % of its cost, the default (tests/sim/test_native.py).
+call C++ directly instead, through the C entry points of ``delta_pin/core/tree_dynamics.cpp`` in
+the compiled core (:mod:`delta_pin.compiled.core`), with two evaluations of the constrained tree
+(:data:`STAGES`): the same explicitly instantiated ``constraintDynamics`` of
+``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit;
+and ``axis_tree.hpp``, delta-pin's own recursive algorithms for trees of 1-DOF axis joints, equal
+to it to ~1e-13 relative at ~40 % of its cost, the default (tests/sim/test_native.py).
 
-The library is built when the package is installed (``setup.py`` runs :func:`build_prebuilt`):
-``prebuilt/tree_dynamics.so`` beside this file, with a stamp of the source, the flags and the
-Pinocchio version it was compiled against. Where that stamp does not match the running Pinocchio
-(another ``pin`` installed later, the source edited), it is built on first use (~45 s) with the
-system's C++ compiler (``$CXX`` or ``c++``) against the headers and libraries of the installed
-``pin`` wheel and Eigen's headers (the ``cmeel-eigen`` wheel), and cached in ``$DELTA_PIN_CACHE``
-(default ``~/.cache/delta-pin``) under a name that hashes the same things; it is written
-atomically, so parallel processes may build it at once. The library needs no run-time path to
-Pinocchio's: ``import pinocchio`` has loaded ``libpinocchio_default`` into the process already.
-Where it cannot be built (no compiler, no headers) or
-``DELTA_PIN_NATIVE=0``, :func:`load` returns ``None`` after one warning and callers keep the
-Python path (the same results, slower).
+The core is compiled when the package is installed (scikit-build-core, ``CMakeLists.txt``);
+nothing is compiled at run time. Where it cannot be imported (built against another Pinocchio, a
+broken install) or ``DELTA_PIN_NATIVE=0``, :func:`load` returns ``None`` after one warning and
+callers keep the Python path (the same results, slower).
 
 Example:
     >>> library = load()
-    >>> tree = TreeDynamics(library, plant) if library is not None else None
+    >>> tree = TreeDynamics(library, model, constraint_models, (400.0, 40.0), 12) if library else None
 """
 
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
-import shutil
-import subprocess
-import sys
-import tempfile
 import warnings
-from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 from delta_pin.errors import NativeUnavailableError
 
-__all__ = [
-    "JOINT_TYPES",
-    "STAGES",
-    "NativeUnavailableError",
-    "TreeDynamics",
-    "build",
-    "build_prebuilt",
-    "load",
-]
+__all__ = ["JOINT_TYPES", "STAGES", "NativeUnavailableError", "TreeDynamics", "load"]
 
-SOURCE = Path(__file__).with_name("tree_dynamics.cpp")
-HEADERS = (Path(__file__).with_name("axis_tree.hpp"),)  # included by SOURCE: part of its stamp
-PREBUILT = Path(__file__).with_name("prebuilt")  # the library built at install time, and its stamp
-# what pinocchio's CMake targets define for their users (lib/cmake/pinocchio/pinocchioTargets.cmake)
-DEFINES = (
-    "PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",
-    "BOOST_MPL_LIMIT_LIST_SIZE=30",
-    "BOOST_MPL_LIMIT_VECTOR_SIZE=30",
-    "BOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
-    "BOOST_FUSION_INVOKE_MAX_ARITY=12",
-    "NDEBUG",
-)
-FLAGS = ("-O2", "-std=c++17", "-fPIC", "-shared", "-Wno-deprecated-declarations")
 # the two evaluations of ddq a compiled loop can call: Pinocchio's constraintDynamics (the Python
 # loop's arithmetic, bit for bit) and delta-pin's own recursive algorithms (axis_tree.hpp)
 STAGES = ("constraint_dynamics", "axis_tree")
@@ -73,184 +40,51 @@ JOINT_TYPES = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelPX", "
 _loaded: dict[str, object] = {}
 
 
-def _prefix() -> Path:
-    """The ``cmeel.prefix`` directory of the installed ``pin`` wheel (headers and libraries)."""
-    import pinocchio
-
-    for parent in Path(pinocchio.__file__).resolve().parents:
-        if parent.name == "cmeel.prefix":
-            return parent
-    raise NativeUnavailableError(f"pinocchio at {pinocchio.__file__} is not a cmeel wheel: no headers found")
-
-
-def _cache_dir() -> Path:
-    root = os.environ.get("DELTA_PIN_CACHE")
-    if root:
-        return Path(root)
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "delta-pin"
-
-
-def _command(prefix: Path, output: Path) -> list[str]:
-    compiler = os.environ.get("CXX", "c++")
-    if shutil.which(compiler) is None:
-        raise NativeUnavailableError(f"no C++ compiler {compiler!r} on PATH (set CXX)")
-    include = prefix / "include"
-    if not (include / "eigen3" / "Eigen" / "Core").exists():
-        raise NativeUnavailableError(f"Eigen's headers are missing under {include} (pip install cmeel-eigen)")
-    if not (include / "pinocchio" / "algorithm" / "constrained-dynamics.hpp").exists():
-        raise NativeUnavailableError(f"Pinocchio's headers are missing under {include}")
-    lib = prefix / "lib"
-    return [
-        compiler,
-        *FLAGS,
-        *(f"-D{d}" for d in DEFINES),
-        f"-I{include}",
-        f"-I{include / 'eigen3'}",
-        str(SOURCE),
-        "-o",
-        str(output),
-        f"-L{lib}",
-        "-lpinocchio_default",
-        f"-Wl,-rpath,{lib}",
-    ]
-
-
-def _source_bytes() -> bytes:
-    """The library's source and the headers it includes, as one byte string (what its stamp and
-    cache name hash)."""
-    return b"".join(path.read_bytes() for path in (SOURCE, *HEADERS))
-
-
-def _library_path(prefix: Path) -> Path:
-    import pinocchio
-
-    key = hashlib.sha256(
-        _source_bytes()
-        + repr((FLAGS, DEFINES, pinocchio.__version__, str(prefix), os.environ.get("CXX", "c++"))).encode()
-    ).hexdigest()[:16]
-    return _cache_dir() / f"tree_dynamics-{key}.so"
-
-
-def _stamp() -> str:
-    """What a prebuilt library must have been compiled from: the source, the flags, the Pinocchio
-    version (its C++ ABI)."""
-    import pinocchio
-
-    return hashlib.sha256(
-        _source_bytes() + repr((FLAGS, DEFINES, pinocchio.__version__)).encode()
-    ).hexdigest()
-
-
-def _prebuilt() -> Path | None:
-    """The library built at install time, where its stamp matches this Pinocchio and source."""
-    library, stamp = PREBUILT / "tree_dynamics.so", PREBUILT / "stamp.txt"
-    if library.exists() and stamp.exists() and stamp.read_text().strip() == _stamp():
-        return library
-    return None
-
-
-def build_prebuilt(directory: Path = PREBUILT) -> Path:
-    """Compile the library into ``directory`` with its stamp (what ``setup.py`` runs at install
-    time; the build environment's ``pin`` must be the one installed with the package).
-
-    Raises:
-        NativeUnavailableError: no compiler or headers, or the compiler failed.
-    """
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / "tree_dynamics.so"
-    command = [part for part in _command(_prefix(), path) if not part.startswith("-Wl,-rpath")]
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise NativeUnavailableError(f"compiling {SOURCE.name} failed:\n{done.stderr[-4000:]}")
-    (directory / "stamp.txt").write_text(_stamp() + "\n")
-    return path
-
-
-def build(verbose: bool = False) -> Path:
-    """The prebuilt library where it matches, else build it into the cache (if not there yet); its
-    path.
-
-    Raises:
-        NativeUnavailableError: no compiler or headers, or the compiler failed (its output included).
-    """
-    prebuilt = _prebuilt()
-    if prebuilt is not None:
-        return prebuilt
-    prefix = _prefix()
-    path = _library_path(prefix)
-    if path.exists():
-        return path
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temporary = tempfile.mkstemp(suffix=".so", dir=path.parent)
-    os.close(fd)
-    try:
-        command = _command(prefix, Path(temporary))
-        print(
-            f"delta-pin: building the native tree dynamics once (~45 s) into {path.parent}",
-            file=sys.stderr,
-        )
-        if verbose:
-            print(" ".join(command), file=sys.stderr)
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise NativeUnavailableError(f"compiling {SOURCE.name} failed:\n{done.stderr[-4000:]}")
-        os.chmod(temporary, 0o755)  # mkstemp's 0600 would hide it from other users of the cache
-        os.replace(temporary, path)  # atomic: a parallel build writes the same file
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-    return path
-
-
-def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
+def _declare(addresses: dict[str, int]) -> SimpleNamespace:
+    """ctypes functions at the core's C entry points (``_core.symbols()``), for calls from Python;
+    ``addresses`` stay available to compiled callers."""
     int_p, double_p, void_p = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double), ctypes.c_void_p
-    library.dpn_create.restype = void_p
-    library.dpn_create.argtypes = [
-        ctypes.c_int, int_p, int_p, double_p, double_p, double_p,
-        ctypes.c_int, int_p, double_p, ctypes.c_double, ctypes.c_double, ctypes.c_int,
-        ctypes.c_char_p, ctypes.c_int,
-    ]  # fmt: skip
-    library.dpn_destroy.argtypes = [void_p]
-    library.dpn_nv.argtypes = [void_p]
-    library.dpn_dynamics.restype = ctypes.c_int
-    library.dpn_dynamics.argtypes = [
-        void_p,
-        double_p,
-        double_p,
-        double_p,
-        ctypes.c_double,
-        double_p,
-        double_p,
-    ]
-    library.dpn_dynamics_axis.restype = ctypes.c_int
-    library.dpn_dynamics_axis.argtypes = library.dpn_dynamics.argtypes
-    library.dpn_closure_gap.restype = ctypes.c_double
-    library.dpn_closure_gap.argtypes = [void_p, double_p]
-    library.dpn_set_active.restype = ctypes.c_int
-    library.dpn_set_active.argtypes = [void_p, int_p, int_p, ctypes.c_double, ctypes.c_int, double_p]
-    library.dpn_active_dynamics.restype = ctypes.c_int
-    library.dpn_active_dynamics.argtypes = [void_p, double_p, double_p, double_p, ctypes.c_double] + [
-        double_p
-    ] * 4
-    return library
+    dynamics = [void_p, double_p, double_p, double_p, ctypes.c_double, double_p, double_p]
+    prototypes = {
+        "dpn_create": (void_p, [
+            ctypes.c_int, int_p, int_p, double_p, double_p, double_p,
+            ctypes.c_int, int_p, double_p, ctypes.c_double, ctypes.c_double, ctypes.c_int,
+            ctypes.c_char_p, ctypes.c_int,
+        ]),
+        "dpn_destroy": (None, [void_p]),
+        "dpn_nv": (ctypes.c_int, [void_p]),
+        "dpn_dynamics": (ctypes.c_int, dynamics),
+        "dpn_dynamics_axis": (ctypes.c_int, dynamics),
+        "dpn_closure_gap": (ctypes.c_double, [void_p, double_p]),
+        "dpn_set_active": (ctypes.c_int, [void_p, int_p, int_p, ctypes.c_double, ctypes.c_int, double_p]),
+        "dpn_active_dynamics": (ctypes.c_int, [void_p, double_p, double_p, double_p, ctypes.c_double]
+                                + [double_p] * 4),
+    }  # fmt: skip
+    functions = {
+        name: ctypes.CFUNCTYPE(restype, *argtypes)(addresses[name])
+        for name, (restype, argtypes) in prototypes.items()
+    }
+    return SimpleNamespace(addresses=dict(addresses), **functions)
 
 
-def load(strict: bool = False) -> ctypes.CDLL | None:
-    """The native library (built on first use), or ``None`` with one warning where it cannot be
-    had; ``strict=True`` raises :class:`NativeUnavailableError` instead. ``DELTA_PIN_NATIVE=0`` turns it
-    off."""
+def load(strict: bool = False) -> SimpleNamespace | None:
+    """The core's tree dynamics (ctypes functions and their ``addresses``), or ``None`` with one
+    warning where the core cannot be imported; ``strict=True`` raises
+    :class:`NativeUnavailableError` instead. ``DELTA_PIN_NATIVE=0`` turns it off."""
     if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
         if strict:
             raise NativeUnavailableError("turned off by DELTA_PIN_NATIVE=0")
         return None
     if "library" not in _loaded:
+        from delta_pin.compiled.core import core
+
         try:
-            _loaded["library"] = _declare(ctypes.CDLL(str(build())))
-        except (NativeUnavailableError, OSError) as exc:
+            _loaded["library"] = _declare(core().symbols())
+        except NativeUnavailableError as exc:
             _loaded["library"] = None
             _loaded["reason"] = str(exc)
             warnings.warn(
-                f"delta-pin's native tree dynamics are unavailable, using the Python path: {exc}",
+                f"delta-pin's compiled tree dynamics are unavailable, using the Python path: {exc}",
                 RuntimeWarning,
                 stacklevel=2,
             )
@@ -326,10 +160,10 @@ class TreeDynamics:
         self._library = library
         self.handle = int(handle)
         self.nv = model.nv
-        self.address_dynamics = ctypes.cast(library.dpn_dynamics, ctypes.c_void_p).value
-        self.address_dynamics_axis = ctypes.cast(library.dpn_dynamics_axis, ctypes.c_void_p).value
-        self.address_gap = ctypes.cast(library.dpn_closure_gap, ctypes.c_void_p).value
-        self.address_active = ctypes.cast(library.dpn_active_dynamics, ctypes.c_void_p).value
+        self.address_dynamics = library.addresses["dpn_dynamics"]
+        self.address_dynamics_axis = library.addresses["dpn_dynamics_axis"]
+        self.address_gap = library.addresses["dpn_closure_gap"]
+        self.address_active = library.addresses["dpn_active_dynamics"]
 
     def set_active(self, active, platform, q0, tolerance: float = 1e-13, max_iterations: int = 30) -> None:
         """Set up the active coordinates: indices of alpha (3) and of the platform slides (3) in

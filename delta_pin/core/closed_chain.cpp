@@ -1,0 +1,535 @@
+// The constrained plant of a closed-chain robot (closed_chain.hpp).
+
+#include "closed_chain.hpp"
+
+#include "failure.hpp"
+
+#include <pinocchio/algorithm/crba.hpp>
+#include <pinocchio/algorithm/frames.hpp>
+#include <pinocchio/algorithm/rnea.hpp>
+#include <pinocchio/algorithm/jacobian.hpp>
+#include <pinocchio/algorithm/joint-configuration.hpp>
+#include <pinocchio/algorithm/kinematics.hpp>
+#include <pinocchio/serialization.hpp>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace delta_pin
+{
+  using namespace pinocchio;
+
+  namespace
+  {
+    enum RateKind
+    {
+      AXIS = 0,
+      BALL = 1,
+      FREE = 2,
+      UNIT_COMPLEX = 3,
+      PLANAR = 4
+    };
+
+    // the kinds of ClosedChainRobot._joint_rate_kind (delta_pin/model/closed_chain.py)
+    int rate_kind(const Model & model, JointIndex j)
+    {
+      const std::string name = model.joints[j].shortname();
+      const bool starts_r = name.rfind("JointModelR", 0) == 0;
+      const bool starts_p = name.rfind("JointModelP", 0) == 0 && name.rfind("JointModelPlanar", 0) != 0;
+      if (model.nqs[j] == model.nvs[j] && (starts_r || starts_p || name == "JointModelTranslation"))
+        return AXIS;
+      if (name == "JointModelSpherical")
+        return BALL;
+      if (name == "JointModelFreeFlyer")
+        return FREE;
+      if (
+        name == "JointModelRUBX" || name == "JointModelRUBY" || name == "JointModelRUBZ"
+        || name == "JointModelRevoluteUnboundedUnaligned")
+        return UNIT_COMPLEX;
+      if (name == "JointModelPlanar")
+        return PLANAR;
+      throw std::invalid_argument(
+        "joint " + model.names[j] + " (" + name + ") has no configuration rate in the compiled plant");
+    }
+
+    // d/dt of a unit quaternion (x, y, z, w) turning at omega in its own frame: 0.5 quat * (omega, 0)
+    void quaternion_rate(
+      const Eigen::Ref<const Vector> & quaternion, const Eigen::Vector3d & omega, Eigen::Ref<Vector> out)
+    {
+      const Eigen::Vector3d u = quaternion.head<3>();
+      const double w = quaternion[3];
+      out.head<3>() = 0.5 * (w * omega + u.cross(omega));
+      out[3] = 0.5 * (-u.dot(omega));
+    }
+
+    // x minimising |A x - b| for A of full column rank: LU when square, the normal equations
+    // when tall (delta_pin.model.closed_chain.least_squares)
+    Matrix least_squares(const Matrix & A, const Matrix & b)
+    {
+      if (A.rows() == A.cols())
+        return A.partialPivLu().solve(b);
+      return (A.transpose() * A).partialPivLu().solve(A.transpose() * b);
+    }
+
+    void check_size(const Vector & value, Eigen::Index size, const char * name)
+    {
+      if (value.size() != size)
+        throw std::invalid_argument(
+          std::string(name) + " has " + std::to_string(value.size()) + " entries, expected " + std::to_string(size));
+    }
+
+    double largest(const Vector & values)
+    {
+      double result = 0.0;
+      for (Eigen::Index i = 0; i < values.size(); ++i)
+      {
+        if (std::isnan(values[i]))
+          return std::numeric_limits<double>::quiet_NaN();
+        result = std::max(result, std::abs(values[i]));
+      }
+      return result;
+    }
+  } // namespace
+
+  ClosedChainModel::ClosedChainModel(
+    const std::string & model_text,
+    const std::vector<ClosureFrames> & closures,
+    const Indices & actuated_q,
+    const Indices & actuated_v,
+    const Indices & dependent_v,
+    FrameIndex end_effector)
+  : closures_(closures)
+  , actuated_q_(actuated_q)
+  , actuated_v_(actuated_v)
+  , dependent_v_(dependent_v)
+  , end_effector_(end_effector)
+  {
+    model_.loadFromString(model_text);
+    if (end_effector_ >= (FrameIndex)model_.nframes)
+      throw std::invalid_argument("the end-effector frame is not in the model");
+    int size = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      if (closure.frame1 >= (FrameIndex)model_.nframes || closure.frame2 >= (FrameIndex)model_.nframes)
+        throw std::invalid_argument("a closure frame is not in the model");
+      size += closure.size;
+    }
+    data_ = Data(model_);
+    residual_ = Vector::Zero(size);
+    jacobian_ = Matrix::Zero(size, model_.nv);
+    frame_jacobian1_ = Matrix::Zero(6, model_.nv);
+    frame_jacobian2_ = Matrix::Zero(6, model_.nv);
+  }
+
+  ClosedChainPlant::ClosedChainPlant(
+    const std::string & model_text,
+    const std::vector<ClosureFrames> & closures,
+    const std::vector<ConstraintSpec> & constraints,
+    const Indices & actuated_q,
+    const Indices & actuated_v,
+    const Indices & dependent_v,
+    double baumgarte_kp,
+    double baumgarte_kd,
+    double proximal_accuracy,
+    double proximal_mu,
+    int proximal_iterations,
+    double projection_tolerance,
+    FrameIndex end_effector)
+  : chain_(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector)
+  , model_(chain_.model())
+  , settings_(proximal_accuracy, proximal_mu, proximal_iterations)
+  , actuated_q_(actuated_q)
+  , actuated_v_(actuated_v)
+  , projection_tolerance_(projection_tolerance)
+  {
+    coefficient_rates_ = model_.nq != model_.nv;
+    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
+      rate_kinds_.push_back(coefficient_rates_ ? rate_kind(model_, j) : AXIS);
+    const RigidConstraintModel::BaumgarteCorrectorParameters gains(baumgarte_kp, baumgarte_kd);
+    for (const ConstraintSpec & spec : constraints)
+    {
+      RigidConstraintModel constraint(
+        spec.size == 6 ? CONTACT_6D : CONTACT_3D, model_, spec.joint1, spec.placement1, spec.joint2,
+        spec.placement2, (ReferenceFrame)spec.reference_frame);
+      constraint.setBaumgarteCorrectorParameters(gains);
+      constraint_models_.push_back(constraint);
+      constraint_datas_.push_back(RigidConstraintData(constraint));
+    }
+    data_ = Data(model_);
+    initConstraintDynamics(model_, data_, constraint_models_, constraint_datas_);
+    tau_ = Vector::Zero(model_.nv);
+    last_q_ = neutral(model_);
+    friction_.normal_force = Vector::Zero(dof());
+  }
+
+  void ClosedChainPlant::set_springs(
+    const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref, const Vector & d,
+    const Indices & damper_v, const Vector & damper_d)
+  {
+    spring_q_ = q_index;
+    spring_v_ = v_index;
+    spring_k_ = k;
+    spring_ref_ = ref;
+    spring_d_ = d;
+    damper_v_ = damper_v;
+    damper_d_ = damper_d;
+  }
+
+  void ClosedChainPlant::set_friction(const FrictionSpec & friction)
+  {
+    if (friction.enabled && friction.normal_force.size() != dof())
+      throw std::invalid_argument("the friction's normal force needs one value per actuated joint");
+    friction_ = friction;
+    if (!friction_.enabled)
+      friction_.normal_force = Vector::Zero(dof());
+  }
+
+  void ClosedChainPlant::set_payload(
+    JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double /*step*/)
+  {
+    payload_joint_ = joint;
+    payload_point_ = point;
+    base_inertia_ = model_.inertias[joint];
+    payload_masses_ = masses;
+    mass_ = 0.0;
+  }
+
+  void ClosedChainPlant::set_payload_mass(double mass)
+  {
+    if (mass != mass_)
+    {
+      model_.inertias[payload_joint_] =
+        base_inertia_ + Inertia(mass, payload_point_, Symmetric3::Zero());
+      mass_ = mass;
+    }
+  }
+
+  const Vector & ClosedChainModel::residual(const Vector & q)
+  {
+    check_size(q, model_.nq, "q");
+    framesForwardKinematics(model_, data_, q);
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const SE3 & M1 = data_.oMf[closure.frame1];
+      const SE3 & M2 = data_.oMf[closure.frame2];
+      residual_.segment<3>(row) = M1.translation() - M2.translation();
+      if (closure.size == 6)
+        residual_.segment<3>(row + 3) =
+          -M1.rotation() * log3(Eigen::Matrix3d(M1.rotation().transpose() * M2.rotation()));
+      row += closure.size;
+    }
+    return residual_;
+  }
+
+  double ClosedChainModel::closure_gap(const Vector & q)
+  {
+    if (!q.allFinite())
+      return std::numeric_limits<double>::quiet_NaN();
+    return largest(residual(q));
+  }
+
+  const Matrix & ClosedChainModel::closure_jacobian(const Vector & q)
+  {
+    computeJointJacobians(model_, data_, q);
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      frame_jacobian1_.setZero();
+      frame_jacobian2_.setZero();
+      getFrameJacobian(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobian(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      jacobian_.middleRows(row, closure.size) =
+        (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
+      row += closure.size;
+    }
+    return jacobian_;
+  }
+
+  bool ClosedChainModel::configuration(
+    const Vector & alpha, const Vector & guess, Vector & q, double tolerance, int iterations)
+  {
+    check_size(alpha, actuated_q_.size(), "alpha");
+    check_size(guess, model_.nq, "the initial guess q");
+    q = guess;
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      q[actuated_q_[i]] = alpha[i];
+    Vector dv = Vector::Zero(model_.nv);
+    for (int iteration = 0; iteration < iterations; ++iteration)
+    {
+      const Vector r = residual(q);
+      if (largest(r) <= tolerance)
+        return true;
+      closure_jacobian(q);
+      Vector step = solve_dependent(r);
+      const double biggest = step.cwiseAbs().maxCoeff();
+      if (biggest > 0.5)
+        step *= 0.5 / biggest;
+      dv.setZero();
+      for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
+        dv[dependent_v_[c]] = -step[c];
+      q = integrate(model_, q, dv);
+      if (!q.allFinite())
+        return false;
+    }
+    residual(q);
+    return false;
+  }
+
+  Matrix ClosedChainModel::velocity_map(const Vector & q)
+  {
+    residual(q);  // the frame placements at q, which the Jacobians read
+    const Matrix & J = closure_jacobian(q);
+    const Eigen::Index n = actuated_v_.size();
+    Matrix B(J.rows(), n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      B.col(c) = J.col(actuated_v_[c]);
+    const Matrix dependent = -solve_dependent(B);
+    Matrix S = Matrix::Zero(model_.nv, n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      S(actuated_v_[c], c) = 1.0;
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      S.row(dependent_v_[r]) = dependent.row(r);
+    return S;
+  }
+
+  Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
+  {
+    Matrix A(jacobian_.rows(), dependent_v_.size());
+    for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
+      A.col(c) = jacobian_.col(dependent_v_[c]);
+    return least_squares(A, rhs);
+  }
+
+  void ClosedChainModel::reduced_terms(
+    const Vector & q, const Vector & alpha_dot, Matrix & M_red, Matrix & C_red, Vector & G_red, Vector & C_alpha_dot)
+  {
+    check_size(q, model_.nq, "q");
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    const Matrix S = velocity_map(q);  // J_c at q stays in jacobian_
+    const Vector v = S * alpha_dot;
+    const Eigen::Index n_closure = jacobian_.rows(), nv = model_.nv;
+    // J_c_dot (Pinocchio's LOCAL_WORLD_ALIGNED dJ is the time derivative of J) and J_c_dot v
+    computeJointJacobiansTimeVariation(model_, data_, q, v);
+    updateFramePlacements(model_, data_);
+    Matrix J_dot(n_closure, nv);
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      frame_jacobian1_.setZero();
+      frame_jacobian2_.setZero();
+      getFrameJacobianTimeVariation(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobianTimeVariation(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
+      row += closure.size;
+    }
+    // the closures' relative classical accelerations at zero joint acceleration: J_c_dot v
+    forwardKinematics(model_, data_, q, v, Vector::Zero(nv));
+    Vector drift(n_closure);
+    row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
+      drift.segment<3>(row) = a1.linear() - a2.linear();
+      if (closure.size == 6)
+        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
+      row += closure.size;
+    }
+    Matrix S_dot = Matrix::Zero(nv, S.cols());
+    const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
+    const Vector rate_dependent = -solve_dependent(drift);
+    Vector rate = Vector::Zero(nv);  // S_dot alpha_dot, from the drift
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+    {
+      S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
+      rate[dependent_v_[r]] = rate_dependent[r];
+    }
+    crba(model_, data_, q);
+    data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
+    const Matrix M = data_.M;
+    const Matrix C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    const Vector gravity = computeGeneralizedGravity(model_, data_, q);
+    const Vector nle = nonLinearEffects(model_, data_, q, v);
+    const Matrix M_projected = S.transpose() * M * S;
+    M_red = 0.5 * (M_projected + M_projected.transpose());
+    C_red = S.transpose() * C_tree * S + S.transpose() * M * S_dot;
+    G_red = S.transpose() * gravity;
+    C_alpha_dot = S.transpose() * (nle - gravity) + S.transpose() * (M * rate);
+  }
+
+  Eigen::Vector3d ClosedChainModel::end_effector_position(const Vector & q)
+  {
+    check_size(q, model_.nq, "q");
+    forwardKinematics(model_, data_, q);
+    return updateFramePlacement(model_, data_, end_effector_).translation();
+  }
+
+  const Vector & ClosedChainPlant::accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage)
+  {
+    check_size(q, model_.nq, "q");
+    check_size(v, model_.nv, "v");
+    check_size(tau, actuated_v_.size(), "tau");
+    if (payload_masses_.size())
+      set_payload_mass(payload_masses_[std::min<Eigen::Index>(stage, payload_masses_.size() - 1)]);
+    tau_.setZero();
+    for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+    {
+      double torque = tau[i];
+      if (friction_.enabled)
+      {
+        const double speed = v[actuated_v_[i]];
+        const double normal = friction_.normal_force[i];
+        const double coulomb = friction_.mu_d * normal, level_static = friction_.mu_s * normal;
+        const double sliding = speed * friction_.r_a / friction_.v_s;
+        const double sign = friction_.sign_scale > 0.0 ? std::tanh(speed / friction_.sign_scale)
+                                                       : (double)((speed > 0.0) - (speed < 0.0));
+        const double level = coulomb + (level_static - coulomb) * std::exp(-(sliding * sliding));
+        torque -= level * sign * friction_.r_a + friction_.mu_v * speed * friction_.r_a;
+      }
+      tau_[actuated_v_[i]] = torque;
+    }
+    for (Eigen::Index i = 0; i < spring_v_.size(); ++i)
+      tau_[spring_v_[i]] -=
+        spring_k_[i] * (q[spring_q_[i]] - spring_ref_[i]) + spring_d_[i] * v[spring_v_[i]];
+    for (Eigen::Index i = 0; i < damper_v_.size(); ++i)
+      tau_[damper_v_[i]] -= damper_d_[i] * v[damper_v_[i]];
+    return constraintDynamics(
+      model_, data_, q, v, tau_, constraint_models_, constraint_datas_, settings_);
+  }
+
+  void ClosedChainPlant::configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const
+  {
+    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
+    {
+      const int iq = model_.idx_qs[j], iv = model_.idx_vs[j], nq = model_.nqs[j];
+      switch (rate_kinds_[j - 1])
+      {
+      case AXIS:
+        rate.segment(iq, nq) = v.segment(iv, nq);
+        break;
+      case BALL:
+        quaternion_rate(q.segment<4>(iq), v.segment<3>(iv), rate.segment<4>(iq));
+        break;
+      case FREE:
+      {
+        const Eigen::Quaterniond quaternion(q[iq + 6], q[iq + 3], q[iq + 4], q[iq + 5]);
+        rate.segment<3>(iq) = quaternion.toRotationMatrix() * v.segment<3>(iv);
+        quaternion_rate(q.segment<4>(iq + 3), v.segment<3>(iv + 3), rate.segment<4>(iq + 3));
+        break;
+      }
+      case UNIT_COMPLEX:
+        rate[iq] = -q[iq + 1] * v[iv];
+        rate[iq + 1] = q[iq] * v[iv];
+        break;
+      default:  // planar: x, y, cos, sin; v = (vx, vy) in the joint frame, omega
+      {
+        const double c = q[iq + 2], s = q[iq + 3], vx = v[iv], vy = v[iv + 1], w = v[iv + 2];
+        rate[iq] = c * vx - s * vy;
+        rate[iq + 1] = s * vx + c * vy;
+        rate[iq + 2] = -s * w;
+        rate[iq + 3] = c * w;
+      }
+      }
+    }
+  }
+
+  void ClosedChainPlant::derivative(const Vector & x, const Vector & tau, long stage, Vector & dx)
+  {
+    const int nq = model_.nq, nv = model_.nv;
+    dx.resize(nq + nv);
+    const Vector q = x.head(nq), v = x.tail(nv);
+    if (coefficient_rates_)
+      configuration_rate(q, v, dx.head(nq));
+    else
+      dx.head(nq) = v;
+    dx.tail(nv) = accelerations(q, v, tau, stage);
+  }
+
+  void ClosedChainPlant::finish(Vector & x)
+  {
+    if (coefficient_rates_)
+    {
+      Vector q = x.head(model_.nq);
+      normalize(model_, q);
+      x.head(model_.nq) = q;
+    }
+  }
+
+  double ClosedChainPlant::step(Vector & x, const Vector & tau, long stage, double h)
+  {
+    check_size(x, model_.nq + model_.nv, "x");
+    derivative(x, tau, stage, k1_);
+    y_ = x + 0.5 * h * k1_;
+    derivative(y_, tau, stage + 1, k2_);
+    y_ = x + 0.5 * h * k2_;
+    derivative(y_, tau, stage + 1, k3_);
+    y_ = x + h * k3_;
+    derivative(y_, tau, stage + 2, k4_);
+    x = x + (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    finish(x);
+    const int nq = model_.nq, nv = model_.nv;
+    const double gap = chain_.closure_gap(x.head(nq));
+    if (gap <= projection_tolerance_)
+      return gap;
+    if (!(std::isfinite(gap) && x.allFinite()))
+      throw SimulationFailure("the loop-closure gap is nan: the state is no longer finite");
+    // project: q from the actuated coordinates (Newton from x's own q), v = S alpha_dot
+    last_q_ = x.head(nq);
+    Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size()), q;
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      alpha[i] = x[actuated_q_[i]];
+    for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+      alpha_dot[i] = x[nq + actuated_v_[i]];
+    if (!chain_.configuration(alpha, last_q_, q))
+      throw SimulationFailure(
+        "cannot close the loops: Newton from the drifted state does not converge (largest residual "
+        + std::to_string(largest(chain_.residual(q))) + ")");
+    x.head(nq) = q;
+    x.tail(nv) = chain_.velocity_map(q) * alpha_dot;
+    last_q_ = q;
+    ++projections_;
+    return chain_.closure_gap(q);
+  }
+
+  long ClosedChainPlant::run_sampled(
+    Vector x, long steps, int substeps, double dt,
+    const std::function<Vector(long, const Vector &)> & control,
+    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
+    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
+    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,
+    Eigen::Ref<Vector> gap_out)
+  {
+    const int nq = model_.nq, nv = model_.nv;
+    if (x.size() != nq + nv || q_out.rows() < steps + 1 || q_out.cols() != nq || v_out.cols() != nv)
+      throw std::invalid_argument("run_sampled: the state or the record arrays have the wrong shape");
+    const double h = dt / substeps;
+    double gap = chain_.closure_gap(x.head(nq));
+    for (long k = 0; k <= steps; ++k)
+    {
+      const Vector tau = control(k, x);
+      if (tau.size() != dof())
+        throw std::invalid_argument("run_sampled: the control returned a torque of the wrong size");
+      q_out.row(k) = x.head(nq).transpose();
+      v_out.row(k) = x.tail(nv).transpose();
+      xyz_out.row(k) = chain_.end_effector_position(x.head(nq)).transpose();
+      gap_out[k] = gap;
+      if (k == steps)
+        break;
+      for (int j = 0; j < substeps; ++j)
+      {
+        try
+        {
+          gap = step(x, tau, 2 * (k * (long)substeps + j), h);
+        }
+        catch (SimulationFailure & failure)
+        {
+          failure_time_ = failure.time = k * dt + (j + 1) * h;
+          throw;
+        }
+      }
+    }
+    return steps + 1;
+  }
+} // namespace delta_pin

@@ -1,0 +1,187 @@
+// The constrained plant of a closed-chain robot in the compiled core: Pinocchio's tree plus its
+// loop closures, integrated in full coordinates x = [q, v] (docs/architecture.md section 7).
+//
+// The same physics as the Python ClosedChainPlant (delta_pin/sim/closed_chain_plant.py), which
+// the tests hold this class to: pinocchio::constraintDynamics with Baumgarte stabilisation, the
+// actuated torques minus the joint friction (eq. 12, sgn smoothed by tanh), joint springs and
+// dampers, a payload point mass at a frame read from a table of the RK4 stage times, the
+// configuration coefficients of ball, free and continuous joints integrated at their rates and
+// renormalised; a step whose closure gap exceeds the projection tolerance is projected back onto
+// the loops (Newton from the actuated coordinates, velocities through S = dq/dalpha).
+//
+// Only robots whose actuated joints carry the whole motion (no idle motions, no passive joints)
+// are built here; the others keep the Python plant.
+#pragma once
+
+#include <pinocchio/algorithm/constrained-dynamics.hpp>
+#include <pinocchio/multibody.hpp>
+
+#include <Eigen/Dense>
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace delta_pin
+{
+  typedef Eigen::VectorXd Vector;
+  typedef Eigen::MatrixXd Matrix;
+  typedef Eigen::VectorXi Indices;
+
+  // One loop closure: its two frames in the model and its equations (3: a point, 6: a weld).
+  struct ClosureFrames
+  {
+    pinocchio::FrameIndex frame1, frame2;
+    int size;
+  };
+
+  // One point or weld constraint for constraintDynamics (RigidConstraintModel's numbers).
+  struct ConstraintSpec
+  {
+    int size;  // 3 or 6
+    pinocchio::JointIndex joint1, joint2;
+    pinocchio::SE3 placement1, placement2;
+    int reference_frame;  // pinocchio::ReferenceFrame
+  };
+
+  // Stribeck friction on the actuated joints (eq. 12): r_a, v_s, mu_s, mu_d, mu_v, the normal
+  // force per joint [N] and the sign's smoothing scale [rad/s].
+  struct FrictionSpec
+  {
+    bool enabled = false;
+    double r_a = 0.0, v_s = 1.0, mu_s = 0.0, mu_d = 0.0, mu_v = 0.0, sign_scale = 0.0;
+    Vector normal_force;
+  };
+
+  // The kinematics and projected dynamics of a closed-chain robot whose actuated joints carry the
+  // whole motion: the same arithmetic as ClosedChainRobot (delta_pin/model/closed_chain.py).
+  class ClosedChainModel
+  {
+  public:
+    // model_text: pinocchio::Model::saveToString() of the robot's model (closure frames included)
+    ClosedChainModel(
+      const std::string & model_text,
+      const std::vector<ClosureFrames> & closures,
+      const Indices & actuated_q,
+      const Indices & actuated_v,
+      const Indices & dependent_v,
+      pinocchio::FrameIndex end_effector);
+
+    const pinocchio::Model & model() const { return model_; }
+    int dof() const { return (int)actuated_v_.size(); }
+    const Indices & actuated_q() const { return actuated_q_; }
+    const Indices & actuated_v() const { return actuated_v_; }
+
+    // closure residual r(q) [m, rad] and its largest entry (NaN where q holds one)
+    const Vector & residual(const Vector & q);
+    double closure_gap(const Vector & q);
+    // a closure-consistent q with the actuated joints at alpha (Newton from `guess`, steps of at
+    // most 0.5); false where it does not converge to `tolerance`
+    bool configuration(const Vector & alpha, const Vector & guess, Vector & q, double tolerance = 1e-12, int iterations = 60);
+    // S = dq/dalpha (nv, dof) at a closed q
+    Matrix velocity_map(const Vector & q);
+    // M (dof, dof), C (dof, dof), G (dof), C alpha_dot (dof) on the actuated joints by projection
+    // (ClosedChainRobot.reduced_terms) at a closed q
+    void reduced_terms(const Vector & q, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G, Vector & C_alpha_dot);
+    Eigen::Vector3d end_effector_position(const Vector & q);
+
+  private:
+    const Matrix & closure_jacobian(const Vector & q);  // after the frame placements at q
+    Matrix solve_dependent(const Matrix & rhs);  // least squares on J_c's dependent columns
+
+    pinocchio::Model model_;
+    pinocchio::Data data_;
+    std::vector<ClosureFrames> closures_;
+    Indices actuated_q_, actuated_v_, dependent_v_;
+    pinocchio::FrameIndex end_effector_;
+    Vector residual_;
+    Matrix jacobian_, frame_jacobian1_, frame_jacobian2_;
+  };
+
+  class ClosedChainPlant
+  {
+  public:
+    // model_text: pinocchio::Model::saveToString() of the robot's model (closure frames included).
+    ClosedChainPlant(
+      const std::string & model_text,
+      const std::vector<ClosureFrames> & closures,
+      const std::vector<ConstraintSpec> & constraints,
+      const Indices & actuated_q,
+      const Indices & actuated_v,
+      const Indices & dependent_v,
+      double baumgarte_kp,
+      double baumgarte_kd,
+      double proximal_accuracy,
+      double proximal_mu,
+      int proximal_iterations,
+      double projection_tolerance,
+      pinocchio::FrameIndex end_effector);
+
+    // springs on 1-DOF joints: tau -= k (q - q_ref) + d v; dampers on the others: tau -= d v
+    void set_springs(
+      const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref,
+      const Vector & d, const Indices & damper_v, const Vector & damper_d);
+    void set_friction(const FrictionSpec & friction);
+    // a payload point mass at `point` in the frame of joint `joint`: masses [kg] at t = i step
+    void set_payload(pinocchio::JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double step);
+
+    int nq() const { return model_.nq; }
+    int nv() const { return model_.nv; }
+    int dof() const { return (int)actuated_v_.size(); }
+    long projections() const { return projections_; }
+    // the simulated time [s] of the last SimulationFailure of run_sampled (NaN before one)
+    double failure_time() const { return failure_time_; }
+
+    ClosedChainModel & chain() { return chain_; }
+    // ddq at (q, v) under actuated torques tau at the payload table's row `stage`
+    const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage);
+    // dx/dt at x
+    void derivative(const Vector & x, const Vector & tau, long stage, Vector & dx);
+    // one RK4 step of length h under held tau from the table row `stage` (rows stage, stage+1,
+    // stage+1, stage+2 for t, t+h/2, t+h/2, t+h), then renormalisation, the gap, a projection
+    // where it exceeds the tolerance; returns the closure gap of the result
+    double step(Vector & x, const Vector & tau, long stage, double h);
+
+    // The sampled loop: `control(k, x)` gives the torque held over sample k (the Python side:
+    // sensor, controller, drive); the plant takes `substeps` RK4 steps of dt / substeps.
+    // Records (steps + 1 rows) x's q and v, the end effector and the closure gap. Returns the
+    // number of samples recorded (steps + 1, or the sample at which the state became non-finite).
+    long run_sampled(
+      Vector x, long steps, int substeps, double dt,
+      const std::function<Vector(long, const Vector &)> & control,
+      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
+      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
+      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,
+      Eigen::Ref<Vector> gap_out);
+
+  private:
+    void set_payload_mass(double mass);
+    void configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const;
+    void finish(Vector & x);
+
+    ClosedChainModel chain_;  // the kinematics: closures, assembly, S
+    pinocchio::Model model_;  // the dynamics (its payload inertia rewritten in time)
+    pinocchio::Data data_;
+    std::vector<pinocchio::RigidConstraintModel> constraint_models_;
+    std::vector<pinocchio::RigidConstraintData> constraint_datas_;
+    pinocchio::ProximalSettings settings_;
+    Indices actuated_q_, actuated_v_;
+    std::vector<int> rate_kinds_;  // per joint: 0 axis, 1 ball, 2 free, 3 unit complex, 4 planar
+    bool coefficient_rates_;
+    double projection_tolerance_;
+    long projections_ = 0;
+    double failure_time_ = std::numeric_limits<double>::quiet_NaN();
+    // springs, dampers, friction, payload
+    Indices spring_q_, spring_v_, damper_v_;
+    Vector spring_k_, spring_ref_, spring_d_, damper_d_;
+    FrictionSpec friction_;
+    pinocchio::JointIndex payload_joint_ = 0;
+    Eigen::Vector3d payload_point_ = Eigen::Vector3d::Zero();
+    pinocchio::Inertia base_inertia_ = pinocchio::Inertia::Zero();
+    Vector payload_masses_;
+    double mass_ = 0.0;
+    // scratch
+    Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_;
+  };
+} // namespace delta_pin

@@ -1,0 +1,19 @@
+// A simulation that cannot go on, with the simulated time [s] at which it stopped (Python sees
+// delta_pin.compiled._core.SimulationFailure and raises delta_pin's SimulationError from it).
+#pragma once
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace delta_pin
+{
+  struct SimulationFailure : std::runtime_error
+  {
+    explicit SimulationFailure(const std::string & message)
+    : std::runtime_error(message)
+    {
+    }
+    double time = std::nan("");
+  };
+} // namespace delta_pin

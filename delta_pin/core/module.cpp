@@ -1,0 +1,202 @@
+// delta_pin.compiled._core: the Python face of delta-pin's compiled core (nanobind).
+//
+// ClosedChainPlant (closed_chain.hpp) is the constrained plant of any fully actuated closed-chain
+// robot with its sampled loop, which calls back into Python once per sample for the torque
+// (delta_pin/sim/compiled_plant.py builds it from a ClosedChainRobot).
+//
+// The constrained tree dynamics of tree_dynamics.cpp keep their C entry points, which the numba
+// loops call through plain function addresses (delta_pin/compiled/native/calls.py); `symbols()`
+// hands those addresses to Python. Nothing here is compiled at run time: scikit-build-core builds
+// this module when the package is installed (CMakeLists.txt).
+
+#include "closed_chain.hpp"
+#include "failure.hpp"
+
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/function.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include <cstdint>
+
+extern "C" {
+void * dpn_create(
+  int, const int *, const int *, const double *, const double *, const double *, int, const int *,
+  const double *, double, double, int, char *, int);
+void dpn_destroy(void *);
+int dpn_nv(void *);
+int dpn_dynamics(void *, const double *, const double *, const double *, double, const double *, double *);
+int dpn_dynamics_axis(
+  void *, const double *, const double *, const double *, double, const double *, double *);
+int dpn_set_active(void *, const int *, const int *, double, int, const double *);
+int dpn_active_dynamics(
+  void *, const double *, const double *, const double *, double, const double *, double *, double *,
+  double *);
+double dpn_closure_gap(void *, const double *);
+}
+
+namespace nb = nanobind;
+
+namespace
+{
+  typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
+  typedef nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu> Table;
+  typedef nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> Column;
+
+  pinocchio::SE3 placement(const Eigen::Matrix4d & homogeneous)
+  {
+    return pinocchio::SE3(Eigen::Matrix3d(homogeneous.topLeftCorner<3, 3>()), Eigen::Vector3d(homogeneous.topRightCorner<3, 1>()));
+  }
+
+  Eigen::Map<RowMatrix> rows(Table & table)
+  {
+    return Eigen::Map<RowMatrix>(table.data(), (Eigen::Index)table.shape(0), (Eigen::Index)table.shape(1));
+  }
+
+  template<typename Function>
+  std::uintptr_t address(Function * function)
+  {
+    return reinterpret_cast<std::uintptr_t>(function);
+  }
+} // namespace
+
+NB_MODULE(_core, m)
+{
+  m.doc() = "delta-pin's compiled core (see delta_pin/compiled/core.py)";
+  m.attr("pinocchio_version") = DELTA_PIN_PINOCCHIO_VERSION;
+  using delta_pin::ClosedChainModel;
+  using delta_pin::ClosedChainPlant;
+  nb::class_<ClosedChainModel>(m, "ClosedChainModel")
+    .def(
+      "__init__",
+      [](
+        ClosedChainModel * self, const std::string & model_text,
+        const std::vector<std::tuple<size_t, size_t, int>> & closures, const Eigen::VectorXi & actuated_q,
+        const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v, size_t end_effector)
+      {
+        std::vector<delta_pin::ClosureFrames> frames;
+        for (const auto & [f1, f2, size] : closures)
+          frames.push_back({f1, f2, size});
+        new (self) ClosedChainModel(model_text, frames, actuated_q, actuated_v, dependent_v, end_effector);
+      },
+      nb::arg("model_text"), nb::arg("closures"), nb::arg("actuated_q"), nb::arg("actuated_v"),
+      nb::arg("dependent_v"), nb::arg("end_effector"))
+    .def_prop_ro("dof", &ClosedChainModel::dof)
+    .def("closure_gap", &ClosedChainModel::closure_gap)
+    .def(
+      "configuration",
+      [](ClosedChainModel & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & guess, double tolerance,
+         int iterations)
+      {
+        Eigen::VectorXd q;
+        const bool closed = self.configuration(alpha, guess, q, tolerance, iterations);
+        return std::make_tuple(closed, q);
+      },
+      nb::arg("alpha"), nb::arg("guess"), nb::arg("tolerance") = 1e-12, nb::arg("iterations") = 60,
+      "(closed, q): Newton on the closures from guess with the actuated joints at alpha.")
+    .def("velocity_map", &ClosedChainModel::velocity_map)
+    .def(
+      "reduced_terms",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot)
+      {
+        Eigen::MatrixXd M, C;
+        Eigen::VectorXd G, C_alpha_dot;
+        self.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
+        return std::make_tuple(M, C, G, C_alpha_dot);
+      },
+      "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
+    .def("end_effector_position", &ClosedChainModel::end_effector_position);
+
+  nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
+  nb::class_<ClosedChainPlant>(m, "ClosedChainPlant")
+    .def(
+      "__init__",
+      [](
+        ClosedChainPlant * self, const std::string & model_text,
+        const std::vector<std::tuple<size_t, size_t, int>> & closures,
+        const std::vector<std::tuple<int, size_t, Eigen::Matrix4d, size_t, Eigen::Matrix4d, int>> & constraints,
+        const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+        double kp, double kd, double accuracy, double mu, int iterations, double projection_tolerance,
+        size_t end_effector)
+      {
+        std::vector<delta_pin::ClosureFrames> frames;
+        for (const auto & [f1, f2, size] : closures)
+          frames.push_back({f1, f2, size});
+        std::vector<delta_pin::ConstraintSpec> specs;
+        for (const auto & [size, j1, p1, j2, p2, reference] : constraints)
+          specs.push_back({size, j1, j2, placement(p1), placement(p2), reference});
+        new (self) ClosedChainPlant(
+          model_text, frames, specs, actuated_q, actuated_v, dependent_v, kp, kd, accuracy, mu, iterations,
+          projection_tolerance, end_effector);
+      },
+      nb::arg("model_text"), nb::arg("closures"), nb::arg("constraints"), nb::arg("actuated_q"),
+      nb::arg("actuated_v"), nb::arg("dependent_v"), nb::arg("baumgarte_kp"), nb::arg("baumgarte_kd"),
+      nb::arg("proximal_accuracy"), nb::arg("proximal_mu"), nb::arg("proximal_iterations"),
+      nb::arg("projection_tolerance"), nb::arg("end_effector"))
+    .def("set_springs", &ClosedChainPlant::set_springs)
+    .def(
+      "set_friction",
+      [](ClosedChainPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
+         const Eigen::VectorXd & normal_force)
+      {
+        delta_pin::FrictionSpec friction;
+        friction.enabled = true;
+        friction.r_a = r_a;
+        friction.v_s = v_s;
+        friction.mu_s = mu_s;
+        friction.mu_d = mu_d;
+        friction.mu_v = mu_v;
+        friction.sign_scale = sign_scale;
+        friction.normal_force = normal_force;
+        self.set_friction(friction);
+      })
+    .def("set_payload", &ClosedChainPlant::set_payload)
+    .def_prop_ro("nq", &ClosedChainPlant::nq)
+    .def_prop_ro("nv", &ClosedChainPlant::nv)
+    .def_prop_ro("dof", &ClosedChainPlant::dof)
+    .def_prop_ro("projections", &ClosedChainPlant::projections)
+    .def_prop_ro("failure_time", &ClosedChainPlant::failure_time)
+    .def("closure_gap", [](ClosedChainPlant & self, const Eigen::VectorXd & q) { return self.chain().closure_gap(q); })
+    .def(
+      "accelerations",
+      [](ClosedChainPlant & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v, const Eigen::VectorXd & tau,
+         long stage) { return Eigen::VectorXd(self.accelerations(q, v, tau, stage)); })
+    .def(
+      "step",
+      [](ClosedChainPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, long stage, double h)
+      {
+        Eigen::VectorXd y = x;
+        const double gap = self.step(y, tau, stage, h);
+        return std::make_tuple(y, gap);
+      })
+    .def(
+      "run_sampled",
+      [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
+         const std::function<Eigen::VectorXd(long, const Eigen::VectorXd &)> & control, Table q, Table v, Table xyz,
+         Column gap)
+      {
+        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
+        return self.run_sampled(x, steps, substeps, dt, control, rows(q), rows(v), rows(xyz), gaps);
+      },
+      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
+      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert());
+  m.def(
+    "symbols",
+    []()
+    {
+      nb::dict table;
+      table["dpn_create"] = address(&dpn_create);
+      table["dpn_destroy"] = address(&dpn_destroy);
+      table["dpn_nv"] = address(&dpn_nv);
+      table["dpn_dynamics"] = address(&dpn_dynamics);
+      table["dpn_dynamics_axis"] = address(&dpn_dynamics_axis);
+      table["dpn_set_active"] = address(&dpn_set_active);
+      table["dpn_active_dynamics"] = address(&dpn_active_dynamics);
+      table["dpn_closure_gap"] = address(&dpn_closure_gap);
+      return table;
+    },
+    "Addresses of the C entry points of the constrained tree dynamics (name -> int).");
+}

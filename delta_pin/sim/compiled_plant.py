@@ -1,0 +1,123 @@
+"""A :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant` in the compiled core, and the
+sampled loop that runs it with any controller (docs/architecture.md section 7).
+
+The core's plant (``delta_pin/core/closed_chain.cpp``) is built from the very numbers of the
+Python plant -- the robot's Pinocchio model (its text archive, closure frames included), the
+closures with the plant's Baumgarte gains and proximal settings, the springs, dampers, friction
+and the payload tabulated at the RK4 stage times -- and integrates x = [q, v] with the same RK4
+steps, renormalisation and projections. The controller stays in Python: the loop calls back once
+per sample for the torque (sensor, controller, drive), so a user's own law gets the compiled plant.
+
+:meth:`ClosedChainPlant.sampled_core <delta_pin.sim.closed_chain_plant.ClosedChainPlant.sampled_core>`
+says whether a plant has one (full coordinates, the actuated joints carrying the whole motion).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from delta_pin.compiled.core import core
+from delta_pin.errors import NativeUnavailableError, SimulationError
+from delta_pin.model.core_model import core_arguments
+
+__all__ = ["CompiledSampledRun", "build_core_plant", "run_core_sampled"]
+
+
+class CompiledSampledRun:
+    """What the compiled sampled loop records (steps + 1 rows): q, v, end-effector xyz, closure gap."""
+
+    def __init__(self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray) -> None:
+        self.q, self.v, self.xyz, self.gap = q, v, xyz, gap
+
+
+def _payload_masses(plant, step: float, count: int) -> np.ndarray:
+    """The payload m(t) [kg] at t = i step, i < count (the RK4 stage times).
+
+    Raises:
+        SimulationError: m(t) is not a finite mass >= 0 (at the first such time).
+    """
+    masses = np.array([float(plant.payload_mass(i * step)) for i in range(count)])
+    bad = np.flatnonzero(~(np.isfinite(masses) & (masses >= 0.0)))
+    if bad.size:
+        raise SimulationError(f"payload_mass(t) returned {masses[bad[0]]!r} kg", bad[0] * step)
+    return masses
+
+
+def build_core_plant(plant, step: float | None = None, count: int = 0):
+    """The core's plant for a Python ``ClosedChainPlant`` in full coordinates (the caller checks
+    that it applies), with the payload tabulated at t = i step, i < count [s].
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here, or rejects the model (a joint
+            without a configuration rate).
+    """
+    robot = plant.robot
+    module = core()
+    constraints = [
+        (
+            6 if cm.type == pin.ContactType.CONTACT_6D else 3,
+            int(cm.joint1_id),
+            cm.joint1_placement.homogeneous,
+            int(cm.joint2_id),
+            cm.joint2_placement.homogeneous,
+            int(cm.reference_frame),
+        )
+        for cm in plant.constraint_models
+    ]
+    settings = plant.settings
+    text, frames, actuated_q, actuated_v, dependent_v = core_arguments(robot)
+    try:
+        compiled = module.ClosedChainPlant(
+            text, frames, constraints, actuated_q, actuated_v, dependent_v, *plant.baumgarte_gains,
+            settings.absolute_accuracy, settings.mu, settings.max_iter, plant.projection_tolerance,
+            int(robot.end_effector),
+        )  # fmt: skip
+    except (ValueError, RuntimeError) as exc:
+        raise NativeUnavailableError(f"the compiled plant does not take {robot.name!r}: {exc}") from None
+    as_indices = np.int32
+    compiled.set_springs(
+        plant._spring_q.astype(as_indices), plant._spring_v.astype(as_indices), plant._spring_k,
+        plant._spring_ref, plant._spring_d, plant._damper_v.astype(as_indices), plant._damper_d,
+    )  # fmt: skip
+    if plant.friction is not None:
+        s = plant.stribeck
+        compiled.set_friction(
+            s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale, plant._normal_force
+        )
+    if plant.payload_mass is not None:
+        if step is None or count <= 0:
+            raise ValueError("a payload needs the stage step and count to be tabulated")
+        masses = _payload_masses(plant, step, count)
+        compiled.set_payload(int(plant._payload_joint), plant._payload_point, masses, step)
+    return compiled
+
+
+def run_core_sampled(
+    compiled,
+    x: np.ndarray,
+    steps: int,
+    substeps: int,
+    dt: float,
+    control: Callable[[int, np.ndarray], np.ndarray],
+) -> CompiledSampledRun:
+    """Run the core's sampled loop from x: ``control(k, x)`` gives the torque held over sample k.
+
+    Raises:
+        SimulationError: the loops cannot be closed again or the state is no longer finite (at
+            the time it happened); whatever ``control`` raises passes through unchanged.
+    """
+    n = steps + 1
+    q = np.zeros((n, compiled.nq))
+    v = np.zeros((n, compiled.nv))
+    xyz = np.zeros((n, 3))
+    gap = np.zeros(n)
+    try:
+        compiled.run_sampled(np.asarray(x, dtype=float), steps, substeps, dt, control, q, v, xyz, gap)
+    except core().SimulationFailure as exc:
+        time = compiled.failure_time
+        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
+    return CompiledSampledRun(q, v, xyz, gap)
