@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePoseError
+from delta_pin.model.core_model import core_model
 from delta_pin.model.trajectory import JointReference, Trajectory, _vectorised
 
 __all__ = ["Circle", "FramePath"]
@@ -137,6 +138,9 @@ class FramePath:
         xyz_dot = np.atleast_2d(self.trajectory.velocity(times))
         xyz_ddot = np.atleast_2d(self.trajectory.acceleration(times))
         n = len(times)
+        compiled = self._compiled_reference(robot, fid, rows, times, xyz, xyz_dot, xyz_ddot)
+        if compiled is not None:
+            return JointReference(times, compiled[3], xyz_dot, xyz_ddot, *compiled[:3])
         alpha, alpha_dot, alpha_ddot = (np.empty((n, robot.dof)) for _ in range(3))
         actual = np.empty((n, 3))
         guess = None
@@ -156,6 +160,25 @@ class FramePath:
             alpha_ddot[k] = np.linalg.solve(J, (xyz_ddot[k] - drift)[rows])
             actual[k] = robot.frame_placement(q, fid).translation
         return JointReference(times, actual, xyz_dot, xyz_ddot, alpha, alpha_dot, alpha_ddot)
+
+    @staticmethod
+    def _compiled_reference(robot, fid, rows, times, xyz, xyz_dot, xyz_ddot):
+        """(alpha, alpha_dot, alpha_ddot, reached xyz) from the compiled core's loop over the
+        samples (the same Newton iterations as the loop below, which stays the reference and
+        names a sample that cannot be reached), or ``None`` where the core does not take the
+        robot or a sample fails."""
+        model = core_model(robot)
+        if model is None:
+            return None
+        start = robot._last_q.copy()
+        alpha0 = start[robot.actuated_q_indices]
+        failed, q, *reference = model.joint_reference(
+            int(fid), np.asarray(rows, dtype=np.int32), times, xyz, xyz_dot, xyz_ddot, alpha0, start
+        )
+        if failed >= 0:
+            return None
+        robot._last_q = q  # the assembly mode the path ends in, as the loop below leaves it
+        return reference
 
     def metadata(self) -> dict[str, Any]:
         return {

@@ -124,10 +124,13 @@ def test_every_controller_runs_on_a_closed_chain_robot(five_bar, controller):
 
 def test_compiled_loops_and_their_integrators_are_refused_by_name(five_bar):
     nominal = dp.ClosedChainNominalModel(five_bar)
-    with pytest.raises(
-        InvalidParameterError, match="compiled=True: the compiled loops are written for the Delta"
-    ):
-        dp.simulate(five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, compiled=True)
+    with pytest.raises(InvalidParameterError, match="compiled=True: 'five_bar' has a compiled plant in sampled"):
+        dp.simulate(
+            five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, mode="continuous",
+            compiled=True,
+        )  # fmt: skip
+    run = dp.simulate(five_bar, dp.PDGravity(nominal), None, t_end=0.01, alpha0=five_bar.home, compiled=True)
+    assert run.q is not None  # the compiled plant records the full configuration
     with pytest.raises(
         InvalidParameterError, match="integrator='radau' exists in the Delta's compiled loops"
     ):

@@ -1,0 +1,135 @@
+"""The compiled core on robots other than the paper's Delta (issue 23).
+
+Run: ``python benchmarks/bench_engine.py [--repeats 3] [--t-end 15]``
+
+Cases, each a whole ``dp.simulate`` call as a user waits for it (reference tabulation, set-up and
+the loop), on the shipped five-bar: design I (sampling-aware) along a circle of its tip, sampled
+at 1 kHz with RK4, with a 0-0.4 kg payload the controller does not know:
+
+* the compiled plant and loop (the default), the controller called back once per sample;
+* the Python loop on the Python plant (``compiled=False``; the projection and IK still compiled);
+* the same without the core at all (``DELTA_PIN_NATIVE=0``: the path before it), the reference;
+* the joint reference alone (``FramePath.joint_reference``): the core's loop and the Python loop.
+
+And the 3-RRR's MJCF for ``mujoco.rollout`` (MuJoCo's C++ loop, zero control, RK4 1 ms) against
+the compiled plant under a user's PD law from Python, both 15 s: the issue's reference figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+import numpy as np
+from common import machine_info, measure, print_table, report_target
+
+import delta_pin as dp
+from delta_pin.model import frame_path
+
+
+def _five_bar_case(t_end: float):
+    robot = dp.load_robot("five_bar", end_effector="tip")
+    home = robot.frame_placement(robot.reference_configuration).translation
+    circle = dp.Circle(
+        center=home + np.array([0.0, 0.0, 0.03]), radius=0.03, period=2.0, plane="xz", phase=-np.pi / 2
+    )
+    path = dp.FramePath(circle)
+    nominal = dp.ClosedChainNominalModel(robot)
+
+    def run(compiled):
+        plant = dp.ClosedChainPlant(robot, payload_mass=lambda t: 0.2 * (1.0 + np.sin(np.pi * t)))
+        return dp.simulate(
+            robot, dp.design1(nominal, sampling_period=1e-3), path, plant=plant, t_end=t_end, mode="sampled",
+            alpha0=robot.home, compiled=compiled,
+        )  # fmt: skip
+
+    return robot, path, run
+
+
+def _python_reference(path, robot, t):
+    original = frame_path.FramePath.__dict__["_compiled_reference"]
+    frame_path.FramePath._compiled_reference = staticmethod(lambda *arguments: None)
+    try:
+        return path.joint_reference(robot, t)
+    finally:
+        frame_path.FramePath._compiled_reference = original
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--t-end", type=float, default=15.0, help="simulated time [s]")
+    args = parser.parse_args()
+    print(f"machine: {machine_info()}")
+    robot, path, run = _five_bar_case(args.t_end)
+    compiled = measure(
+        "five-bar, design I, sampled 1 kHz: compiled plant and loop", lambda: run(None), args.repeats
+    )
+    python = measure(
+        "the same run: the Python plant and loop (compiled=False)", lambda: run(False), args.repeats
+    )
+    os.environ["DELTA_PIN_NATIVE"] = "0"  # no core at all: the Python projection and IK too
+    try:
+        before = measure(
+            "the same run without the core (DELTA_PIN_NATIVE=0: as before it)", lambda: run(None), 1
+        )
+        c = run(None)
+    finally:
+        del os.environ["DELTA_PIN_NATIVE"]
+    print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", [compiled, python, before], before)
+    a, b = run(None), run(False)
+    print(
+        f"\nlargest difference from the compiled run: {np.abs(a.alpha - b.alpha).max():.1e} rad "
+        f"(compiled=False), {np.abs(a.alpha - c.alpha).max():.1e} rad (no core)"
+    )
+    report_target(f"five-bar, {args.t_end:g} s design I sampled 1 kHz", compiled.median, 0.5)
+
+    t = np.arange(round(args.t_end / 1e-3) + 1) * 1e-3
+    reference = [
+        measure(
+            "FramePath.joint_reference: the core's loop", lambda: path.joint_reference(robot, t), args.repeats
+        ),
+        measure("FramePath.joint_reference: the Python loop", lambda: _python_reference(path, robot, t), 1),
+    ]
+    print_table(
+        "the five-bar's joint reference (IK, rates, accelerations per sample)", reference, reference[1]
+    )
+
+    try:
+        import mujoco
+        from mujoco import rollout
+    except ImportError:
+        print("\nmujoco is not installed (pip install -e '.[bench]'): no MuJoCo reference")
+        return
+    rrr = dp.load_robot("three_rrr_mjcf")
+    model = mujoco.MjModel.from_xml_path(str(Path(dp.__file__).parent / "robots" / "three_rrr.xml"))
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    model.opt.timestep = 1e-3
+    data = mujoco.MjData(model)
+    steps = round(args.t_end / 1e-3)
+    state = np.zeros((1, mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)))
+    mujoco.mj_getState(model, data, state[0], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    controls = np.zeros((1, steps, model.nu))
+
+    def law(t, alpha, alpha_dot):
+        return -2.0 * (alpha - rrr.home) - 0.2 * alpha_dot
+
+    mujoco_case = measure(
+        "3-RRR: mujoco.rollout (C++, zero control, RK4 1 ms)",
+        lambda: rollout.rollout(model, data, state, controls),
+        args.repeats,
+    )
+    ours = measure(
+        "3-RRR: compiled plant, a PD law from Python (RK4 1 ms)",
+        lambda: dp.simulate(rrr, law, None, t_end=args.t_end, mode="sampled", alpha0=rrr.home),
+        args.repeats,
+    )
+    print_table(f"{args.t_end:g} s of the 3-RRR", [mujoco_case, ours], mujoco_case)
+    report_target(
+        "3-RRR, compiled plant + Python law / mujoco.rollout", ours.median / mujoco_case.median, 0.7, "x"
+    )
+
+
+if __name__ == "__main__":
+    main()
