@@ -6,7 +6,9 @@ Cases, each a whole ``dp.simulate`` call as a user waits for it (reference tabul
 the loop), on the shipped five-bar: design I (sampling-aware) along a circle of its tip, sampled
 at 1 kHz with RK4, with a 0-0.4 kg payload the controller does not know:
 
-* the compiled plant and loop (the default), the controller called back once per sample;
+* plant, loop and law compiled (the default: design I in the core, no Python during the run);
+* the compiled plant and loop with the readable law called back once per sample (what any
+  other controller, a user's own included, gets);
 * the Python loop on the Python plant (``compiled=False``; the projection and IK still compiled);
 * the same without the core at all (``DELTA_PIN_NATIVE=0``: the path before it), the reference;
 * the joint reference alone (``FramePath.joint_reference``): the core's loop and the Python loop.
@@ -37,11 +39,14 @@ def _five_bar_case(t_end: float):
     path = dp.FramePath(circle)
     nominal = dp.ClosedChainNominalModel(robot)
 
-    def run(compiled):
+    def run(compiled, law_in_core=True):
         plant = dp.ClosedChainPlant(robot, payload_mass=lambda t: 0.2 * (1.0 + np.sin(np.pi * t)))
+        controller = dp.design1(nominal, sampling_period=1e-3)
+        if not law_in_core:  # the readable law, called back from the compiled loop
+            controller.sampled_core_law = lambda: None
         return dp.simulate(
-            robot, dp.design1(nominal, sampling_period=1e-3), path, plant=plant, t_end=t_end, mode="sampled",
-            alpha0=robot.home, compiled=compiled,
+            robot, controller, path, plant=plant, t_end=t_end, mode="sampled", alpha0=robot.home,
+            compiled=compiled,
         )  # fmt: skip
 
     return robot, path, run
@@ -64,7 +69,12 @@ def main() -> None:
     print(f"machine: {machine_info()}")
     robot, path, run = _five_bar_case(args.t_end)
     compiled = measure(
-        "five-bar, design I, sampled 1 kHz: compiled plant and loop", lambda: run(None), args.repeats
+        "five-bar, design I, sampled 1 kHz: plant, loop and law compiled", lambda: run(None), args.repeats
+    )
+    callback = measure(
+        "the same, the readable law called back from the compiled loop",
+        lambda: run(None, False),
+        args.repeats,
     )
     python = measure(
         "the same run: the Python plant and loop (compiled=False)", lambda: run(False), args.repeats
@@ -77,11 +87,13 @@ def main() -> None:
         c = run(None)
     finally:
         del os.environ["DELTA_PIN_NATIVE"]
-    print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", [compiled, python, before], before)
-    a, b = run(None), run(False)
+    cases = [compiled, callback, python, before]
+    print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", cases, before)
+    a, b, d = run(None), run(False), run(None, False)
     print(
-        f"\nlargest difference from the compiled run: {np.abs(a.alpha - b.alpha).max():.1e} rad "
-        f"(compiled=False), {np.abs(a.alpha - c.alpha).max():.1e} rad (no core)"
+        f"\nlargest difference from the compiled run: {np.abs(a.alpha - d.alpha).max():.1e} rad (law called "
+        f"back), {np.abs(a.alpha - b.alpha).max():.1e} rad (compiled=False), "
+        f"{np.abs(a.alpha - c.alpha).max():.1e} rad (no core)"
     )
     report_target(f"five-bar, {args.t_end:g} s design I sampled 1 kHz", compiled.median, 0.5)
 

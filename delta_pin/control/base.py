@@ -134,6 +134,12 @@ class Controller(ABC):
         self.state = self.initial_state()
         self._previous_sample: tuple[float, np.ndarray, ControlOutput] | None = None
 
+    def sampled_core_law(self):
+        """This law in the compiled core for the sampled loop (``delta_pin/core/controller.hpp``),
+        or ``None`` (the default): the loop then calls :meth:`evaluate` back from the core once
+        per sample."""
+        return None
+
     def advance(self, state: np.ndarray, output: ControlOutput, period: float) -> np.ndarray:
         """The internal state one sample of ``period`` [s] later: the discrete-time law's
         ``next_state``, or z + period z_dot for a continuous-time one (explicit Euler, as a drive

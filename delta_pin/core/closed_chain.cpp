@@ -2,6 +2,7 @@
 
 #include "closed_chain.hpp"
 
+#include "controller.hpp"
 #include "failure.hpp"
 
 #include <pinocchio/algorithm/crba.hpp>
@@ -366,6 +367,115 @@ namespace delta_pin
     return updateFramePlacement(model_, data_, end_effector_).translation();
   }
 
+  Matrix ClosedChainModel::frame_jacobian(const Vector & q, FrameIndex frame)
+  {
+    const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in data_
+    frame_jacobian1_.setZero();
+    getFrameJacobian(model_, data_, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+    return frame_jacobian1_ * S;
+  }
+
+  Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
+  {
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    const Vector v = velocity_map(q) * alpha_dot;
+    const Eigen::Index n_closure = jacobian_.rows();
+    forwardKinematics(model_, data_, q, v, Vector::Zero(model_.nv));
+    Vector drift(n_closure);
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
+      drift.segment<3>(row) = a1.linear() - a2.linear();
+      if (closure.size == 6)
+        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
+      row += closure.size;
+    }
+    const Vector rate_dependent = -solve_dependent(drift);
+    Vector rate = Vector::Zero(model_.nv);
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      rate[dependent_v_[r]] = rate_dependent[r];
+    forwardKinematics(model_, data_, q, v, rate);
+    return getFrameClassicalAcceleration(model_, data_, frame, LOCAL_WORLD_ALIGNED).linear();
+  }
+
+  bool ClosedChainModel::inverse_kinematics(
+    const Eigen::Vector3d & target, FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
+    double tolerance, int iterations)
+  {
+    check_size(alpha, actuated_q_.size(), "alpha");
+    Vector assembled;
+    Vector error(rows.size());
+    Matrix J(rows.size(), actuated_v_.size());
+    for (int iteration = 0; iteration < iterations; ++iteration)
+    {
+      if (!configuration(alpha, q, assembled))
+        return false;
+      q = assembled;
+      forwardKinematics(model_, data_, q);
+      const Eigen::Vector3d position = updateFramePlacement(model_, data_, frame).translation();
+      for (Eigen::Index r = 0; r < rows.size(); ++r)
+        error[r] = position[rows[r]] - target[rows[r]];
+      if (error.cwiseAbs().maxCoeff() <= tolerance)
+        return true;
+      const Matrix J_frame = frame_jacobian(q, frame);
+      for (Eigen::Index r = 0; r < rows.size(); ++r)
+        J.row(r) = J_frame.row(rows[r]);
+      Vector step = least_squares(J, error);
+      const double biggest = step.cwiseAbs().maxCoeff();
+      if (biggest > 0.2)
+        step *= 0.2 / biggest;
+      alpha -= step;
+    }
+    return false;
+  }
+
+  long ClosedChainModel::joint_reference(
+    FrameIndex frame, const Indices & rows, const Vector & times, const RowMatrix & xyz, const RowMatrix & xyz_dot,
+    const RowMatrix & xyz_ddot, const Vector & alpha0, Vector & q, RowMatrix & alpha, RowMatrix & alpha_dot,
+    RowMatrix & alpha_ddot, RowMatrix & actual)
+  {
+    const Eigen::Index n = times.size(), dof = actuated_v_.size();
+    if (rows.size() != dof || xyz.rows() != n || xyz_dot.rows() != n || xyz_ddot.rows() != n || xyz.cols() != 3)
+      throw std::invalid_argument("joint_reference: one task coordinate per actuator and one row per time");
+    check_size(q, model_.nq, "q");
+    alpha.resize(n, dof);
+    alpha_dot.resize(n, dof);
+    alpha_ddot.resize(n, dof);
+    actual.resize(n, 3);
+    Vector guess = alpha0;
+    Matrix J(dof, dof);
+    Vector task(dof);
+    for (Eigen::Index k = 0; k < n; ++k)
+    {
+      if (k > 0)
+      {
+        const double step = times[k] - times[k - 1];
+        guess = alpha.row(k - 1).transpose() + step * alpha_dot.row(k - 1).transpose()
+                + 0.5 * step * step * alpha_ddot.row(k - 1).transpose();
+      }
+      if (!inverse_kinematics(xyz.row(k).transpose(), frame, rows, guess, q))
+        return (long)k;
+      const Matrix J_frame = frame_jacobian(q, frame);
+      for (Eigen::Index r = 0; r < dof; ++r)
+        J.row(r) = J_frame.row(rows[r]);
+      Eigen::PartialPivLU<Matrix> lu(J);
+      alpha.row(k) = guess.transpose();
+      for (Eigen::Index r = 0; r < dof; ++r)
+        task[r] = xyz_dot(k, rows[r]);
+      const Vector rates = lu.solve(task);
+      alpha_dot.row(k) = rates.transpose();
+      const Eigen::Vector3d drift = frame_acceleration_drift(q, rates, frame);
+      for (Eigen::Index r = 0; r < dof; ++r)
+        task[r] = xyz_ddot(k, rows[r]) - drift[rows[r]];
+      alpha_ddot.row(k) = lu.solve(task).transpose();
+      forwardKinematics(model_, data_, q);
+      actual.row(k) = updateFramePlacement(model_, data_, frame).translation().transpose();
+    }
+    return -1;
+  }
+
   const Vector & ClosedChainPlant::accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage)
   {
     check_size(q, model_.nq, "q");
@@ -495,7 +605,7 @@ namespace delta_pin
 
   long ClosedChainPlant::run_sampled(
     Vector x, long steps, int substeps, double dt,
-    const std::function<Vector(long, const Vector &)> & control,
+    SampledController & controller,
     Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
     Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
     Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,
@@ -506,9 +616,25 @@ namespace delta_pin
       throw std::invalid_argument("run_sampled: the state or the record arrays have the wrong shape");
     const double h = dt / substeps;
     double gap = chain_.closure_gap(x.head(nq));
+    Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size());
     for (long k = 0; k <= steps; ++k)
     {
-      const Vector tau = control(k, x);
+      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+        alpha[i] = x[actuated_q_[i]];
+      for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+        alpha_dot[i] = x[nq + actuated_v_[i]];
+      Vector tau;
+      try
+      {
+        tau = controller.control(k, x, alpha, alpha_dot);
+      }
+      catch (SimulationFailure & failure)
+      {
+        if (std::isnan(failure.time))
+          failure.time = k * dt;
+        failure_time_ = failure.time;
+        throw;
+      }
       if (tau.size() != dof())
         throw std::invalid_argument("run_sampled: the control returned a torque of the wrong size");
       q_out.row(k) = x.head(nq).transpose();

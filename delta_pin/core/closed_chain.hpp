@@ -25,9 +25,11 @@
 
 namespace delta_pin
 {
+  class SampledController;
   typedef Eigen::VectorXd Vector;
   typedef Eigen::MatrixXd Matrix;
   typedef Eigen::VectorXi Indices;
+  typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
 
   // One loop closure: its two frames in the model and its equations (3: a point, 6: a weld).
   struct ClosureFrames
@@ -85,6 +87,24 @@ namespace delta_pin
     // (ClosedChainRobot.reduced_terms) at a closed q
     void reduced_terms(const Vector & q, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G, Vector & C_alpha_dot);
     Eigen::Vector3d end_effector_position(const Vector & q);
+    // the closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED)
+    Matrix frame_jacobian(const Vector & q, pinocchio::FrameIndex frame);
+    // the frame's classical linear acceleration at zero actuated acceleration [m/s^2]
+    Eigen::Vector3d frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, pinocchio::FrameIndex frame);
+    // alpha putting the frame's origin at `target` along `rows` (0..2), Newton on alpha from
+    // `alpha` with each iterate assembled from the previous q (ClosedChainRobot.inverse_kinematics);
+    // q is the assembled configuration on success
+    bool inverse_kinematics(
+      const Eigen::Vector3d & target, pinocchio::FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
+      double tolerance = 1e-12, int iterations = 60);
+    // A task-space path of a frame as a joint reference (FramePath.joint_reference): alpha,
+    // alpha_dot, alpha_ddot and the frame's reached position per sample, each IK started from the
+    // second-order prediction off the previous sample. Returns -1, or the first sample that
+    // cannot be reached or assembled.
+    long joint_reference(
+      pinocchio::FrameIndex frame, const Indices & rows, const Vector & times, const RowMatrix & xyz,
+      const RowMatrix & xyz_dot, const RowMatrix & xyz_ddot, const Vector & alpha0, Vector & q, RowMatrix & alpha,
+      RowMatrix & alpha_dot, RowMatrix & alpha_ddot, RowMatrix & actual);
 
   private:
     const Matrix & closure_jacobian(const Vector & q);  // after the frame placements at q
@@ -143,13 +163,14 @@ namespace delta_pin
     // where it exceeds the tolerance; returns the closure gap of the result
     double step(Vector & x, const Vector & tau, long stage, double h);
 
-    // The sampled loop: `control(k, x)` gives the torque held over sample k (the Python side:
-    // sensor, controller, drive); the plant takes `substeps` RK4 steps of dt / substeps.
+    // The sampled loop: the controller gives the torque held over sample k (controller.hpp: a
+    // C++ law, or the Python side's sensor, controller and drive); the plant takes `substeps`
+    // RK4 steps of dt / substeps.
     // Records (steps + 1 rows) x's q and v, the end effector and the closure gap. Returns the
     // number of samples recorded (steps + 1, or the sample at which the state became non-finite).
     long run_sampled(
       Vector x, long steps, int substeps, double dt,
-      const std::function<Vector(long, const Vector &)> & control,
+      SampledController & controller,
       Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
       Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
       Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,

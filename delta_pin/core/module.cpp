@@ -10,6 +10,7 @@
 // this module when the package is installed (CMakeLists.txt).
 
 #include "closed_chain.hpp"
+#include "controller.hpp"
 #include "failure.hpp"
 
 #include <nanobind/eigen/dense.h>
@@ -42,7 +43,7 @@ namespace nb = nanobind;
 
 namespace
 {
-  typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
+  using delta_pin::RowMatrix;
   typedef nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu> Table;
   typedef nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> Column;
 
@@ -108,7 +109,22 @@ NB_MODULE(_core, m)
         return std::make_tuple(M, C, G, C_alpha_dot);
       },
       "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
-    .def("end_effector_position", &ClosedChainModel::end_effector_position);
+    .def("end_effector_position", &ClosedChainModel::end_effector_position)
+    .def("frame_jacobian", &ClosedChainModel::frame_jacobian)
+    .def("frame_acceleration_drift", &ClosedChainModel::frame_acceleration_drift)
+    .def(
+      "joint_reference",
+      [](ClosedChainModel & self, size_t frame, const Eigen::VectorXi & rows, const Eigen::VectorXd & times,
+         const RowMatrix & xyz, const RowMatrix & xyz_dot, const RowMatrix & xyz_ddot, const Eigen::VectorXd & alpha0,
+         const Eigen::VectorXd & q_start)
+      {
+        Eigen::VectorXd q = q_start;
+        RowMatrix alpha, alpha_dot, alpha_ddot, actual;
+        const long failed =
+          self.joint_reference(frame, rows, times, xyz, xyz_dot, xyz_ddot, alpha0, q, alpha, alpha_dot, alpha_ddot, actual);
+        return std::make_tuple(failed, q, alpha, alpha_dot, alpha_ddot, actual);
+      },
+      "(failed sample or -1, last q, alpha, alpha_dot, alpha_ddot, reached xyz) of a frame's path.");
 
   nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
   nb::class_<ClosedChainPlant>(m, "ClosedChainPlant")
@@ -175,14 +191,95 @@ NB_MODULE(_core, m)
     .def(
       "run_sampled",
       [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
+         delta_pin::AdaptiveRobust & controller, Table q, Table v, Table xyz, Column gap)
+      {
+        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
+        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
+      },
+      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("controller"),
+      nb::arg("q").noconvert(), nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
+      "The sampled loop with a compiled law (its records stay in the controller).")
+    .def(
+      "run_sampled",
+      [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
          const std::function<Eigen::VectorXd(long, const Eigen::VectorXd &)> & control, Table q, Table v, Table xyz,
          Column gap)
       {
         Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
-        return self.run_sampled(x, steps, substeps, dt, control, rows(q), rows(v), rows(xyz), gaps);
+        delta_pin::FunctionController controller(control);
+        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
       },
       nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
-      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert());
+      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
+      "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
+  nb::class_<delta_pin::AdaptiveRobust>(m, "AdaptiveRobust")
+    .def(
+      "__init__",
+      [](delta_pin::AdaptiveRobust * self, const std::string & model_text,
+         const std::vector<std::tuple<size_t, size_t, int>> & closures, const Eigen::VectorXi & actuated_q,
+         const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v, size_t end_effector,
+         const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p,
+         const Eigen::VectorXd & T_v, double beta, double xi, double epsilon, double b1, double b2, double b3,
+         bool design_two, bool vector_rho, double sampling_period, double sampling_margin,
+         const Eigen::VectorXd & disturbance, const std::string & name)
+      {
+        std::vector<delta_pin::ClosureFrames> frames;
+        for (const auto & [f1, f2, size] : closures)
+          frames.push_back({f1, f2, size});
+        delta_pin::AdaptiveRobustParameters p;
+        p.D = D;
+        p.T_p = T_p;
+        p.T_v = T_v;
+        p.beta = beta;
+        p.xi = xi;
+        p.epsilon = epsilon;
+        p.b1 = b1;
+        p.b2 = b2;
+        p.b3 = b3;
+        p.design_two = design_two;
+        p.vector_rho = vector_rho;
+        p.sampling_period = sampling_period;
+        p.sampling_margin = sampling_margin;
+        p.disturbance = disturbance;
+        p.name = name;
+        p.friction.normal_force = Eigen::VectorXd::Zero(actuated_v.size());
+        new (self) delta_pin::AdaptiveRobust(
+          model_text, frames, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration, p);
+      })
+    .def(
+      "set_friction",
+      [](delta_pin::AdaptiveRobust & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
+         double sign_scale, const Eigen::VectorXd & normal_force)
+      {
+        delta_pin::FrictionSpec friction;
+        friction.enabled = true;
+        friction.r_a = r_a;
+        friction.v_s = v_s;
+        friction.mu_s = mu_s;
+        friction.mu_d = mu_d;
+        friction.mu_v = mu_v;
+        friction.sign_scale = sign_scale;
+        friction.normal_force = normal_force;
+        self.set_friction(friction);
+      })
+    .def("start", &delta_pin::AdaptiveRobust::start)
+    .def(
+      "evaluate",
+      [](delta_pin::AdaptiveRobust & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & alpha_dot,
+         const Eigen::VectorXd & ref_alpha, const Eigen::VectorXd & ref_alpha_dot, const Eigen::VectorXd & ref_alpha_ddot,
+         const Eigen::VectorXd & rho)
+      {
+        Eigen::VectorXd tau, rho_dot;
+        self.evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho, tau, rho_dot);
+        return std::make_tuple(tau, rho_dot, self.internals());
+      })
+    .def_ro("tau", &delta_pin::AdaptiveRobust::tau)
+    .def_ro("rho_hat", &delta_pin::AdaptiveRobust::rho_hat)
+    .def_ro("robust_torque", &delta_pin::AdaptiveRobust::robust_torque)
+    .def_ro("Lambda", &delta_pin::AdaptiveRobust::Lambda)
+    .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)
+    .def_ro("omega_norm", &delta_pin::AdaptiveRobust::omega_norm)
+    .def_ro("adaptation_active", &delta_pin::AdaptiveRobust::adaptation_active);
   m.def(
     "symbols",
     []()

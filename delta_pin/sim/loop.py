@@ -12,7 +12,7 @@ from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
 from delta_pin.sim.compiled_plant import run_core_sampled
 from delta_pin.sim.drive import Drive, Encoder
-from delta_pin.sim.integrators import check_state, integrate_lsoda, rk4_step
+from delta_pin.sim.integrators import MAX_JOINT_SPEED, check_state, integrate_lsoda, rk4_step
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import ReferenceTable
 from delta_pin.utils.progress import Progress
@@ -185,6 +185,27 @@ def run_python_loop(
             f"compiled=True: plant {plant.name!r} has no compiled sampled loop here (sampled mode, full "
             "coordinates, no idle motions or passive joints); use compiled=None or False"
         )
+    law = controller.sampled_core_law() if core is not None and sensor is None and drive is None else None
+    if law is not None:
+        # the compiled plant, loop and law: Python is not called until the run ends
+        reference_alpha, reference_alpha_dot, reference_alpha_ddot = (
+            np.ascontiguousarray(r) for r in reference_rows
+        )
+        law.start(
+            reference_alpha, reference_alpha_dot, reference_alpha_ddot, dt, z, steps + 1, MAX_JOINT_SPEED
+        )
+        recorded = run_core_sampled(core, x, steps, substeps, dt, law)
+        plant.projections += core.projections
+        record.alpha = recorded.q[:, plant.robot.actuated_q_indices]
+        record.alpha_dot = recorded.v[:, plant.active]
+        record.tau = np.array(law.tau)
+        record.xyz, record.closure_residual, record.q, record.v = (
+            recorded.xyz, recorded.gap, recorded.q, recorded.v,
+        )  # fmt: skip
+        names = ("rho_hat", "Lambda", "robust_gain", "omega_norm", "robust_torque", "adaptation_active")
+        record.internals = {name: np.array(getattr(law, name)) for name in names}
+        bar.close()
+        return record
     if core is not None:
         # the compiled plant and loop; the controller called back once per sample
         state = {"z": z, "out": None}

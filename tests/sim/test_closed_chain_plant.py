@@ -124,7 +124,7 @@ def test_every_controller_runs_on_a_closed_chain_robot(five_bar, controller):
 
 def test_compiled_loops_and_their_integrators_are_refused_by_name(five_bar):
     nominal = dp.ClosedChainNominalModel(five_bar)
-    with pytest.raises(InvalidParameterError, match="compiled=True: 'five_bar' has a compiled plant in sampled"):
+    with pytest.raises(InvalidParameterError, match="compiled=True: 'five_bar' has a compiled plant in"):
         dp.simulate(
             five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, mode="continuous",
             compiled=True,

@@ -175,3 +175,53 @@ def test_a_frame_path_becomes_the_same_joint_reference_in_the_core():
     )
     with pytest.raises(dp.UnreachablePoseError, match=r"t=0 s"):
         too_far.joint_reference(robot, t[:10])
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"design": "I", "sampling_period": 1e-3},
+        {"design": "II", "sampling_period": 1e-3},
+        {"design": "I", "vector_rho": True, "friction_compensation": True, "sampling_period": 1e-3},
+    ],
+    ids=["I-sampling-aware", "II", "I-vector-rho-friction"],
+)
+def test_designs_in_the_core_equal_the_readable_law_in_the_loop(options):
+    """Designs I/II compiled with the plant (no Python during the run) against the same
+    controller's readable law called back from the compiled plant (sampled_core_law turned off):
+    every array within 1e-10 (rad, N m, internals) over 0.5 s of the five-bar's circle with an
+    unknown payload and a nominal friction the controller compensates."""
+    robot = dp.load_robot("five_bar", end_effector="tip")
+    home = robot.frame_placement(robot.reference_configuration).translation
+    above = home + np.array([0.0, 0.0, 0.03])
+    circle = dp.FramePath(dp.Circle(center=above, radius=0.03, period=2.0, plane="xz", phase=-np.pi / 2))
+    stribeck = dp.StribeckParameters(r_a=0.05, v_s=0.1, mu_s=0.3, mu_d=0.2, mu_v=0.05)
+    nominal = dp.ClosedChainNominalModel(
+        robot, nominal_disturbance=[0.01, -0.02], friction=dp.Friction(stribeck=stribeck)
+    )
+    design = options.pop("design")
+    runs = []
+    for compiled_law in (True, False):
+        controller = dp.design1(nominal, **options) if design == "I" else dp.design2(nominal, **options)
+        assert controller.sampled_core_law() is not None
+        if not compiled_law:
+            controller.sampled_core_law = lambda: None
+        plant = dp.ClosedChainPlant(robot, dp.Friction(stribeck=stribeck), payload_mass=0.1)
+        runs.append(
+            dp.simulate(robot, controller, circle, plant=plant, t_end=0.5, mode="sampled", alpha0=robot.home)
+        )
+    core, python = runs
+    for name in ("alpha", "alpha_dot", "tau", "xyz", "q", "v"):
+        assert np.abs(getattr(core, name) - getattr(python, name)).max() < 1e-10, name
+    assert sorted(core.internals) == sorted(python.internals)
+    for name, values in python.internals.items():
+        assert np.abs(core.internals[name] - values).max() < 1e-10, name
+    assert np.abs(python.internals["rho_hat"] - python.internals["rho_hat"][0]).max() > 1e-6  # it adapted
+
+
+def test_a_compiled_law_that_diverges_stops_at_the_sample_with_its_time():
+    robot = dp.load_robot("five_bar")
+    nominal = dp.ClosedChainNominalModel(robot)
+    controller = dp.design1(nominal, T_p=1e9, T_v=1e9)  # far beyond what 1 ms sampling holds
+    with pytest.raises(SimulationError, match=r"(non-finite|diverged|cannot close).*at t=0\.0[0-9]+ s"):
+        dp.simulate(robot, controller, None, t_end=0.2, mode="sampled", alpha0=robot.home + 0.05)
