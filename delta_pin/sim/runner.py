@@ -122,13 +122,23 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
     return compiled, plant
 
 
-def _runs_as_delta(robot, plant, trajectory) -> bool:
+def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", delta_only=False) -> bool:
     """Whether a closed-chain robot that carries the analytic Delta of its own URDF (the robot of
     ``load_delta``: ``carries_own_delta``) runs on the Delta's own plants and compiled loops:
-    unless it is given a closed-chain plant, or a path of a named frame."""
+    unless it is given a closed-chain plant, a path of a named frame, or, in sampled mode on the
+    default plant, a controller whose law the compiled core holds for the closed chain
+    (``sampled_core_law``: designs I/II on the projected nominal model) where the run needs
+    nothing only the Delta's plants model (``delta_only``: an uncertainty profile, a sensor, a
+    delay or a torque limit)."""
     if not carries_own_delta(robot) or isinstance(plant, ClosedChainPlant):
         return False
-    return not isinstance(trajectory, FramePath)  # a path of a named frame: the closed-chain path
+    if isinstance(trajectory, FramePath):  # a path of a named frame: the closed-chain path
+        return False
+    if mode == "sampled" and plant == "pinocchio" and not delta_only and controller is not None:
+        law = getattr(controller, "sampled_core_law", None)
+        if law is not None and law() is not None:
+            return False  # the closed chain's compiled plant and law
+    return True
 
 
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> None:
@@ -235,7 +245,8 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
-    if _runs_as_delta(robot, plant, trajectory):
+    delta_only = uncertainty is not None or sensor is not None or delay != 0 or torque_limit is not None
+    if _runs_as_delta(robot, plant, trajectory, controller, mode, delta_only):
         robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
     core = None  # the compiled core's plant for a closed-chain robot's sampled loop: where it applies
     if isinstance(robot, ClosedChainRobot):
