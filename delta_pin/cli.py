@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -37,8 +38,17 @@ class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (``delta-pin run: error: ...``, no usage block), so that
     every failure of the command is one line; :func:`main` returns exit code 2 for them."""
 
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        # a negative number in any notation is a value, not an option: argparse's own pattern
+        # knows -1 and -0.5 only, so `--dt -1e-3` was "expected one argument"
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
     def error(self, message: str):
         raise _UsageError(f"{self.prog}: error: {message}")
+
+
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
 
 
 def _seconds(text: str) -> float:
@@ -117,17 +127,18 @@ def _check_writable(flag: str, path: Path, what: str) -> None:
         )
 
 
-def _check_memory(specs, args: argparse.Namespace) -> None:
+def _check_memory(specs, args: argparse.Namespace, what: str = "") -> None:
     """Refuse a run whose arrays would not fit (about half of this machine's memory), unless
-    --force; the message gives the estimate (:func:`delta_pin.studies.experiments.estimated_memory`)."""
+    --force; the message gives the estimate (:func:`delta_pin.studies.experiments.estimated_memory`)
+    of the largest of ``specs`` (every run of a study, every point of a sweep), ``what`` first."""
     from delta_pin.studies.experiments import estimated_memory, memory_limit
 
     spec = max(specs, key=estimated_memory)
     need, limit = estimated_memory(spec), memory_limit()
     if need > limit and not args.force:
-        samples = round(spec.duration / spec.dt) + 1
+        samples = spec.samples
         raise InvalidParameterError(
-            f"--t-end {spec.duration:g} at --dt {spec.dt:g} is {samples:.3g} samples: about "
+            f"{what}--t-end {spec.duration:g} at --dt {spec.dt:g} is {samples:.3g} samples: about "
             f"{_size(need)} of arrays, more than {_size(limit)} (half of this machine's memory); "
             "shorten --t-end, lengthen --dt, or give --force"
         )
@@ -559,7 +570,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             f"the grid has {count:,} points ({shape}), more than {MAX_SWEEP_POINTS:,}; "
             "give fewer values or --force"
         )
-    _check_memory([base], args)
+    from delta_pin.studies.sweep import grid_specs
+
+    _check_memory(grid_specs(base, axes), args, "the grid's largest point: ")  # every point, not the base's
     rows = sweep(
         base,
         axes,

@@ -15,10 +15,13 @@ import pytest
 from delta_pin import cli
 from delta_pin.cli import main
 from delta_pin.errors import InvalidParameterError
+from delta_pin.model.loaders import shipped_robot
+from delta_pin.sim.run import ARRAYS
 from delta_pin.studies import sweep as sweep_module
 
 SCHEDULER = "tcp://127.0.0.1:1"  # nothing listens there
 SHORT = ["--t-end", "0.1", "--workers", "1"]
+SAMPLED = ["--plant", "analytic", "--mode", "sampled"]
 
 # (argv, exit code, text the one line must contain); {file}: an existing file, {dir}: an existing
 # folder, {out}: a fresh output folder, {binary}: random bytes, {npz}: a truncated run.npz,
@@ -39,6 +42,20 @@ CASES = [
     (["validate", "--urdf", "{binary}"], 2, "{binary}' is not text"),
     (["validate", "--urdf", "{missing}"], 2, "{missing}' does not exist"),
     (["validate", "--urdf", "{file}"], 2, "{file}': the URDF is not valid XML"),
+    # a broken xacro, a binary robot.yaml: the file named (issue 25: "unexpected XacroException")
+    (["validate", "--urdf", "{xacro}"], 2, "xacro file '{xacro}' does not expand (XacroException: Undefined"),
+    (
+        ["validate", "--robot", "{xacro}"],
+        2,
+        "xacro file '{xacro}' does not expand (XacroException: Undefined",
+    ),
+    (["validate", "--robot", "{gepetto}"], 2, "robot.yaml' is not text (a binary file?)"),
+    (["validate", "--tol", "-5"], 2, "tol=-5.0 must be > 0"),
+    (
+        ["validate", "--robot", "five_bar", "--tol", "-5"],
+        2,
+        "tol=-5.0 must be a finite relative tolerance > 0",
+    ),
     # run
     (["run", "--out", "{file}"], 2, "--out {file} is a file; give a directory"),
     (["run", "--out", "{file}/sub"], 2, "{file} is a file, not a folder"),
@@ -61,6 +78,16 @@ CASES = [
     (["run", "--dt", "nan", "--out", "{out}"], 2, "--dt: nan must be a finite number of seconds > 0"),
     (["run", "--dt", "0", "--out", "{out}"], 2, "--dt: 0 must be a finite number of seconds > 0"),
     (["run", "--t-end", "nan", "--out", "{out}"], 2, "--t-end: nan must be a finite number of seconds"),
+    # a negative number in e-notation as its own word is the option's value, not an option (issue 25)
+    (["run", "--dt", "-1e-3", "--out", "{out}"], 2, "--dt: -1e-3 must be a finite number of seconds > 0"),
+    (["run", "--t-end", "-2E1", "--out", "{out}"], 2, "--t-end: -2E1 must be a finite number of seconds > 0"),
+    # a delay no shorter than the run, refused up front (issue 25: 39 s, then "non-finite torque")
+    (
+        ["run", *SAMPLED, "--t-end", "1", "--delay", "5000", "--out", "{out}"],
+        2,
+        "delay=5000 samples is not shorter than the run, 1001 samples (t_end 1 s at dt 0.001 s)",
+    ),
+    (["run", "--robot", "{xacro}", "--out", "{out}"], 2, "xacro file '{xacro}' does not expand"),
     (["run", "--controller", "nope", "--out", "{out}"], 2, "'nope'"),
     (["run", "--seed", "-3", "--plant", "analytic", "--out", "{out}"], 2, "seed=-3"),
     (["run", "--uncertainty", "1.5", "--plant", "analytic", "--out", "{out}"], 2, "1.5"),
@@ -103,6 +130,15 @@ CASES = [
     (["view", "{missing}"], 2, "{missing}' does not exist"),
     (["view", "{npz}"], 2, "{npz}' is not a readable delta-pin run"),
     (["view", "{binary}"], 2, "{binary}' is not a readable delta-pin run"),
+    # runs whose arrays or metadata are not what Run.save writes (issue 25: "unexpected ...")
+    (
+        ["view", "{run_list_metadata}"],
+        2,
+        "is not a delta-pin run: its metadata is a JSON list, expected an object",
+    ),
+    (["view", "{run_short_alpha}"], 2, "is not a delta-pin run: alpha has shape (4, 3), expected (10, 3)"),
+    (["view", "{run_reversed_t}"], 2, "is not a delta-pin run: t does not increase at sample 1"),
+    (["view", "{run_text_tau}"], 2, "is not a delta-pin run: tau holds <U"),
     # compare
     (["compare", "--out", "{file}"], 2, "--out {file} is a file"),
     (["compare", "--controllers", "nope", "--paths", "I", *SHORT, "--out", "{out}"], 2, "'nope'"),
@@ -136,6 +172,31 @@ CASES = [
     ),
     (["sweep", "--param", "delta_m=0,0.3", "--t-end", "1e7", "--out", "{out}"], 2, "--t-end 1e+07"),
     (["sweep", "--param", "delta_m=0,0.3", "--metric", "nope", *SHORT, "--out", "{out}"], 2, "'nope'"),
+    # a point's value refused up front, naming the point (issue 25: failed points, ZeroDivisionError)
+    (["sweep", "--param", "dt=0", "--out", "{out}"], 2, "the grid's point dt=0.0: dt=0.0 must be a finite"),
+    (["sweep", "--param", "t_end=-1", "--out", "{out}"], 2, "point t_end=-1.0: t_end=-1.0 must be a finite"),
+    (
+        ["sweep", "--controller", "lqr", "--param", "dt=0.001,0", "--out", "{out}"],
+        2,
+        "the grid's point dt=0.0: dt=0.0 must be a finite number of seconds > 0",
+    ),
+    (
+        ["sweep", "--param", "velocity=bogus", "--out", "{out}"],
+        2,
+        "velocity='bogus' must be one of difference",
+    ),
+    (["sweep", "--param", "xi=abc", "--out", "{out}"], 2, "gains {{'xi': 'abc'}} are not valid"),
+    (
+        ["sweep", "--mode", "sampled", "--t-end", "1", "--param", "delay=0,5000", "--out", "{out}"],
+        2,
+        "point delay=5000: delay=5000 samples is not shorter than the run",
+    ),
+    # the memory guard on every point, not only the base (issue 25: ~1e9 samples, then a traceback)
+    (
+        ["sweep", "--param", "dt=0.001,1e-8", "--out", "{out}"],
+        2,
+        "the grid's largest point: --t-end 15 at --dt 1e-08",
+    ),
     (
         ["sweep", "--param", "delta_m=0,0.3", "--t-end", "0.1", "--scheduler", SCHEDULER, "--out", "{out}"],
         2,
@@ -158,7 +219,25 @@ def paths(tmp_path, monkeypatch):
     (tmp_path / "binary.urdf").write_bytes(np.random.default_rng(0).bytes(256) + b"\xff\xfe")
     np.savez(tmp_path / "whole.npz", t=np.zeros(1000))
     (tmp_path / "truncated.npz").write_bytes((tmp_path / "whole.npz").read_bytes()[:300])
+    (tmp_path / "broken.xacro").write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <xacro:macro name="m" params="a"><link name="${a}"/></xacro:macro>\n  <xacro:m/>\n</robot>\n'
+    )
+    gepetto = tmp_path / "gepetto"
+    gepetto.mkdir()
+    (gepetto / "robot.urdf").write_text(shipped_robot("delta_gepetto").read_text())
+    (gepetto / "robot.yaml").write_bytes(b"\xff\xfe\x00" + np.random.default_rng(1).bytes(64))
+    runs = {name: _run_arrays() for name in ("list_metadata", "short_alpha", "reversed_t", "text_tau")}
+    runs["list_metadata"]["metadata_json"] = np.array("[1, 2]")
+    runs["short_alpha"]["alpha"] = runs["short_alpha"]["alpha"][:4]
+    runs["reversed_t"]["t"] = runs["reversed_t"]["t"][::-1].copy()
+    runs["text_tau"]["tau"] = runs["text_tau"]["tau"].astype(str)
+    for name, arrays in runs.items():
+        np.savez(tmp_path / f"{name}.npz", **arrays)
     return {
+        **{f"run_{name}": str(tmp_path / f"{name}.npz") for name in runs},
+        "xacro": str(tmp_path / "broken.xacro"),
+        "gepetto": str(gepetto / "robot.urdf"),
         "file": str(tmp_path / "a_file"),
         "dir": str(tmp_path / "a_dir"),
         "out": str(tmp_path / "out"),
@@ -166,6 +245,15 @@ def paths(tmp_path, monkeypatch):
         "npz": str(tmp_path / "truncated.npz"),
         "missing": str(tmp_path / "missing.npz"),
     }
+
+
+def _run_arrays(samples: int = 10) -> dict:
+    """The arrays of a run.npz as Run.save writes them, of a 3-joint run of ``samples`` samples."""
+    arrays = {name: np.zeros((samples, 3)) for name in ARRAYS}
+    arrays["t"] = np.arange(samples) * 1e-3
+    arrays["closure_residual"] = np.zeros(samples)
+    arrays["metadata_json"] = np.array(json.dumps({"controller": {"name": "design1"}}))
+    return arrays
 
 
 def _one_line(capsys) -> str:

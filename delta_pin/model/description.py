@@ -218,6 +218,24 @@ def _compile_cached(items: tuple[tuple[str, str], ...]) -> str:
     return doc.to_urdf_string()
 
 
+def expand_xacro(path: str | Path, subargs: dict[str, str] | None = None) -> str:
+    """The URDF text of a user's ``.xacro`` file (with ``subargs``, its xacro arguments).
+
+    Raises:
+        URDFConventionError: xacro cannot expand the file (not XML, an undefined property or
+            macro parameter, a missing include ...): the message names the file and xacro's reason.
+    """
+    from xacrodoc import XacroDoc  # imported lazily: only needed to compile
+
+    try:
+        return XacroDoc.from_file(str(path), subargs=subargs).to_urdf_string()
+    except Exception as exc:  # xacro's own XacroException, expat's ExpatError, a NameError ...
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise URDFConventionError(
+            f"xacro file {str(path)!r} does not expand ({type(exc).__name__}: {reason}); fix the file"
+        ) from None
+
+
 def compile_urdf(**xacro_args: float | str) -> str:
     """Compile the packaged Delta xacro with the given arguments and return the URDF text.
 

@@ -90,7 +90,12 @@ def read_gepetto_yaml(yaml_path: str | Path) -> tuple[dict, dict]:
         ) from None
     yaml_path = Path(yaml_path)
     source = yaml_path.name
-    text = yaml_path.read_text(encoding="utf-8")
+    try:
+        text = yaml_path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise URDFConventionError(
+            f"{str(yaml_path)!r} is not text (a binary file?): give a robot.yaml of YAML text, or remove it"
+        ) from None
     try:
         content = yaml.safe_load(text)
         lines = _lines(text)

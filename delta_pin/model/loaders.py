@@ -33,6 +33,7 @@ from lxml import etree
 from delta_pin.errors import DeltaPinError, InvalidParameterError, URDFConventionError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.closures import Closure
+from delta_pin.model.description import expand_xacro
 from delta_pin.model.urdf_tree import build_urdf_tree, with_free_base
 
 __all__ = ["ROBOT_FILE_SHAPES", "SHIPPED_ROBOTS", "load_robot", "read_urdf_constraints", "shipped_robot"]
@@ -143,9 +144,7 @@ def _read_text(path: Path) -> str:
     except UnicodeDecodeError:
         raise URDFConventionError(f"{str(path)!r} is not text (a binary file?)") from None
     if path.name.endswith(".xacro"):
-        from xacrodoc import XacroDoc  # imported lazily: only needed to compile
-
-        return XacroDoc.from_file(str(path)).to_urdf_string()
+        return expand_xacro(path)
     return text
 
 
@@ -271,11 +270,7 @@ def load_robot(
         robot = read_mjcf(path, actuated=actuated, passive=passive, end_effector=end_effector, g=g)
     elif name.endswith(".urdf") or name.endswith(".xacro"):
         if xacro_args:
-            from xacrodoc import XacroDoc
-
-            text = XacroDoc.from_file(
-                str(path), subargs={k: str(v) for k, v in xacro_args.items()}
-            ).to_urdf_string()
+            text = expand_xacro(path, {k: str(v) for k, v in xacro_args.items()})
         else:
             text = _read_text(path)
         sidecar = path.with_name("robot.yaml")

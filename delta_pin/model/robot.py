@@ -19,6 +19,7 @@ from delta_pin.model.description import (
     DeltaDescription,
     compile_urdf,
     default_xacro_path,
+    expand_xacro,
     read_description,
 )
 from delta_pin.model.dynamics import ReducedDynamics, analytic_dynamics
@@ -158,9 +159,7 @@ def load_analytic_delta(
                 f"URDF file {str(path)!r} is not text (a binary file?); give a URDF or xacro (XML) file"
             ) from None
         if path.suffix == ".xacro":
-            from xacrodoc import XacroDoc
-
-            text = XacroDoc.from_file(str(path)).to_urdf_string()
+            text = expand_xacro(path)
         base_dir = path.resolve().parent
         try:
             description = read_description(text, g=g, base_dir=base_dir)

@@ -128,7 +128,48 @@ def load_run(path: str | Path) -> Run:
             f"{str(path)!r} is not a readable delta-pin run ({type(exc).__name__}: {exc}); "
             "give a run.npz written by delta-pin"
         ) from None
+    problem = _layout_problem(arrays, internals, metadata)
+    if problem is not None:  # a foreign or edited file: its arrays would fail later, unnamed
+        raise DeltaPinError(
+            f"{str(path)!r} is not a delta-pin run: {problem}; give a run.npz written by delta-pin"
+        )
     return Run(**arrays, internals=internals, metadata=metadata)
+
+
+def _layout_problem(arrays: dict, internals: dict, metadata) -> str | None:
+    """What in a loaded run's arrays and metadata is not what :meth:`Run.save` writes (``None``:
+    nothing): real numeric arrays, ``t`` (N,) finite and increasing, ``closure_residual`` (N,),
+    ``alpha``, ``alpha_dot``, ``alpha_d``, ``alpha_dot_d``, ``tau`` (N, n) of one n, ``xyz`` and
+    ``xyz_d`` (N, 3), ``q``/``v`` (N, k), each internal N samples long, and a metadata object."""
+    if not isinstance(metadata, dict):
+        return f"its metadata is a JSON {type(metadata).__name__}, expected an object"
+    every = {**arrays, **{f"internal {name!r}": value for name, value in internals.items()}}
+    for name, value in every.items():
+        if value.dtype.kind not in "fiu":
+            return f"{name} holds {value.dtype} values, expected real numbers (float64)"
+    t = arrays["t"]
+    if t.ndim != 1:
+        return f"t has shape {t.shape}, expected (N,): one time per sample"
+    n = len(t)
+    if not np.all(np.isfinite(t)):
+        return f"t is not finite at sample {int(np.argmax(~np.isfinite(t)))}"
+    if n > 1 and not np.all(np.diff(t) > 0.0):
+        k = int(np.argmax(~(np.diff(t) > 0.0)))
+        return f"t does not increase at sample {k + 1} (t={t[k + 1]:.6g} s after {t[k]:.6g} s)"
+    alpha = arrays["alpha"]
+    joints = alpha.shape[1] if alpha.ndim == 2 else 3
+    expected = {"closure_residual": (n,), "xyz": (n, 3), "xyz_d": (n, 3)}
+    expected.update({name: (n, joints) for name in ("alpha", "alpha_dot", "alpha_d", "alpha_dot_d", "tau")})
+    for name, shape in expected.items():
+        if arrays[name].shape != shape:
+            return f"{name} has shape {arrays[name].shape}, expected {shape} ({n} samples as t)"
+    for name in OPTIONAL_ARRAYS:
+        if name in arrays and (arrays[name].ndim != 2 or len(arrays[name]) != n):
+            return f"{name} has shape {arrays[name].shape}, expected ({n}, k) ({n} samples as t)"
+    for name, value in internals.items():
+        if value.ndim == 0 or len(value) != n:
+            return f"internal {name!r} has shape {value.shape}, expected ({n}, ...) ({n} samples as t)"
+    return None
 
 
 def _versions() -> dict:

@@ -11,12 +11,14 @@ Pinocchio plant, continuous mode, 15 s for path I and 10 s for path II.
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from delta_pin.choices import CONTROLLERS, PATHS
+from delta_pin.choices import CONTROLLERS, PATHS, VELOCITIES
 from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
 from delta_pin.control.digital import tdc
 from delta_pin.control.digital_robust import digital_robust
@@ -116,9 +118,25 @@ class RunSpec:
             raise InvalidParameterError(
                 f"integrator={self.integrator!r} must be one of auto, {', '.join(INTEGRATORS)}"
             )
+        _check_seconds("dt", self.dt, "e.g. 0.001")
+        if self.t_end is not None:
+            _check_seconds("t_end", self.t_end, "or None for the path's default")
+        if self.velocity not in VELOCITIES:  # checked with or without an encoder: never ignored
+            raise InvalidParameterError(f"velocity={self.velocity!r} must be one of {', '.join(VELOCITIES)}")
         self.sensor()  # the encoder, delay and torque limit are checked here, before any run
         check_delay(self.delay)
         check_torque_limit(self.torque_limit, 3)
+        samples = self.samples
+        if self.delay >= samples:  # no command would ever reach the plant
+            raise InvalidParameterError(
+                f"delay={self.delay} samples is not shorter than the run, {samples} samples (t_end "
+                f"{self.duration:g} s at dt {self.dt:g} s): give a delay below {samples}, or a longer t_end"
+            )
+
+    @property
+    def samples(self) -> int:
+        """The number of samples t_k = k dt of the run, t_0 = 0 and t_end included."""
+        return round(min(self.duration / self.dt, 1e18)) + 1
 
     @property
     def drive_effects(self) -> bool:
@@ -146,6 +164,16 @@ class RunSpec:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+
+def _check_seconds(name: str, value, hint: str) -> None:
+    """A duration field of :class:`RunSpec`: a finite number of seconds > 0."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Real)
+        or not (math.isfinite(value) and value > 0)
+    ):
+        raise InvalidParameterError(f"{name}={value!r} must be a finite number of seconds > 0, {hint}")
 
 
 # bytes per sample that a run holds at its peak, measured with the peak RSS of 10-30 s Adept runs
@@ -194,13 +222,20 @@ def build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None 
     F̄ = [2, 4, 6] N m, F̄_n = 15 N).
 
     Raises:
-        InvalidParameterError: a gain name the controller does not have.
+        InvalidParameterError: a gain name the controller does not have, or a value it cannot take.
     """
     try:
         return _build_controller(spec, robot, trajectory)
     except TypeError as exc:
         raise InvalidParameterError(
             f"controller {spec.controller!r} does not take gains {spec.gains}: {exc}"
+        ) from None
+    except ValueError as exc:
+        if isinstance(exc, InvalidParameterError) or not spec.gains:
+            raise
+        # a gain of the wrong kind (xi='abc' from a sweep axis) that the law's own arrays refuse
+        raise InvalidParameterError(
+            f"controller {spec.controller!r}: gains {spec.gains} are not valid ({exc}); give numbers"
         ) from None
 
 

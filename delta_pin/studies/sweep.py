@@ -903,7 +903,11 @@ def grid_specs(base: RunSpec, axes: Mapping[str, Iterable]) -> list[RunSpec]:
                 changes[name] = value
             else:
                 gains[name] = value
-        specs.append(base.with_(**changes, gains=gains))
+        try:
+            specs.append(base.with_(**changes, gains=gains))
+        except InvalidParameterError as exc:  # name the point (dt=0, t_end=-1, velocity='bogus' ...)
+            point = ", ".join(f"{name}={value!r}" for name, value in zip(names, combo))
+            raise InvalidParameterError(f"the grid's point {point}: {exc}") from None
     return specs
 
 
