@@ -185,8 +185,39 @@ def _read_until(stream, text: str, timeout: float) -> list[str]:
     return lines
 
 
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+SERVER = "delta_pin.viz.meshcat_server"  # the command line of view's meshcat server
+
+
+def _listening(pid: int) -> list[tuple[str, int]]:
+    """The (address, port) of each TCP socket process ``pid`` listens on (IPv4 and IPv6, from
+    /proc/net/tcp*; the address in /proc's hex, 0100007F for 127.0.0.1, 00000000 for 0.0.0.0)."""
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[len("socket:[") : -1])
+    found = []
+    for table in ("tcp", "tcp6"):
+        path = Path(f"/proc/{pid}/net/{table}")
+        if not path.exists():
+            continue
+        for line in path.read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A" and fields[9] in inodes:  # 0A: LISTEN
+                address, port = fields[1].split(":")
+                found.append((address, int(port, 16)))
+    return found
+
+
+@pytest.mark.parametrize(
+    "signum", [signal.SIGTERM, signal.SIGINT, signal.SIGKILL], ids=["SIGTERM", "SIGINT", "SIGKILL"]
+)
 def test_view_ends_its_meshcat_server(run_file, signum):
+    """`view`'s meshcat server listens on 127.0.0.1 only (meshcat's own served its page on
+    0.0.0.0) and goes with `view` however it ends: SIGKILL left it on ports 6000/7000 (issue 25)."""
     pytest.importorskip("meshcat")
     process = subprocess.Popen(
         [sys.executable, "-m", "delta_pin.cli", "view", str(run_file)],
@@ -198,10 +229,13 @@ def test_view_ends_its_meshcat_server(run_file, signum):
     try:
         lines = _read_until(process.stdout, "meshcat viewer at", 120.0)
         assert lines and "meshcat viewer at" in lines[-1], lines
-        servers = [c for c in _children(process.pid) if "meshcat.servers.zmqserver" in _cmdline(c)]
+        servers = [c for c in _children(process.pid) if SERVER in _cmdline(c)]
         assert len(servers) == 1, _children(process.pid)
+        listening = _listening(servers[0])
+        assert len(listening) == 2, listening  # the zmq socket and the page
+        assert {address for address, _ in listening} == {"0100007F"}, listening  # 127.0.0.1 only
         os.kill(process.pid, signum)
-        assert process.wait(timeout=10) == 0
+        assert process.wait(timeout=10) == (-signal.SIGKILL if signum == signal.SIGKILL else 0)
         left, seconds = _gone_within(servers, DEADLINE)
         assert not left, f"the meshcat server {left} outlived `delta-pin view` ({signum.name})"
         assert "Traceback" not in process.stderr.read()
@@ -241,7 +275,7 @@ def test_view_replays_a_closed_chain_run_with_its_robot_file(tmp_path):
     try:
         lines = _read_until(process.stdout, "meshcat viewer at", 120.0)
         assert lines and "meshcat viewer at" in lines[-1], (lines, process.stderr)
-        servers = [c for c in _children(process.pid) if "meshcat.servers.zmqserver" in _cmdline(c)]
+        servers = [c for c in _children(process.pid) if SERVER in _cmdline(c)]
         os.kill(process.pid, signal.SIGTERM)
         assert process.wait(timeout=10) == 0
     finally:

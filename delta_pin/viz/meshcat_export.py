@@ -338,7 +338,9 @@ def _as_run(run: Run | str | os.PathLike) -> Run:
             raise RunFileNotFoundError(f"run file {str(path)!r} does not exist")
         try:
             run = load_run(path)
-        except (OSError, ValueError, zipfile.BadZipFile, DeltaPinError) as exc:
+        except DeltaPinError as exc:  # load_run's message names the file already
+            raise VisualizationError(str(exc)) from None
+        except (OSError, ValueError, zipfile.BadZipFile) as exc:
             raise VisualizationError(f"{str(path)!r} is not a run file saved by Run.save: {exc}") from None
     elif not isinstance(run, Run):
         raise InvalidParameterError(
@@ -1107,8 +1109,9 @@ def view_live(
     """Replay a run in a live meshcat viewer (a local server, started unless ``zmq_url`` is given).
 
     Draws the same scene as :func:`export_html` and plays the animation once; press "play" in
-    the viewer's Animations panel to replay it. The server is a child process of this Python
-    process and stops with it.
+    the viewer's Animations panel to replay it. The server
+    (:mod:`delta_pin.viz.meshcat_server`) is a child process of this Python process that listens
+    on 127.0.0.1 only and stops with it, however it ends (SIGKILL included).
 
     Args:
         run, robot, fps, show_desired_ghost, path_colors: as for :func:`export_html`.
@@ -1119,10 +1122,26 @@ def view_live(
         The ``meshcat.Visualizer``; its ``url()`` is the page to open.
     """
     run, scene, fps, colors = _prepare(run, robot, fps, show_desired_ghost, path_colors)
-    vis = _meshcat().Visualizer(zmq_url=zmq_url)
-    if open_browser:
-        vis.open()
-    _draw(vis, scene, fps, colors, repetitions=1)
+    meshcat = _meshcat()
+    if zmq_url is not None:
+        vis = meshcat.Visualizer(zmq_url=zmq_url)
+    else:  # delta-pin's server: on 127.0.0.1 only, and it ends with this process, even killed
+        from delta_pin.viz.meshcat_server import start_server
+
+        server, url, _ = start_server()
+        try:
+            vis = meshcat.Visualizer(zmq_url=url)
+        except BaseException:
+            _stop_server(server)
+            raise
+        vis.window.server_proc = server
+    try:
+        if open_browser:
+            vis.open()
+        _draw(vis, scene, fps, colors, repetitions=1)
+    except BaseException:
+        close_live(vis)
+        raise
     return vis
 
 
@@ -1130,10 +1149,17 @@ def close_live(vis) -> None:
     """Stop the meshcat server that :func:`view_live` started (nothing for one it connected to):
     meshcat stops it only at a normal interpreter exit, not on SIGTERM."""
     server = getattr(getattr(vis, "window", None), "server_proc", None)
-    if server is not None and server.poll() is None:
+    if server is not None:
+        _stop_server(server)
+
+
+def _stop_server(server) -> None:
+    if server.poll() is None:
         server.terminate()
         try:
             server.wait(timeout=5.0)
         except Exception:  # pragma: no cover - a server that ignores SIGTERM
             server.kill()
             server.wait()
+    if server.stdin is not None:
+        server.stdin.close()
