@@ -28,6 +28,8 @@ BENCHMARKS = {
     "bench_sweep.py": ["--repeats", "3", "--full"],
     "bench_meshcat_export.py": ["--repeats", "5"],
     "bench_cli.py": ["--repeats", "5"],
+    "bench_engine.py": ["--repeats", "3"],
+    "bench_drive_cpp.py": ["--repeats", "3"],
 }
 QUICK = {
     "bench_model.py": ["--repeats", "3", "--calls", "500"],
@@ -38,6 +40,8 @@ QUICK = {
     "bench_sweep.py": ["--repeats", "1", "--t-end", "3", "--runs", "4"],
     "bench_meshcat_export.py": ["--repeats", "2"],
     "bench_cli.py": ["--repeats", "3"],
+    "bench_engine.py": ["--repeats", "1", "--t-end", "3"],
+    "bench_drive_cpp.py": ["--repeats", "1"],
 }
 # targets of issue 7 measured by a script that may not report them (missing, skipped or failed)
 EXPECTED = {

@@ -488,16 +488,7 @@ namespace delta_pin
     {
       double torque = tau[i];
       if (friction_.enabled)
-      {
-        const double speed = v[actuated_v_[i]];
-        const double normal = friction_.normal_force[i];
-        const double coulomb = friction_.mu_d * normal, level_static = friction_.mu_s * normal;
-        const double sliding = speed * friction_.r_a / friction_.v_s;
-        const double sign = friction_.sign_scale > 0.0 ? std::tanh(speed / friction_.sign_scale)
-                                                       : (double)((speed > 0.0) - (speed < 0.0));
-        const double level = coulomb + (level_static - coulomb) * std::exp(-(sliding * sliding));
-        torque -= level * sign * friction_.r_a + friction_.mu_v * speed * friction_.r_a;
-      }
+        torque -= friction_.torque(v[actuated_v_[i]], friction_.normal_force[i]);
       tau_[actuated_v_[i]] = torque;
     }
     for (Eigen::Index i = 0; i < spring_v_.size(); ++i)

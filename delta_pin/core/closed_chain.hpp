@@ -16,6 +16,8 @@
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
 #include <pinocchio/multibody.hpp>
 
+#include "control/friction.hpp"
+
 #include <Eigen/Dense>
 
 #include <functional>
@@ -49,10 +51,8 @@ namespace delta_pin
 
   // Stribeck friction on the actuated joints (eq. 12): r_a, v_s, mu_s, mu_d, mu_v, the normal
   // force per joint [N] and the sign's smoothing scale [rad/s].
-  struct FrictionSpec
+  struct FrictionSpec : StribeckFriction
   {
-    bool enabled = false;
-    double r_a = 0.0, v_s = 1.0, mu_s = 0.0, mu_d = 0.0, mu_v = 0.0, sign_scale = 0.0;
     Vector normal_force;
   };
 

@@ -23,15 +23,6 @@ namespace delta_pin
       return text.str();
     }
 
-    // eq. 12 with sgn smoothed by tanh (delta_pin.model.friction.stribeck_torque)
-    double stribeck(const FrictionSpec & f, double speed, double normal)
-    {
-      const double coulomb = f.mu_d * normal, level_static = f.mu_s * normal;
-      const double sliding = speed * f.r_a / f.v_s;
-      const double sign = f.sign_scale > 0.0 ? std::tanh(speed / f.sign_scale) : (double)((speed > 0.0) - (speed < 0.0));
-      const double level = coulomb + (level_static - coulomb) * std::exp(-(sliding * sliding));
-      return level * sign * f.r_a + f.mu_v * speed * f.r_a;
-    }
   } // namespace
 
   AdaptiveRobust::AdaptiveRobust(
@@ -48,7 +39,8 @@ namespace delta_pin
   , q_(reference_configuration)
   {
     const Eigen::Index n = nominal_.dof();
-    if (p_.D.size() != n || p_.T_p.size() != n || p_.T_v.size() != n || p_.disturbance.size() != n)
+    const AdaptiveRobustGains<Eigen::Dynamic> & g = p_.gains;
+    if (g.D.size() != n || g.T_p.size() != n || g.T_v.size() != n || p_.disturbance.size() != n)
       throw std::invalid_argument("the gains D, T_p, T_v and the disturbance need one value per actuated joint");
     if (p_.friction.enabled && p_.friction.normal_force.size() != n)
       throw std::invalid_argument("the nominal friction needs one normal force per actuated joint");
@@ -69,61 +61,23 @@ namespace delta_pin
     Matrix M, C;
     Vector G, C_alpha_dot;
     nominal_.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
-    // C1 + C2 (ComputedTorque.terms)
-    const Vector r = alpha - ref_alpha, r_dot = alpha_dot - ref_alpha_dot;
-    const Vector a_ref = ref_alpha_ddot - p_.D.cwiseProduct(r_dot);
-    const Vector v_ref = ref_alpha_dot - p_.D.cwiseProduct(r);
     Vector compensation = p_.disturbance;
     if (p_.friction.enabled)
       for (Eigen::Index i = 0; i < n; ++i)
-        compensation[i] += stribeck(p_.friction, alpha_dot[i], p_.friction.normal_force[i]);
-    const Vector c1 = M * a_ref + C * v_ref + G + compensation;
-    const Vector c2 = -p_.T_p.cwiseProduct(r) - p_.T_v.cwiseProduct(r_dot);
-    const Vector s = r_dot + p_.D.cwiseProduct(r);
-    // Lambda of eq. 67 and its gradient (AdaptiveRobustController.bound)
-    const double kappa0 = std::sqrt(a_ref.dot(a_ref)), kappa1 = std::sqrt(v_ref.dot(v_ref));
-    Vector gradient;
-    if (p_.vector_rho)
-      gradient = (Vector(3) << kappa0, kappa1, 1.0).finished();
-    else
-      gradient = (Vector(1) << kappa0 + kappa1 + 1.0).finished();
-    if (rho.size() != gradient.size())
+        compensation[i] += p_.friction.torque(alpha_dot[i], p_.friction.normal_force[i]);
+    if (rho.size() != (p_.gains.vector_rho ? 3 : 1))
       throw std::invalid_argument("rho_hat has the wrong size");
-    const double Lambda = gradient.dot(rho);
-    const double s_norm = std::sqrt(s.dot(s));
-    const double omega_norm = s_norm * Lambda;
-    const double xi = p_.xi;
-    double phi;
-    if (p_.design_two)
-      phi = omega_norm / (omega_norm * omega_norm + omega_norm * xi + xi * xi);
-    else
-      phi = omega_norm > xi ? 1.0 / omega_norm : 1.0 / xi;
-    double gain = phi * Lambda * Lambda;
-    Vector c3;
-    if (p_.sampling_period <= 0.0)
-      c3 = -gain * s;
-    else  // per inertia direction: k_j = min(gain, margin mu_j / T - T_v)
-    {
-      Eigen::SelfAdjointEigenSolver<Matrix> eigen(M);
-      const Vector & inertia = eigen.eigenvalues();
-      const Matrix & directions = eigen.eigenvectors();
-      const double t_v_max = p_.T_v.maxCoeff();
-      Vector gains(n);
-      for (Eigen::Index j = 0; j < n; ++j)
-        gains[j] = std::min(gain, std::max(p_.sampling_margin * inertia[j] / p_.sampling_period - t_v_max, 0.0));
-      c3 = -(directions * gains.cwiseProduct(directions.transpose() * s));
-      gain = gains.minCoeff();
-    }
-    // the adaptive law, eq. 24 with the dead-zone of eq. 25 (AdaptiveRobustController.adaptation_rate)
-    const Vector leak = (p_.b2 * std::exp(-s_norm) + p_.b3) * rho;
-    const bool active = s_norm * std::sqrt(gradient.dot(gradient)) > p_.epsilon;
-    rho_dot = active ? Vector(p_.beta * (p_.b1 * gradient * s_norm - leak)) : Vector(-p_.beta * leak);
-    tau = c1 + c2 + c3;
-    last_Lambda_ = Lambda;
-    last_gain_ = gain;
-    last_omega_norm_ = omega_norm;
-    last_active_ = active ? 1.0 : 0.0;
-    last_robust_ = c3;
+    RhoVector rho_hat = rho, rate;
+    AdaptiveRobustInternals<Eigen::Dynamic> info;
+    adaptive_robust_law<Eigen::Dynamic>(
+      p_.gains, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho_hat, tau, rate,
+      info);
+    rho_dot = rate;
+    last_Lambda_ = info.Lambda;
+    last_gain_ = info.robust_gain;
+    last_omega_norm_ = info.omega_norm;
+    last_active_ = info.adaptation_active;
+    last_robust_ = info.robust_torque;
   }
 
   void AdaptiveRobust::set_friction(const FrictionSpec & friction)

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "closed_chain.hpp"
+#include "control/adaptive_robust_law.hpp"
 
 #include <Eigen/Dense>
 
@@ -47,13 +48,10 @@ namespace delta_pin
   // Euler (Controller.advance). The reference comes as a table of the samples.
   struct AdaptiveRobustParameters
   {
-    Vector D, T_p, T_v;  // per actuated joint [1/s], [N m/rad], [N m s/rad]
-    double beta = 0.1, xi = 1e-3, epsilon = 0.05, b1 = 10.0, b2 = 2.0, b3 = 0.3;
-    bool design_two = false, vector_rho = false;
-    double sampling_period = 0.0, sampling_margin = 1.0;  // 0: the paper's law unchanged
+    AdaptiveRobustGains<Eigen::Dynamic> gains;  // D, T_p, T_v per actuated joint, beta, xi, ...
     Vector disturbance;  // F̄ [N m]
-    std::string name = "designI";  // what a refusal calls the controller
     FrictionSpec friction;  // the nominal friction, applied where enabled (friction compensation)
+    std::string name = "designI";  // what a refusal calls the controller
   };
 
   class AdaptiveRobust : public SampledController

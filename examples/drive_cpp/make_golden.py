@@ -1,0 +1,82 @@
+"""Golden vectors for examples/drive_cpp: design I (or II) on the Delta's analytic nominal model,
+computed by delta-pin's readable law (``AdaptiveRobustController.evaluate_reference``) along the
+joint states of a simulated run, sample by sample with rho_hat advancing as a drive advances it.
+
+Writes ``parameters.txt`` (the controller's numbers, ``name = value ...``) and ``golden.csv`` (per
+sample: measured alpha, alpha_dot, the reference alpha, alpha_dot, alpha_ddot, then the torque
+and the rho_hat the law used), which ``drive_replay`` replays through the C library.
+
+Run: ``python make_golden.py OUT_DIR [--design I|II] [--samples 2000] [--paper-law]``
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+import delta_pin as dp
+from delta_pin.control.base import Reference
+from delta_pin.model.kinematics import chain_trigonometry
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--design", choices=("I", "II"), default="I")
+    parser.add_argument("--samples", type=int, default=2000)
+    parser.add_argument(
+        "--paper-law", action="store_true", help="the paper's robust gain (diverges at 1 kHz after ~0.58 s)"
+    )
+    args = parser.parse_args()
+    dt = 1e-3
+    robot = dp.load_delta()
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(0.02, -0.01, 0.03))
+    options = {} if args.paper_law else {"sampling_period": dt}  # the sampling-aware law by default
+    controller = (dp.design1 if args.design == "I" else dp.design2)(nominal, **options)
+    # the joint states of a real run (the analytic plant, the paper's friction), as a drive would read them
+    options = {"plant": "analytic", "t_end": args.samples * dt, "mode": "sampled", "dt": dt}
+    run = dp.simulate(robot, controller, dp.PathI(), friction=dp.Friction(), **options)
+    p = controller.kernel_parameters
+    geometry = p.geometry
+    cos_phi, sin_phi = chain_trigonometry()
+    friction = p.friction
+    numbers = {
+        "R": geometry.R, "r": geometry.r, "l_a": geometry.l_a, "l_b": geometry.l_b,
+        "arm_inertia": geometry.arm_inertia, "arm_gravity": geometry.arm_gravity, "g": geometry.g,
+        "m_eq": p.m_eq, "cos_phi": cos_phi, "sin_phi": sin_phi, "D": p.D, "T_p": p.T_p, "T_v": p.T_v,
+        "beta": p.beta, "xi": p.xi, "epsilon": p.epsilon, "b1": p.b1, "b2": p.b2, "b3": p.b3,
+        "design_two": int(p.design_two), "vector_rho": int(p.vector_rho),
+        "sampling_period": p.sampling_period,
+        "sampling_margin": p.sampling_margin, "rho0": controller.gains.rho0, "friction": int(friction.on),
+        "r_a": friction.r_a, "v_s": friction.v_s, "mu_s": friction.mu_s, "mu_d": friction.mu_d,
+        "mu_v": friction.mu_v, "sign_scale": friction.sign_velocity_scale, "normal_force": p.normal_force,
+        "disturbance": p.disturbance, "period": dt,
+    }  # fmt: skip
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(args.out / "parameters.txt", "w") as file:
+        for name, value in numbers.items():
+            values = np.atleast_1d(np.asarray(value, dtype=float))
+            file.write(name + " " + " ".join(repr(float(v)) for v in values) + "\n")
+    path = dp.PathI().joint_reference(robot, run.t)  # alpha^d, alpha_dot^d, alpha_ddot^d per sample
+    z = controller.initial_state()
+    rows = []
+    for k in range(len(run.t)):
+        reference = Reference(path.alpha[k], path.alpha_dot[k], path.alpha_ddot[k])
+        out = controller.evaluate_reference(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
+        rows.append([*run.alpha[k], *run.alpha_dot[k], *reference.alpha, *reference.alpha_dot,
+                     *reference.alpha_ddot, *out.tau, z[0]])  # fmt: skip
+        z = controller.advance(z, out, dt)
+    header = (
+        "alpha0,alpha1,alpha2,alpha_dot0,alpha_dot1,alpha_dot2,ref0,ref1,ref2,ref_dot0,ref_dot1,ref_dot2,"
+    )
+    header += "ref_ddot0,ref_ddot1,ref_ddot2,tau0,tau1,tau2,rho"
+    np.savetxt(
+        args.out / "golden.csv", np.array(rows), delimiter=",", header=header, comments="", fmt="%.17g"
+    )
+    print(f"wrote {len(rows)} samples to {args.out / 'golden.csv'}")
+
+
+if __name__ == "__main__":
+    main()
