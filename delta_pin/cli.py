@@ -7,6 +7,7 @@ import json
 import math
 import os
 import re
+import signal
 import sys
 from pathlib import Path
 
@@ -18,7 +19,7 @@ __all__ = ["MAX_SWEEP_POINTS", "main"]
 
 MAX_SWEEP_POINTS = 100_000  # a larger grid needs --force
 RESUMABLE = ("compare", "sweep", "reproduce")  # commands whose finished runs are cached on disk
-EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
+EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143  # 143: 128 + SIGTERM
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -680,7 +681,6 @@ def _stop(signum, frame) -> None:
 def _cmd_view(args: argparse.Namespace) -> int:
     """The live viewer until Ctrl-C or SIGTERM (or SIGHUP), either of which also ends its meshcat
     server (a SIGTERM used to leave the server on port 7000)."""
-    import signal
     import time
 
     from delta_pin.viz.meshcat_export import close_live, view_live
@@ -716,7 +716,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="delta-pin",
         description="Model-based control of Delta parallel robots, built on Pinocchio.",
-        epilog="Exit codes: 0 done, 1 a run or check failed, 2 bad input, 130 interrupted.",
+        epilog="Exit codes: 0 done, 1 a run or check failed, 2 bad input, 130 interrupted (Ctrl-C), "
+        "143 terminated (SIGTERM).",
     )
     parser.add_argument("--debug", action="store_true", help=_DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -881,7 +882,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``delta-pin`` console script; returns the exit code.
 
     Every expected failure is one line on stderr, ``delta-pin COMMAND: error: ...``: exit code 2
-    for bad input (arguments, files), 1 for a run or check that failed, 130 for Ctrl-C. With
+    for bad input (arguments, files), 1 for a run or check that failed, 130 for Ctrl-C, 143 for
+    SIGTERM (the same line as Ctrl-C). With
     ``--debug`` the error is raised instead, with its traceback.
     """
     parser = build_parser()
@@ -894,6 +896,8 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 0
     prefix = f"delta-pin {args.command}"
     args.command_line = ["delta-pin", *(sys.argv[1:] if argv is None else argv)]
+    terminated: list[int] = []
+    previous = _on_sigterm(terminated)
     try:
         return args.func(args)
     except KeyboardInterrupt:
@@ -901,13 +905,33 @@ def main(argv: list[str] | None = None) -> int:
             raise
         resume = "; rerun the same command to resume" if args.command in RESUMABLE else ""
         print(f"{prefix}: interrupted{resume}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
     except Exception as exc:
         if args.debug:
             raise
         code, message = _error_line(exc)
         print(f"{prefix}: error: {message}", file=sys.stderr)
         return code
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _on_sigterm(terminated: list[int]):
+    """Handle SIGTERM as Ctrl-C: a KeyboardInterrupt where the command is (a study stops its
+    workers, its folder stays marked unfinished, the same one line), exit code 143 instead of 130;
+    a second SIGTERM ends the process at once. Returns the handler it replaced (``None`` where
+    handlers cannot be set: not the main thread)."""
+
+    def stop(signum, frame) -> None:
+        terminated.append(signum)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        raise KeyboardInterrupt
+
+    try:
+        return signal.signal(signal.SIGTERM, stop)
+    except ValueError:  # not the main thread of the interpreter
+        return None
 
 
 def _error_line(exc: Exception) -> tuple[int, str]:

@@ -384,9 +384,16 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path, capsys, monkeypatch, argv, ta
     assert _one_line(capsys) == f"delta-pin {argv[0]}: {expected}"
 
 
-def test_ctrl_c_of_a_real_reproduction(tmp_path):
+@pytest.mark.parametrize(
+    ("signum", "group", "code"),
+    [(signal.SIGINT, True, 130), (signal.SIGTERM, False, 143)],
+    ids=["Ctrl-C to the group", "SIGTERM to the command"],
+)
+def test_ctrl_c_of_a_real_reproduction(tmp_path, signum, group, code):
     """SIGINT to the whole process group, as a terminal's Ctrl-C: the command and its worker
-    processes stop, one line, exit 130, no traceback from anyone."""
+    processes stop, one line, exit 130, no traceback from anyone. SIGTERM to the command alone,
+    as a supervisor's ``kill``: the same line, exit 143 (128 + SIGTERM); it used to end the
+    command silently (issue 25). Either way the folder stays marked unfinished."""
     process = subprocess.Popen(
         [sys.executable, "-m", "delta_pin.cli", "reproduce", "--workers", "2", "--out", str(tmp_path)],
         stdout=subprocess.PIPE,
@@ -397,12 +404,12 @@ def test_ctrl_c_of_a_real_reproduction(tmp_path):
     try:
         assert "delta-pin reproduce:" in process.stdout.readline()  # the runs have started
         time.sleep(2.0)
-        os.killpg(process.pid, signal.SIGINT)
+        (os.killpg if group else os.kill)(process.pid, signum)
         _, err = process.communicate(timeout=60)
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
-    assert process.returncode == 130, err
+    assert process.returncode == code, err
     assert "Traceback" not in err
     assert err.strip().splitlines() == ["delta-pin reproduce: interrupted; rerun the same command to resume"]
     manifest = json.loads((tmp_path / "manifest.json").read_text())  # the folder is marked unfinished
@@ -461,3 +468,20 @@ def test_a_rerun_removes_the_earlier_run_s_page(tmp_path, capsys):
     assert main([*argv, "--out", str(out)]) == 2
     assert "holds run.npz, which no manifest.json of delta-pin lists" in _one_line(capsys)
     assert (out / "run.html").read_text() == "old page" and (out / "keep.txt").exists()
+
+
+def test_sigterm_is_ctrl_c_s_line_and_exit_143(tmp_path, capsys, monkeypatch):
+    """SIGTERM of a study (here inside its sweep, as a serial one is) is Ctrl-C's one line, exit
+    143; main() puts the handler it replaced back (issue 25: SIGTERM printed nothing)."""
+    import delta_pin.studies.reproduce as reproduce
+
+    def terminated(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5.0)  # the handler interrupts this
+        raise AssertionError("SIGTERM did not interrupt the sweep")
+
+    monkeypatch.setattr(reproduce, "sweep", terminated)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["sweep", "--param", "delta_m=0,0.3", "--out", str(tmp_path)]) == 143
+    assert _one_line(capsys) == "delta-pin sweep: interrupted; rerun the same command to resume"
+    assert signal.getsignal(signal.SIGTERM) is before

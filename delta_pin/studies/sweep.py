@@ -595,6 +595,7 @@ def _init_worker(parent: int) -> None:
     from delta_pin.utils.processes import die_with_parent
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the CLI's handler, inherited by the fork
     die_with_parent(parent)
 
 
