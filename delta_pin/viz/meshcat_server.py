@@ -6,7 +6,7 @@ websocket bridge, run as a child process that
 * ends with its parent however the parent ends, SIGKILL included (meshcat's server outlived a
   killed ``delta-pin view`` on ports 6000/7000): it is told by two means, each enough alone, a
   supervisor pipe (its stdin, whose end of file it reads as "the parent is gone") and, on Linux,
-  ``prctl(PR_SET_PDEATHSIG, SIGTERM)``.
+  ``prctl(PR_SET_PDEATHSIG, SIGTERM)`` (:func:`~delta_pin.utils.processes.die_with_parent`).
 
 ``python -m delta_pin.viz.meshcat_server PARENT_PID`` runs the child; :func:`start_server`
 starts it and returns once it is listening.
@@ -22,11 +22,11 @@ import sys
 import tempfile
 import threading
 
+from delta_pin.utils.processes import die_with_parent
+
 __all__ = ["HOST", "start_server"]
 
 HOST = "127.0.0.1"  # the only interface the server listens on
-PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
-START_TIMEOUT = 60.0  # [s] for the server to say where it listens
 
 
 def start_server() -> tuple[subprocess.Popen, str, str]:
@@ -67,17 +67,10 @@ def start_server() -> tuple[subprocess.Popen, str, str]:
 
 
 def _die_with_parent(parent: int) -> None:
-    """End this process when ``parent`` ends: PR_SET_PDEATHSIG (Linux), and the supervisor pipe."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        try:
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
-        except (OSError, AttributeError):  # pragma: no cover - no prctl: the pipe alone
-            pass
-    if os.getppid() != parent:  # the parent died before the signal was asked for
-        os._exit(0)
+    """End this process when ``parent`` ends: PR_SET_PDEATHSIG and a watch of the parent's pid
+    (:func:`~delta_pin.utils.processes.die_with_parent`), and the supervisor pipe."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent(parent)
 
     def watch() -> None:
         try:
