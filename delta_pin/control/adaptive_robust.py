@@ -46,9 +46,8 @@ from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
 from delta_pin.compiled.layouts import CONTROLLER, INFO, as_table, record
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
-from delta_pin.control.nominal import ClosedChainNominalModel, DeltaNominalModel, NominalModel
+from delta_pin.control.nominal import DeltaNominalModel, NominalModel
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.core_model import core_arguments, core_model
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
@@ -181,28 +180,20 @@ class AdaptiveRobustController(Controller):
         return np.full(3 if self.vector_rho else 1, self.gains.rho0)
 
     def sampled_core_law(self):
-        """The compiled core's design I/II on the nominal model of a closed chain
-        (``AdaptiveRobust`` of ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s
-        arithmetic), where the core takes the nominal's robot; else ``None``."""
-        robot = getattr(self.nominal, "robot", None)
-        if not isinstance(self.nominal, ClosedChainNominalModel) or core_model(robot) is None:
-            return None
-        from delta_pin.compiled.core import core
-
+        """The compiled core's design I/II on the nominal model (``AdaptiveRobust`` of
+        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
+        nominal model has one there (:meth:`NominalModel.core_law
+        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
         ctc, g = self.computed_torque, self.gains
-        law = core().AdaptiveRobust(
-            *core_arguments(robot), int(robot.end_effector), robot.reference_configuration,
-            ctc.D, ctc.T_p, ctc.T_v, g.beta, g.xi, g.epsilon, g.b1, g.b2, g.b3, self.design == "II",
-            self.vector_rho, self.sampling_period or 0.0, self.sampling_margin,
-            np.asarray(self.nominal.disturbance(), dtype=float), self.name,
+        return self.nominal.core_law(
+            "AdaptiveRobust", self.name, ctc.D, ctc.T_p, ctc.T_v, g.beta, g.xi, g.epsilon, g.b1, g.b2, g.b3,
+            self.design == "II", self.vector_rho, self.sampling_period or 0.0, self.sampling_margin,
+            friction_compensation=self.friction_compensation,
         )  # fmt: skip
-        if self.friction_compensation and self.nominal.stribeck is not None:
-            s = self.nominal.stribeck
-            law.set_friction(
-                s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, self.nominal.friction_model.sign_velocity_scale,
-                self.nominal.normal_force,
-            )  # fmt: skip
-        return law
+
+    def core_law_internals(self, law) -> dict[str, np.ndarray]:
+        names = ("Lambda", "robust_gain", "omega_norm", "robust_torque", "adaptation_active")
+        return {"rho_hat": np.array(law.state), **{name: np.array(getattr(law, name)) for name in names}}
 
     # ----------------------------------------------------------------------- the law's pieces
     def bound(self, rho_hat: np.ndarray, a_ref: np.ndarray, v_ref: np.ndarray) -> tuple[float, np.ndarray]:

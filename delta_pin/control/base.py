@@ -140,6 +140,11 @@ class Controller(ABC):
         per sample."""
         return None
 
+    def core_law_internals(self, law) -> dict[str, np.ndarray]:
+        """The internals (N, ...) that :meth:`evaluate` would have recorded, read from the records
+        of :meth:`sampled_core_law`'s law after a run (none by default)."""
+        return {}
+
     def advance(self, state: np.ndarray, output: ControlOutput, period: float) -> np.ndarray:
         """The internal state one sample of ``period`` [s] later: the discrete-time law's
         ``next_state``, or z + period z_dot for a continuous-time one (explicit Euler, as a drive

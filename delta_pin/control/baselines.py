@@ -88,6 +88,17 @@ class ComputedTorque(Controller):
     def evaluate(self, t, alpha, alpha_dot, reference: Reference, state) -> ControlOutput:
         return ControlOutput(self.terms(alpha, alpha_dot, reference).tau)
 
+    def sampled_core_law(self):
+        """The compiled core's C1 + C2 where the nominal model has one there."""
+        return self.nominal.core_law(
+            "ComputedTorque",
+            self.name,
+            self.D,
+            self.T_p,
+            self.T_v,
+            friction_compensation=self.friction_compensation,
+        )
+
     def metadata(self):
         return {
             "name": self.name,
@@ -117,6 +128,12 @@ class PDGravity(Controller):
             + self.nominal.compensation(alpha_dot, self.friction_compensation)
             - self.K_p * (alpha - reference.alpha)
             - self.K_d * (alpha_dot - reference.alpha_dot)
+        )
+
+    def sampled_core_law(self):
+        """The compiled core's PD + gravity where the nominal model has one there."""
+        return self.nominal.core_law(
+            "PDGravity", self.name, self.K_p, self.K_d, friction_compensation=self.friction_compensation
         )
 
     def metadata(self):

@@ -22,7 +22,7 @@ import pinocchio as pin
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
 from delta_pin.compiled.layouts import as_table
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.core_model import core_model
+from delta_pin.model.core_model import core_arguments, core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
@@ -47,6 +47,12 @@ class NominalModel(ABC):
     def friction(self, q_dot: np.ndarray) -> np.ndarray:
         """Nominal friction torque M̄_f (n,) [N m] (zero by default)."""
         return np.zeros(self.dof)
+
+    def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
+        """A law of the compiled core on this nominal model (``kind``: ``"AdaptiveRobust"``,
+        ``"ComputedTorque"``, ``"PDGravity"`` of ``delta_pin/core/controller.hpp``, with its gains),
+        or ``None`` (the default) where the core holds no such model."""
+        return None
 
     def compensation(self, q_dot: np.ndarray, friction: bool) -> np.ndarray:
         """F̄ [+ M̄_f(q_dot) when ``friction``] (n,) [N m]: what eq. 23 adds besides M̄, C̄, Ḡ."""
@@ -251,6 +257,30 @@ class ClosedChainNominalModel(NominalModel):
                 return M, C, G
         M, C, G, _ = self.robot.reduced_terms(q, q_dot)  # names what does not close
         return M, C, G
+
+    def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
+        """The compiled law ``kind`` on this projected model (its robot, F̄ and, with
+        ``friction_compensation``, the nominal friction), where the core takes the robot."""
+        if self._core is None:
+            return None
+        from delta_pin.compiled.core import core
+
+        law = getattr(core(), kind)(
+            *core_arguments(self.robot), int(self.robot.end_effector), self.robot.reference_configuration,
+            np.asarray(self._disturbance, dtype=float), name, *gains,
+        )  # fmt: skip
+        if friction_compensation and self.stribeck is not None:
+            s = self.stribeck
+            law.set_friction(
+                s.r_a,
+                s.v_s,
+                s.mu_s,
+                s.mu_d,
+                s.mu_v,
+                self.friction_model.sign_velocity_scale,
+                self.normal_force,
+            )
+        return law
 
     def disturbance(self):
         return self._disturbance

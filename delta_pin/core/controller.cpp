@@ -25,35 +25,36 @@ namespace delta_pin
 
   } // namespace
 
-  AdaptiveRobust::AdaptiveRobust(
-    const std::string & model_text,
-    const std::vector<ClosureFrames> & closures,
-    const Indices & actuated_q,
-    const Indices & actuated_v,
-    const Indices & dependent_v,
-    pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration,
-    const AdaptiveRobustParameters & parameters)
+  ProjectedLaw::ProjectedLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name)
   : nominal_(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector)
-  , p_(parameters)
   , q_(reference_configuration)
+  , disturbance_(disturbance)
+  , name_(name)
   {
-    const Eigen::Index n = nominal_.dof();
-    const AdaptiveRobustGains<Eigen::Dynamic> & g = p_.gains;
-    if (g.D.size() != n || g.T_p.size() != n || g.T_v.size() != n || p_.disturbance.size() != n)
-      throw std::invalid_argument("the gains D, T_p, T_v and the disturbance need one value per actuated joint");
-    if (p_.friction.enabled && p_.friction.normal_force.size() != n)
-      throw std::invalid_argument("the nominal friction needs one normal force per actuated joint");
+    if (disturbance_.size() != nominal_.dof())
+      throw std::invalid_argument("the disturbance needs one value per actuated joint");
     if (q_.size() != nominal_.model().nq)
       throw std::invalid_argument("the reference configuration has the wrong size");
-    last_robust_ = Vector::Zero(n);
+    friction_.normal_force = Vector::Zero(nominal_.dof());
   }
 
-  void AdaptiveRobust::evaluate(
+  void ProjectedLaw::set_friction(const FrictionSpec & friction)
+  {
+    if (friction.enabled && friction.normal_force.size() != nominal_.dof())
+      throw std::invalid_argument("the nominal friction needs one normal force per actuated joint");
+    friction_ = friction;
+  }
+
+  void ProjectedLaw::evaluate(
     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
-    const Vector & ref_alpha_ddot, const Vector & rho, Vector & tau, Vector & rho_dot)
+    const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
   {
     const Eigen::Index n = nominal_.dof();
+    if (alpha_dot.size() != n || ref_alpha.size() != n || ref_alpha_dot.size() != n || ref_alpha_ddot.size() != n)
+      throw std::invalid_argument("the joint state and the reference need one value per actuated joint");
     Vector q;
     if (!nominal_.configuration(alpha, q_, q))
       throw SimulationFailure("the nominal model's loops do not close at alpha=" + joints(alpha));
@@ -61,35 +62,16 @@ namespace delta_pin
     Matrix M, C;
     Vector G, C_alpha_dot;
     nominal_.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
-    Vector compensation = p_.disturbance;
-    if (p_.friction.enabled)
+    Vector compensation = disturbance_;
+    if (friction_.enabled)
       for (Eigen::Index i = 0; i < n; ++i)
-        compensation[i] += p_.friction.torque(alpha_dot[i], p_.friction.normal_force[i]);
-    if (rho.size() != (p_.gains.vector_rho ? 3 : 1))
-      throw std::invalid_argument("rho_hat has the wrong size");
-    RhoVector rho_hat = rho, rate;
-    AdaptiveRobustInternals<Eigen::Dynamic> info;
-    adaptive_robust_law<Eigen::Dynamic>(
-      p_.gains, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho_hat, tau, rate,
-      info);
-    rho_dot = rate;
-    last_Lambda_ = info.Lambda;
-    last_gain_ = info.robust_gain;
-    last_omega_norm_ = info.omega_norm;
-    last_active_ = info.adaptation_active;
-    last_robust_ = info.robust_torque;
+        compensation[i] += friction_.torque(alpha_dot[i], friction_.normal_force[i]);
+    law(M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
   }
 
-  void AdaptiveRobust::set_friction(const FrictionSpec & friction)
-  {
-    if (friction.enabled && friction.normal_force.size() != nominal_.dof())
-      throw std::invalid_argument("the nominal friction needs one normal force per actuated joint");
-    p_.friction = friction;
-  }
-
-  void AdaptiveRobust::start(
+  void ProjectedLaw::start(
     const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
-    const Vector & rho0, long samples, double max_joint_speed)
+    const Vector & state0, long samples, double max_joint_speed)
   {
     const Eigen::Index n = nominal_.dof();
     if (alpha_d.rows() < samples || alpha_dot_d.rows() < samples || alpha_ddot_d.rows() < samples
@@ -100,27 +82,22 @@ namespace delta_pin
     alpha_ddot_d_ = alpha_ddot_d;
     dt_ = dt;
     max_joint_speed_ = max_joint_speed;
-    rho_ = rho0;
-    rho_dot_ = Vector::Zero(rho0.size());
+    z_ = state0;
+    z_dot_ = Vector::Zero(state0.size());
     tau.setZero(samples, n);
-    rho_hat.setZero(samples, rho0.size());
-    robust_torque.setZero(samples, n);
-    Lambda.setZero(samples);
-    robust_gain.setZero(samples);
-    omega_norm.setZero(samples);
-    adaptation_active.setZero(samples);
+    state.setZero(samples, state0.size());
+    start_records(samples);
   }
 
-  Vector AdaptiveRobust::control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot)
+  Vector ProjectedLaw::control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot)
   {
     if (k >= tau.rows())
-      throw std::invalid_argument("AdaptiveRobust::control beyond the samples of start()");
+      throw std::invalid_argument("ProjectedLaw::control beyond the samples of start()");
     const double t = k * dt_;
     if (k > 0)
     {
-      rho_ += dt_ * rho_dot_;  // Controller.advance: explicit Euler once per sample
-      bool finite = x.allFinite() && rho_.allFinite();
-      if (!finite)
+      z_ += dt_ * z_dot_;  // Controller.advance: explicit Euler once per sample
+      if (!(x.allFinite() && z_.allFinite()))
       {
         SimulationFailure failure("the state became non-finite (alpha=" + joints(alpha) + ")");
         failure.time = t;
@@ -141,7 +118,7 @@ namespace delta_pin
     try
     {
       evaluate(alpha, alpha_dot, alpha_d_.row(k).transpose(), alpha_dot_d_.row(k).transpose(),
-               alpha_ddot_d_.row(k).transpose(), rho_, torque, rho_dot_);
+               alpha_ddot_d_.row(k).transpose(), z_, torque, z_dot_);
     }
     catch (SimulationFailure & failure)
     {
@@ -150,17 +127,107 @@ namespace delta_pin
     }
     if (!torque.allFinite())
     {
-      SimulationFailure failure("controller '" + p_.name + "' returned a non-finite torque " + joints(torque));
+      SimulationFailure failure("controller '" + name_ + "' returned a non-finite torque " + joints(torque));
       failure.time = t;
       throw failure;
     }
     tau.row(k) = torque.transpose();
-    rho_hat.row(k) = rho_.transpose();
-    robust_torque.row(k) = last_robust_.transpose();
-    Lambda[k] = last_Lambda_;
-    robust_gain[k] = last_gain_;
-    omega_norm[k] = last_omega_norm_;
-    adaptation_active[k] = last_active_;
+    state.row(k) = z_.transpose();
+    record(k);
     return torque;
+  }
+
+  ComputedTorqueLaw::ComputedTorqueLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+    const Vector & T_p, const Vector & T_v)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , D_(D)
+  , T_p_(T_p)
+  , T_v_(T_v)
+  {
+    if (D_.size() != dof() || T_p_.size() != dof() || T_v_.size() != dof())
+      throw std::invalid_argument("the gains D, T_p, T_v need one value per actuated joint");
+  }
+
+  void ComputedTorqueLaw::law(
+    const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+    const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+    const Vector &, Vector & torque, Vector & state_dot)
+  {
+    torque = computed_torque_law<Eigen::Dynamic>(
+      D_, T_p_, T_v_, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot);
+    state_dot.resize(0);
+  }
+
+  PDGravityLaw::PDGravityLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+    const Vector & K_d)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , K_p_(K_p)
+  , K_d_(K_d)
+  {
+    if (K_p_.size() != dof() || K_d_.size() != dof())
+      throw std::invalid_argument("the gains K_p, K_d need one value per actuated joint");
+  }
+
+  void PDGravityLaw::law(
+    const Matrix &, const Matrix &, const Vector & G, const Vector & compensation, const Vector & alpha,
+    const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector &, const Vector &,
+    Vector & torque, Vector & state_dot)
+  {
+    torque = G + compensation - K_p_.cwiseProduct(alpha - ref_alpha) - K_d_.cwiseProduct(alpha_dot - ref_alpha_dot);
+    state_dot.resize(0);
+  }
+
+  AdaptiveRobust::AdaptiveRobust(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const AdaptiveRobustGains<Eigen::Dynamic> & gains)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , gains_(gains)
+  {
+    if (gains_.D.size() != dof() || gains_.T_p.size() != dof() || gains_.T_v.size() != dof())
+      throw std::invalid_argument("the gains D, T_p, T_v need one value per actuated joint");
+    info_.robust_torque = Vector::Zero(dof());
+  }
+
+  void AdaptiveRobust::law(
+    const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+    const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+    const Vector & z, Vector & torque, Vector & z_dot)
+  {
+    if (z.size() != (gains_.vector_rho ? 3 : 1))
+      throw std::invalid_argument("rho_hat has the wrong size");
+    RhoVector rho_hat = z, rate;
+    adaptive_robust_law<Eigen::Dynamic>(
+      gains_, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho_hat, torque, rate,
+      info_);
+    z_dot = rate;
+  }
+
+  void AdaptiveRobust::start_records(long samples)
+  {
+    robust_torque.setZero(samples, dof());
+    Lambda.setZero(samples);
+    robust_gain.setZero(samples);
+    omega_norm.setZero(samples);
+    adaptation_active.setZero(samples);
+  }
+
+  void AdaptiveRobust::record(long k)
+  {
+    robust_torque.row(k) = info_.robust_torque.transpose();
+    Lambda[k] = info_.Lambda;
+    robust_gain[k] = info_.robust_gain;
+    omega_norm[k] = info_.omega_norm;
+    adaptation_active[k] = info_.adaptation_active;
   }
 } // namespace delta_pin

@@ -40,62 +40,116 @@ namespace delta_pin
     std::function<Vector(long, const Vector &)> function_;
   };
 
-  // Designs I and II (eqs. 23-26, 30-33, 54-57, 67) on the projected nominal model of a closed
-  // chain, with the same arithmetic as AdaptiveRobustController.evaluate_reference
-  // (delta_pin/control/adaptive_robust.py): C1 + C2 (computed torque with F̄ and the nominal
-  // friction), the robust term phi Lambda^2 s (sampling-aware cap per inertia direction where a
-  // sampling period is given) and rho_hat's adaptive law, advanced once per sample by explicit
-  // Euler (Controller.advance). The reference comes as a table of the samples.
-  struct AdaptiveRobustParameters
-  {
-    AdaptiveRobustGains<Eigen::Dynamic> gains;  // D, T_p, T_v per actuated joint, beta, xi, ...
-    Vector disturbance;  // F̄ [N m]
-    FrictionSpec friction;  // the nominal friction, applied where enabled (friction compensation)
-    std::string name = "designI";  // what a refusal calls the controller
-  };
-
-  class AdaptiveRobust : public SampledController
+  // A law on the projected nominal model of a closed chain, sampled once per period: the part
+  // every such law shares -- the nominal model (assembled from the previous sample), the
+  // reference table, the loop's checks of each sample (state finite, |alpha_dot| within the
+  // limit, the torque finite: the messages of delta_pin.sim.integrators.check_state and
+  // ControlLoop.control), the state advanced by explicit Euler (Controller.advance) and the
+  // records of the torque and the state.
+  class ProjectedLaw : public SampledController
   {
   public:
-    AdaptiveRobust(
-      const std::string & model_text,
-      const std::vector<ClosureFrames> & closures,
-      const Indices & actuated_q,
-      const Indices & actuated_v,
-      const Indices & dependent_v,
-      pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration,
-      const AdaptiveRobustParameters & parameters);
+    ProjectedLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name);
+    virtual ~ProjectedLaw() = default;
 
-    // the reference per sample (rows: alpha^d, alpha_dot^d, alpha_ddot^d), the sample period
-    // [s], the initial rho_hat and the number of samples to record
-    void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
-               const Vector & rho0, long samples, double max_joint_speed);
-    Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) override;
+    // the nominal friction compensated (eq. 23's M̄_f; not called: none)
     void set_friction(const FrictionSpec & friction);
-    // the last evaluation's (Lambda, robust gain, ||omega||, adaptation active, robust torque)
-    std::tuple<double, double, double, double, Vector> internals() const
-    {
-      return {last_Lambda_, last_gain_, last_omega_norm_, last_active_, last_robust_};
-    }
-
-    // one evaluation: tau, rho_dot and the internals (Lambda, gain, ||omega||, c3, active)
+    // the reference per sample (rows: alpha^d, alpha_dot^d, alpha_ddot^d), the sample period
+    // [s], the initial state and the number of samples to record
+    void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
+               const Vector & state0, long samples, double max_joint_speed);
+    Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) override;
+    // one evaluation at a state: tau and the state's derivative
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
-                  const Vector & ref_alpha_ddot, const Vector & rho, Vector & tau, Vector & rho_dot);
+                  const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot);
 
-    // the records of the last run (samples rows)
-    RowMatrix tau, rho_hat, robust_torque;
-    Vector Lambda, robust_gain, omega_norm, adaptation_active;
+    RowMatrix tau, state;  // the records of the last run (samples rows)
+
+  protected:
+    // the law from the nominal M, C, G at the state and F̄ [+ M̄_f] (compensation)
+    virtual void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation,
+                     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+                     const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot) = 0;
+    virtual void start_records(long /*samples*/) {}
+    virtual void record(long /*k*/) {}
+    int dof() const { return nominal_.dof(); }
 
   private:
     ClosedChainModel nominal_;
-    AdaptiveRobustParameters p_;
     Vector q_;  // the nominal model's last assembly (warm start)
+    Vector disturbance_;
+    FrictionSpec friction_;
+    std::string name_;
     RowMatrix alpha_d_, alpha_dot_d_, alpha_ddot_d_;
     double dt_ = 0.0, max_joint_speed_ = 1e3;
-    Vector rho_, rho_dot_;
-    // the last evaluation's internals
-    double last_Lambda_ = 0.0, last_gain_ = 0.0, last_omega_norm_ = 0.0, last_active_ = 0.0;
-    Vector last_robust_;
+    Vector z_, z_dot_;
+  };
+
+  // C1 + C2 (eqs. 23 and 26): tau = M̄ a_ref + C̄ v_ref + Ḡ + F̄ [+ M̄_f] - T_p r - T_v r_dot
+  // (ComputedTorque in delta_pin/control/baselines.py)
+  class ComputedTorqueLaw : public ProjectedLaw
+  {
+  public:
+    ComputedTorqueLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+      const Vector & T_p, const Vector & T_v);
+
+  protected:
+    void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+             const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+             const Vector & state, Vector & tau, Vector & state_dot) override;
+
+  private:
+    Vector D_, T_p_, T_v_;
+  };
+
+  // tau = Ḡ + F̄ [+ M̄_f] - K_p r - K_d r_dot (PDGravity in delta_pin/control/baselines.py)
+  class PDGravityLaw : public ProjectedLaw
+  {
+  public:
+    PDGravityLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+      const Vector & K_d);
+
+  protected:
+    void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+             const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+             const Vector & state, Vector & tau, Vector & state_dot) override;
+
+  private:
+    Vector K_p_, K_d_;
+  };
+
+  // Designs I and II (eqs. 23-26, 30-33, 54-57, 67; adaptive_robust_law.hpp), rho_hat as the state,
+  // recording the internals of AdaptiveRobustController.evaluate_reference.
+  class AdaptiveRobust : public ProjectedLaw
+  {
+  public:
+    AdaptiveRobust(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const AdaptiveRobustGains<Eigen::Dynamic> & gains);
+
+    RowMatrix robust_torque;  // records, with the state (rho_hat) and the torque
+    Vector Lambda, robust_gain, omega_norm, adaptation_active;
+
+  protected:
+    void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+             const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+             const Vector & state, Vector & tau, Vector & state_dot) override;
+    void start_records(long samples) override;
+    void record(long k) override;
+
+  private:
+    AdaptiveRobustGains<Eigen::Dynamic> gains_;
+    AdaptiveRobustInternals<Eigen::Dynamic> info_;
   };
 } // namespace delta_pin

@@ -57,6 +57,14 @@ namespace
     return Eigen::Map<RowMatrix>(table.data(), (Eigen::Index)table.shape(0), (Eigen::Index)table.shape(1));
   }
 
+  std::vector<delta_pin::ClosureFrames> frames_of(const std::vector<std::tuple<size_t, size_t, int>> & closures)
+  {
+    std::vector<delta_pin::ClosureFrames> frames;
+    for (const auto & [f1, f2, size] : closures)
+      frames.push_back({f1, f2, size});
+    return frames;
+  }
+
   template<typename Function>
   std::uintptr_t address(Function * function)
   {
@@ -191,7 +199,7 @@ NB_MODULE(_core, m)
     .def(
       "run_sampled",
       [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
-         delta_pin::AdaptiveRobust & controller, Table q, Table v, Table xyz, Column gap)
+         delta_pin::ProjectedLaw & controller, Table q, Table v, Table xyz, Column gap)
       {
         Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
         return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
@@ -212,43 +220,10 @@ NB_MODULE(_core, m)
       nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
       nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
       "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
-  nb::class_<delta_pin::AdaptiveRobust>(m, "AdaptiveRobust")
-    .def(
-      "__init__",
-      [](delta_pin::AdaptiveRobust * self, const std::string & model_text,
-         const std::vector<std::tuple<size_t, size_t, int>> & closures, const Eigen::VectorXi & actuated_q,
-         const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v, size_t end_effector,
-         const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p,
-         const Eigen::VectorXd & T_v, double beta, double xi, double epsilon, double b1, double b2, double b3,
-         bool design_two, bool vector_rho, double sampling_period, double sampling_margin,
-         const Eigen::VectorXd & disturbance, const std::string & name)
-      {
-        std::vector<delta_pin::ClosureFrames> frames;
-        for (const auto & [f1, f2, size] : closures)
-          frames.push_back({f1, f2, size});
-        delta_pin::AdaptiveRobustParameters p;
-        p.gains.D = D;
-        p.gains.T_p = T_p;
-        p.gains.T_v = T_v;
-        p.gains.beta = beta;
-        p.gains.xi = xi;
-        p.gains.epsilon = epsilon;
-        p.gains.b1 = b1;
-        p.gains.b2 = b2;
-        p.gains.b3 = b3;
-        p.gains.design_two = design_two;
-        p.gains.vector_rho = vector_rho;
-        p.gains.sampling_period = sampling_period;
-        p.gains.sampling_margin = sampling_margin;
-        p.disturbance = disturbance;
-        p.name = name;
-        p.friction.normal_force = Eigen::VectorXd::Zero(actuated_v.size());
-        new (self) delta_pin::AdaptiveRobust(
-          model_text, frames, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration, p);
-      })
+  nb::class_<delta_pin::ProjectedLaw>(m, "ProjectedLaw")
     .def(
       "set_friction",
-      [](delta_pin::AdaptiveRobust & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
+      [](delta_pin::ProjectedLaw & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
          double sign_scale, const Eigen::VectorXd & normal_force)
       {
         delta_pin::FrictionSpec friction;
@@ -261,20 +236,76 @@ NB_MODULE(_core, m)
         friction.sign_scale = sign_scale;
         friction.normal_force = normal_force;
         self.set_friction(friction);
-      })
-    .def("start", &delta_pin::AdaptiveRobust::start)
+      },
+      "The nominal friction the law compensates (eq. 12).")
+    .def("start", &delta_pin::ProjectedLaw::start,
+         "The reference table, the period [s], the initial state, the samples to record, the speed limit.")
     .def(
       "evaluate",
-      [](delta_pin::AdaptiveRobust & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & alpha_dot,
+      [](delta_pin::ProjectedLaw & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & alpha_dot,
          const Eigen::VectorXd & ref_alpha, const Eigen::VectorXd & ref_alpha_dot, const Eigen::VectorXd & ref_alpha_ddot,
-         const Eigen::VectorXd & rho)
+         const Eigen::VectorXd & state)
       {
-        Eigen::VectorXd tau, rho_dot;
-        self.evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho, tau, rho_dot);
-        return std::make_tuple(tau, rho_dot, self.internals());
+        Eigen::VectorXd tau, state_dot;
+        self.evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, state, tau, state_dot);
+        return std::make_tuple(tau, state_dot);
+      },
+      "(tau, the state's derivative) at one state.")
+    .def_ro("tau", &delta_pin::ProjectedLaw::tau)
+    .def_ro("state", &delta_pin::ProjectedLaw::state);
+  typedef std::vector<std::tuple<size_t, size_t, int>> Closures;
+  nb::class_<delta_pin::ComputedTorqueLaw, delta_pin::ProjectedLaw>(m, "ComputedTorque")
+    .def(
+      "__init__",
+      [](delta_pin::ComputedTorqueLaw * self, const std::string & model_text, const Closures & closures,
+         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+         const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v)
+      {
+        new (self) delta_pin::ComputedTorqueLaw(
+          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          disturbance, name, D, T_p, T_v);
+      });
+  nb::class_<delta_pin::PDGravityLaw, delta_pin::ProjectedLaw>(m, "PDGravity")
+    .def(
+      "__init__",
+      [](delta_pin::PDGravityLaw * self, const std::string & model_text, const Closures & closures,
+         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+         const std::string & name, const Eigen::VectorXd & K_p, const Eigen::VectorXd & K_d)
+      {
+        new (self) delta_pin::PDGravityLaw(
+          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          disturbance, name, K_p, K_d);
+      });
+  nb::class_<delta_pin::AdaptiveRobust, delta_pin::ProjectedLaw>(m, "AdaptiveRobust")
+    .def(
+      "__init__",
+      [](delta_pin::AdaptiveRobust * self, const std::string & model_text, const Closures & closures,
+         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+         const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v,
+         double beta, double xi, double epsilon, double b1, double b2, double b3, bool design_two, bool vector_rho,
+         double sampling_period, double sampling_margin)
+      {
+        delta_pin::AdaptiveRobustGains<Eigen::Dynamic> g;
+        g.D = D;
+        g.T_p = T_p;
+        g.T_v = T_v;
+        g.beta = beta;
+        g.xi = xi;
+        g.epsilon = epsilon;
+        g.b1 = b1;
+        g.b2 = b2;
+        g.b3 = b3;
+        g.design_two = design_two;
+        g.vector_rho = vector_rho;
+        g.sampling_period = sampling_period;
+        g.sampling_margin = sampling_margin;
+        new (self) delta_pin::AdaptiveRobust(
+          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          disturbance, name, g);
       })
-    .def_ro("tau", &delta_pin::AdaptiveRobust::tau)
-    .def_ro("rho_hat", &delta_pin::AdaptiveRobust::rho_hat)
     .def_ro("robust_torque", &delta_pin::AdaptiveRobust::robust_torque)
     .def_ro("Lambda", &delta_pin::AdaptiveRobust::Lambda)
     .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)

@@ -202,8 +202,7 @@ def run_python_loop(
         record.xyz, record.closure_residual, record.q, record.v = (
             recorded.xyz, recorded.gap, recorded.q, recorded.v,
         )  # fmt: skip
-        names = ("rho_hat", "Lambda", "robust_gain", "omega_norm", "robust_torque", "adaptation_active")
-        record.internals = {name: np.array(getattr(law, name)) for name in names}
+        record.internals = controller.core_law_internals(law)
         bar.close()
         return record
     if core is not None:

@@ -33,6 +33,22 @@ namespace delta_pin
     Eigen::Matrix<double, N, 1> robust_torque;
   };
 
+  // C1 + C2 (eqs. 23 and 26): M̄ a_ref + C̄ v_ref + Ḡ + compensation - T_p r - T_v r_dot with
+  // a_ref = alpha_ddot^d - D r_dot, v_ref = alpha_dot^d - D r (ComputedTorque.terms)
+  template<int N, typename Matrix, typename Vector, typename Gains>
+  Eigen::Matrix<double, N, 1> computed_torque_law(
+    const Gains & D, const Gains & T_p, const Gains & T_v, const Matrix & M, const Matrix & C, const Vector & G,
+    const Vector & compensation, const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha,
+    const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot)
+  {
+    typedef Eigen::Matrix<double, N, 1> JointVector;
+    const JointVector r = alpha - ref_alpha, r_dot = alpha_dot - ref_alpha_dot;
+    const JointVector a_ref = ref_alpha_ddot - D.cwiseProduct(r_dot);
+    const JointVector v_ref = ref_alpha_dot - D.cwiseProduct(r);
+    const JointVector c1 = M * a_ref + C * v_ref + G + compensation;
+    return c1 + (-T_p.cwiseProduct(r) - T_v.cwiseProduct(r_dot));
+  }
+
   // tau = C1 + C2 + C3 (design I) or + C4 (design II) and rho_dot (eq. 24, dead-zone eq. 25).
   // compensation: F̄ [+ M̄_f(alpha_dot)] [N m].
   template<int N, typename Matrix, typename Vector>
@@ -47,8 +63,8 @@ namespace delta_pin
     const JointVector r = alpha - ref_alpha, r_dot = alpha_dot - ref_alpha_dot;
     const JointVector a_ref = ref_alpha_ddot - p.D.cwiseProduct(r_dot);
     const JointVector v_ref = ref_alpha_dot - p.D.cwiseProduct(r);
-    const JointVector c1 = M * a_ref + C * v_ref + G + compensation;
-    const JointVector c2 = -p.T_p.cwiseProduct(r) - p.T_v.cwiseProduct(r_dot);
+    const JointVector c12 = computed_torque_law<N>(
+      p.D, p.T_p, p.T_v, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot);
     const JointVector s = r_dot + p.D.cwiseProduct(r);
     // Lambda of eq. 67 and its gradient
     const double kappa0 = std::sqrt(a_ref.dot(a_ref)), kappa1 = std::sqrt(v_ref.dot(v_ref));
@@ -87,7 +103,7 @@ namespace delta_pin
       rho_dot = p.beta * (p.b1 * gradient * s_norm - leak);
     else
       rho_dot = -p.beta * leak;
-    tau = c1 + c2 + info.robust_torque;
+    tau = c12 + info.robust_torque;
     info.Lambda = Lambda;
     info.robust_gain = gain;
     info.omega_norm = omega_norm;
