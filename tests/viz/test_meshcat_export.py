@@ -10,6 +10,7 @@ import os
 import re
 import shutil
 import subprocess
+import time
 import uuid
 from html.parser import HTMLParser
 from pathlib import Path
@@ -335,16 +336,40 @@ def scene_key(command: dict) -> tuple:
 
 
 # -------------------------------------------------------------------------------- real browser
-def chromium(tmp_path: Path, url: str, *options: str, budget_ms: int) -> subprocess.CompletedProcess:
-    """Run headless chromium once (its own fresh profile) on ``url`` for ``budget_ms`` of virtual time."""
+BROWSER_TIMEOUT_FLOOR = 120.0  # [s] the least wall time a browser run is given
+BROWSER_TIMEOUT_SCALE = 40.0  # x the time this machine takes to render a blank page, now
+BROWSER_TIMEOUT_CEILING = 900.0  # [s] beyond this the browser is hung, not slow
+
+
+def _chromium_command(tmp_path: Path, url: str, *options: str, budget_ms: int) -> list[str]:
     profile = tmp_path / f"profile-{uuid.uuid4().hex[:8]}"
-    command = [
+    return [
         CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
         f"--user-data-dir={profile}", f"--window-size={WINDOW[0]},{WINDOW[1]}",
         f"--virtual-time-budget={budget_ms}", *options, url,
     ]  # fmt: skip
-    result = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+
+
+def browser_timeout(tmp_path: Path) -> float:
+    """Wall time [s] a browser run gets on this machine as loaded as it is now: a blank page's
+    render timed just before, scaled (a busy 2-core machine took over 120 s for a mesh page that
+    an idle one renders in ~5 s), within [floor, ceiling]."""
+    start = time.perf_counter()
+    subprocess.run(
+        _chromium_command(tmp_path, "about:blank", f"--screenshot={tmp_path / 'blank.png'}", budget_ms=100),
+        capture_output=True, timeout=BROWSER_TIMEOUT_CEILING, check=False,
+    )  # fmt: skip
+    blank = time.perf_counter() - start
+    return min(max(BROWSER_TIMEOUT_FLOOR, BROWSER_TIMEOUT_SCALE * blank), BROWSER_TIMEOUT_CEILING)
+
+
+def chromium(tmp_path: Path, url: str, *options: str, budget_ms: int) -> subprocess.CompletedProcess:
+    """Run headless chromium once (its own fresh profile) on ``url`` for ``budget_ms`` of virtual
+    time, with the wall-time limit of :func:`browser_timeout`."""
+    command = _chromium_command(tmp_path, url, *options, budget_ms=budget_ms)
+    timeout = browser_timeout(tmp_path)
+    result = subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
     assert result.returncode == 0, result.stderr[-2000:]
     return result
 
