@@ -338,9 +338,7 @@ def _as_run(run: Run | str | os.PathLike) -> Run:
             raise RunFileNotFoundError(f"run file {str(path)!r} does not exist")
         try:
             run = load_run(path)
-        except DeltaPinError as exc:  # load_run's message names the file already
-            raise VisualizationError(str(exc)) from None
-        except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, DeltaPinError) as exc:
             raise VisualizationError(f"{str(path)!r} is not a run file saved by Run.save: {exc}") from None
     elif not isinstance(run, Run):
         raise InvalidParameterError(
