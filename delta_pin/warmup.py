@@ -1,8 +1,9 @@
 """Compile everything a first run would compile, so that a user's first run does not.
 
-``pip install`` runs this after building the native library (``setup.py``): numba writes its
-caches next to the kernels' sources (``__pycache__``), which is where an editable install finds
-them at run time, and the native tree dynamics sit prebuilt in the package. Also runnable by hand
+An editable ``pip install`` runs this after compiling the core (``CMakeLists.txt``, with
+``DELTA_PIN_NATIVE=0``: the core is not importable yet then): numba writes its caches next to the
+kernels' sources (``__pycache__``), which is where an editable install finds them at run time.
+The paths on the Pinocchio plant compile at their first use (or here, run by hand). Also runnable by hand
 after an upgrade: ``python -m delta_pin.warmup``.
 
 Each compiled path runs once for a few samples, on both plants: the continuous integrators (Radau
