@@ -1,9 +1,8 @@
 """Compile everything a first run would compile, so that a user's first run does not.
 
-An editable ``pip install`` runs this after compiling the core (``CMakeLists.txt``, with
-``DELTA_PIN_NATIVE=0``: the core is not importable yet then): numba writes its caches next to the
-kernels' sources (``__pycache__``), which is where an editable install finds them at run time.
-The paths on the Pinocchio plant compile at their first use (or here, run by hand). Also runnable by hand
+An editable ``pip install`` runs this after compiling the core (``CMakeLists.txt``): numba
+writes its caches next to the kernels' sources (``__pycache__``), which is where an editable
+install finds them at run time. Also runnable by hand
 after an upgrade: ``python -m delta_pin.warmup``.
 
 Each compiled path runs once for a few samples, on both plants: the continuous integrators (Radau
@@ -67,7 +66,18 @@ def warm_up(verbose: bool = True) -> float:
     return time.perf_counter() - start
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    """``python -m delta_pin.warmup [--core-folder DIR]``: DIR holds a compiled core not yet
+    installed (the build's staging folder: ``CMakeLists.txt`` passes it)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m delta_pin.warmup", description=__doc__.splitlines()[0])
+    parser.add_argument("--core-folder", help="where the compiled core lies, if not installed yet")
+    args = parser.parse_args(argv)
+    if args.core_folder:
+        from delta_pin.model.core_model import add_core_folder
+
+        add_core_folder(args.core_folder)
     seconds = warm_up()
     print(f"delta-pin warm-up: done in {seconds:.0f} s", file=sys.stderr)
     return 0
