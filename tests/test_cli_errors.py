@@ -485,3 +485,19 @@ def test_sigterm_is_ctrl_c_s_line_and_exit_143(tmp_path, capsys, monkeypatch):
     assert main(["sweep", "--param", "delta_m=0,0.3", "--out", str(tmp_path)]) == 143
     assert _one_line(capsys) == "delta-pin sweep: interrupted; rerun the same command to resume"
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_law_that_accounts_for_a_delay_runs_only_with_that_delay():
+    """The docs of Controller.delay say simulate checks it (issue 25: a TDC built with delay=2
+    ran in a loop with delay=0); a continuous-time law with a drive delay is still accepted."""
+    import delta_pin as dp
+    from delta_pin.errors import InvalidParameterError
+
+    robot = dp.load_delta()
+    nominal = dp.DeltaNominalModel(robot)
+    options = {"plant": "analytic", "t_end": 0.005, "mode": "sampled"}
+    for built, run_with in ((2, 0), (0, 1)):
+        with pytest.raises(InvalidParameterError, match=rf"accounts for delay={built} .* delay={run_with}"):
+            dp.simulate(robot, dp.tdc(nominal, 1e-3, delay=built), dp.PathI(), delay=run_with, **options)
+    assert dp.simulate(robot, dp.tdc(nominal, 1e-3, delay=2), dp.PathI(), delay=2, **options).t[-1] > 0
+    assert dp.simulate(robot, dp.design1(nominal), dp.PathI(), delay=1, **options).t[-1] > 0

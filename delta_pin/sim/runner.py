@@ -141,9 +141,10 @@ def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", de
     return True
 
 
-def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> None:
-    """A discrete-time controller runs only in sampled mode at its own period; an encoder, a
-    delay or a torque limit exist only in sampled mode."""
+def _check_digital(controller, mode: str, dt: float, drive_effects: bool, delay: int = 0) -> None:
+    """A discrete-time controller runs only in sampled mode at its own period and with the
+    computation delay it accounts for; an encoder, a delay or a torque limit exist only in
+    sampled mode."""
     period = getattr(controller, "dt", None)
     if mode != "sampled" and (drive_effects or period is not None):
         what = (
@@ -156,6 +157,14 @@ def _check_digital(controller, mode: str, dt: float, drive_effects: bool) -> Non
         raise InvalidParameterError(
             f"controller {controller.name!r} has dt={period} s but the loop samples at dt={dt} s: "
             "give both the same period"
+        )
+    # a law that models the delay (a discrete-time law, or any law built with delay > 0) runs with it
+    accounted = getattr(controller, "delay", 0)
+    if accounted != delay and (accounted > 0 or period is not None):
+        raise InvalidParameterError(
+            f"controller {controller.name!r} accounts for delay={accounted} sample(s) but the loop delays "
+            f"its torque by delay={delay}: give simulate(..., delay={accounted}) (or build the law with "
+            f"delay={delay})"
         )
 
 
@@ -257,7 +266,7 @@ def simulate(
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
-    _check_digital(as_controller(controller), mode, dt, drive_effects)
+    _check_digital(as_controller(controller), mode, dt, drive_effects, delay)
     if mode == "sampled" and compiled is not False and digital_compilable(controller, plant, drive_effects):
         return simulate_digital(
             robot, controller, trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps, alpha0=alpha0,
