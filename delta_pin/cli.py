@@ -14,6 +14,7 @@ from pathlib import Path
 from delta_pin.choices import CONTROLLERS, INTEGRATOR_CHOICES, MODES, PATHS, SHIPPED_ROBOT_NAMES, VELOCITIES
 from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError, XacroArgumentError
 from delta_pin.utils.atomic import write_text_atomically
+from delta_pin.utils.interrupts import interrupt_of
 
 __all__ = ["MAX_SWEEP_POINTS", "main"]
 
@@ -900,8 +901,9 @@ def main(argv: list[str] | None = None) -> int:
     previous = _on_sigterm(terminated)
     try:
         return args.func(args)
-    except KeyboardInterrupt:
-        if args.debug:
+    except (KeyboardInterrupt, SystemError) as exc:
+        # a SystemError that carries a KeyboardInterrupt is Ctrl-C or SIGTERM inside a compiled call
+        if args.debug or interrupt_of(exc) is None:
             raise
         resume = "; rerun the same command to resume" if args.command in RESUMABLE else ""
         print(f"{prefix}: interrupted{resume}", file=sys.stderr)

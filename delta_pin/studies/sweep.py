@@ -59,6 +59,7 @@ from delta_pin.sim.run import load_run
 from delta_pin.studies.experiments import RunSpec, batch_group, run_batch, run_spec
 from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
 from delta_pin.utils.atomic import write_text_atomically
+from delta_pin.utils.interrupts import reraise_interrupt
 from delta_pin.utils.progress import Progress
 
 __all__ = [
@@ -284,6 +285,7 @@ def evaluate_spec(spec_dict: dict, robot_args: Mapping | None = None, return_run
     except DeltaPinError as exc:
         record.update(error=str(exc), error_type=type(exc).__name__)
     except Exception as exc:
+        reraise_interrupt(exc)  # Ctrl-C inside a compiled call: not a failed point
         record.update(
             error=f"{type(exc).__name__}: {exc}",
             error_type=type(exc).__name__,
@@ -309,7 +311,8 @@ def evaluate_batch(
         specs = [RunSpec(**spec_dict) for spec_dict in spec_dicts]
         robot = _cached_robot(_freeze(_canonical_robot_args(robot_args)))
         results = run_batch(specs, robot)
-    except Exception:
+    except Exception as exc:
+        reraise_interrupt(exc)
         return [evaluate_spec(spec_dict, robot_args, return_run) for spec_dict in spec_dicts]
     share = (time.perf_counter() - start) / len(specs)
     records = []
