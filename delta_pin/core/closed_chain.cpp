@@ -325,28 +325,11 @@ namespace delta_pin
       J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
     }
-    // the closures' relative classical accelerations at zero joint acceleration: J_c_dot v
-    forwardKinematics(model_, data_, q, v, Vector::Zero(nv));
-    Vector drift(n_closure);
-    row = 0;
-    for (const ClosureFrames & closure : closures_)
-    {
-      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
-      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
-      drift.segment<3>(row) = a1.linear() - a2.linear();
-      if (closure.size == 6)
-        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
-      row += closure.size;
-    }
     Matrix S_dot = Matrix::Zero(nv, S.cols());
     const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
-    const Vector rate_dependent = -solve_dependent(drift);
-    Vector rate = Vector::Zero(nv);  // S_dot alpha_dot, from the drift
     for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
-    {
       S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
-      rate[dependent_v_[r]] = rate_dependent[r];
-    }
+    const Vector rate = dependent_rate(q, v);  // S_dot alpha_dot, from the drift
     crba(model_, data_, q);
     data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
     const Matrix M = data_.M;
@@ -358,6 +341,32 @@ namespace delta_pin
     C_red = S.transpose() * C_tree * S + S.transpose() * M * S_dot;
     G_red = S.transpose() * gravity;
     C_alpha_dot = S.transpose() * (nle - gravity) + S.transpose() * (M * rate);
+  }
+
+  Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
+  {
+    forwardKinematics(model_, data_, q, v, Vector::Zero(model_.nv));
+    Vector drift(jacobian_.rows());
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
+      drift.segment<3>(row) = a1.linear() - a2.linear();
+      if (closure.size == 6)
+        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
+      row += closure.size;
+    }
+    return drift;
+  }
+
+  Vector ClosedChainModel::dependent_rate(const Vector & q, const Vector & v)
+  {
+    const Vector rate_dependent = -solve_dependent(closure_drift(q, v));  // J_c at q in jacobian_
+    Vector rate = Vector::Zero(model_.nv);
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      rate[dependent_v_[r]] = rate_dependent[r];
+    return rate;
   }
 
   Eigen::Vector3d ClosedChainModel::end_effector_position(const Vector & q)
@@ -379,23 +388,7 @@ namespace delta_pin
   {
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
     const Vector v = velocity_map(q) * alpha_dot;
-    const Eigen::Index n_closure = jacobian_.rows();
-    forwardKinematics(model_, data_, q, v, Vector::Zero(model_.nv));
-    Vector drift(n_closure);
-    Eigen::Index row = 0;
-    for (const ClosureFrames & closure : closures_)
-    {
-      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
-      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
-      drift.segment<3>(row) = a1.linear() - a2.linear();
-      if (closure.size == 6)
-        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
-      row += closure.size;
-    }
-    const Vector rate_dependent = -solve_dependent(drift);
-    Vector rate = Vector::Zero(model_.nv);
-    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
-      rate[dependent_v_[r]] = rate_dependent[r];
+    const Vector rate = dependent_rate(q, v);
     forwardKinematics(model_, data_, q, v, rate);
     return getFrameClassicalAcceleration(model_, data_, frame, LOCAL_WORLD_ALIGNED).linear();
   }

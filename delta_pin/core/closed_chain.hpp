@@ -109,6 +109,10 @@ namespace delta_pin
   private:
     const Matrix & closure_jacobian(const Vector & q);  // after the frame placements at q
     Matrix solve_dependent(const Matrix & rhs);  // least squares on J_c's dependent columns
+    // J_c_dot v: the closures' relative classical accelerations at zero joint acceleration
+    Vector closure_drift(const Vector & q, const Vector & v);
+    // S_dot alpha_dot (nv): -J_dep^+ J_c_dot v on the dependent coordinates, zero elsewhere
+    Vector dependent_rate(const Vector & q, const Vector & v);
 
     pinocchio::Model model_;
     pinocchio::Data data_;

@@ -57,6 +57,23 @@ namespace
     return Eigen::Map<RowMatrix>(table.data(), (Eigen::Index)table.shape(0), (Eigen::Index)table.shape(1));
   }
 
+  // eq. 12's Stribeck friction, switched on, from the numbers Python passes
+  delta_pin::FrictionSpec friction_of(
+    double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
+    const Eigen::VectorXd & normal_force)
+  {
+    delta_pin::FrictionSpec friction;
+    friction.enabled = true;
+    friction.r_a = r_a;
+    friction.v_s = v_s;
+    friction.mu_s = mu_s;
+    friction.mu_d = mu_d;
+    friction.mu_v = mu_v;
+    friction.sign_scale = sign_scale;
+    friction.normal_force = normal_force;
+    return friction;
+  }
+
   std::vector<delta_pin::ClosureFrames> frames_of(const std::vector<std::tuple<size_t, size_t, int>> & closures)
   {
     std::vector<delta_pin::ClosureFrames> frames;
@@ -86,9 +103,7 @@ NB_MODULE(_core, m)
         const std::vector<std::tuple<size_t, size_t, int>> & closures, const Eigen::VectorXi & actuated_q,
         const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v, size_t end_effector)
       {
-        std::vector<delta_pin::ClosureFrames> frames;
-        for (const auto & [f1, f2, size] : closures)
-          frames.push_back({f1, f2, size});
+        const std::vector<delta_pin::ClosureFrames> frames = frames_of(closures);
         new (self) ClosedChainModel(model_text, frames, actuated_q, actuated_v, dependent_v, end_effector);
       },
       nb::arg("model_text"), nb::arg("closures"), nb::arg("actuated_q"), nb::arg("actuated_v"),
@@ -146,9 +161,7 @@ NB_MODULE(_core, m)
         double kp, double kd, double accuracy, double mu, int iterations, double projection_tolerance,
         size_t end_effector)
       {
-        std::vector<delta_pin::ClosureFrames> frames;
-        for (const auto & [f1, f2, size] : closures)
-          frames.push_back({f1, f2, size});
+        const std::vector<delta_pin::ClosureFrames> frames = frames_of(closures);
         std::vector<delta_pin::ConstraintSpec> specs;
         for (const auto & [size, j1, p1, j2, p2, reference] : constraints)
           specs.push_back({size, j1, j2, placement(p1), placement(p2), reference});
@@ -165,18 +178,7 @@ NB_MODULE(_core, m)
       "set_friction",
       [](ClosedChainPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
          const Eigen::VectorXd & normal_force)
-      {
-        delta_pin::FrictionSpec friction;
-        friction.enabled = true;
-        friction.r_a = r_a;
-        friction.v_s = v_s;
-        friction.mu_s = mu_s;
-        friction.mu_d = mu_d;
-        friction.mu_v = mu_v;
-        friction.sign_scale = sign_scale;
-        friction.normal_force = normal_force;
-        self.set_friction(friction);
-      })
+      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
     .def("set_payload", &ClosedChainPlant::set_payload)
     .def_prop_ro("nq", &ClosedChainPlant::nq)
     .def_prop_ro("nv", &ClosedChainPlant::nv)
@@ -225,18 +227,7 @@ NB_MODULE(_core, m)
       "set_friction",
       [](delta_pin::ProjectedLaw & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
          double sign_scale, const Eigen::VectorXd & normal_force)
-      {
-        delta_pin::FrictionSpec friction;
-        friction.enabled = true;
-        friction.r_a = r_a;
-        friction.v_s = v_s;
-        friction.mu_s = mu_s;
-        friction.mu_d = mu_d;
-        friction.mu_v = mu_v;
-        friction.sign_scale = sign_scale;
-        friction.normal_force = normal_force;
-        self.set_friction(friction);
-      },
+      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); },
       "The nominal friction the law compensates (eq. 12).")
     .def("start", &delta_pin::ProjectedLaw::start,
          "The reference table, the period [s], the initial state, the samples to record, the speed limit.")

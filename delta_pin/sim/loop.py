@@ -66,6 +66,11 @@ class LoopRecord:
     q: np.ndarray | None = None  # the plant's full configuration (N, nq), where it has one
     v: np.ndarray | None = None  # and its velocity (N, nv)
 
+    def take_plant_records(self, recorded) -> None:
+        """The end effector, closure gap, q and v that the compiled loop recorded
+        (:class:`~delta_pin.sim.compiled_plant.CompiledSampledRun`)."""
+        self.xyz, self.closure_residual, self.q, self.v = recorded.xyz, recorded.gap, recorded.q, recorded.v
+
 
 def run_python_loop(
     controller: Controller,
@@ -199,9 +204,7 @@ def run_python_loop(
         record.alpha = recorded.q[:, plant.robot.actuated_q_indices]
         record.alpha_dot = recorded.v[:, plant.active]
         record.tau = np.array(law.tau)
-        record.xyz, record.closure_residual, record.q, record.v = (
-            recorded.xyz, recorded.gap, recorded.q, recorded.v,
-        )  # fmt: skip
+        record.take_plant_records(recorded)
         record.internals = controller.core_law_internals(law)
         bar.close()
         return record
@@ -222,9 +225,7 @@ def run_python_loop(
 
         recorded = run_core_sampled(core, x, steps, substeps, dt, compiled_control)
         plant.projections += core.projections
-        record.xyz, record.closure_residual, record.q, record.v = (
-            recorded.xyz, recorded.gap, recorded.q, recorded.v,
-        )  # fmt: skip
+        record.take_plant_records(recorded)
         bar.close()
         record.internals = _stacked(internals)
         return record
