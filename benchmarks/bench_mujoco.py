@@ -39,8 +39,8 @@ import pinocchio as pin
 
 import delta_pin as dp
 from delta_pin.model.mjcf import STIFF_CONNECT
+from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.sim.mujoco_delta import MujocoDelta
-from delta_pin.sim.plants import PinocchioPlant
 
 DT = 1e-3  # [s]
 ALPHA0 = 0.3322  # [rad] the paper's initial angle on every joint

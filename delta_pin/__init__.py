@@ -67,9 +67,9 @@ if TYPE_CHECKING:
         check_workspace,
     )
     from delta_pin.sim.batch import simulate_batch
-    from delta_pin.sim.closed_chain_plant import ClosedChainPlant
+    from delta_pin.sim.closed_chain_plant import ClosedChainPlant, PinocchioPlant
     from delta_pin.sim.drive import Encoder
-    from delta_pin.sim.plants import AnalyticPlant, DeltaPlant, PinocchioPlant, Plant
+    from delta_pin.sim.plants import AnalyticPlant, DeltaPlant, Plant
     from delta_pin.sim.run import Run, load_run
     from delta_pin.sim.runner import simulate
     from delta_pin.sim.serial import JointSinusoid
@@ -121,7 +121,7 @@ _PUBLIC = {
         "digital_robust",
         "tdc",
     ),
-    "delta_pin.sim.plants": ("AnalyticPlant", "DeltaPlant", "PinocchioPlant", "Plant"),
+    "delta_pin.sim.plants": ("AnalyticPlant", "DeltaPlant", "Plant"),
     "delta_pin.sim.uncertainty": (
         "FunctionUncertainty",
         "NoUncertainty",
@@ -134,7 +134,7 @@ _PUBLIC = {
     "delta_pin.sim.serial": ("JointSinusoid",),
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),
-    "delta_pin.sim.closed_chain_plant": ("ClosedChainPlant",),
+    "delta_pin.sim.closed_chain_plant": ("ClosedChainPlant", "PinocchioPlant"),
 }
 _LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
 _LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use

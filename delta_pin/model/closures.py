@@ -7,7 +7,9 @@ rigidly attached to a joint of the tree, that the mechanism keeps together. Two 
 * ``"6d"`` -- a weld closure: the two frames coincide, origin and orientation (6 equations).
 
 The three file shapes (URDF ``<constraint>``, URDF + Gepetto ``robot.yaml``, MJCF equalities)
-each produce a list of :class:`Closure` (:mod:`delta_pin.model.loaders`); the
+each produce a list of :class:`Closure` (:mod:`delta_pin.model.loaders`); the URDF's
+``<constraint>`` elements are read here (:func:`read_urdf_constraints`, the one parser, the
+Delta's description included); the
 :class:`~delta_pin.model.closed_chain.ClosedChainRobot` turns them into Pinocchio
 ``RigidConstraintModel`` objects for ``constraintDynamics`` and into its own residuals and
 Jacobians (docs/architecture.md section 10).
@@ -17,11 +19,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pinocchio as pin
+from lxml import etree
 
-from delta_pin.errors import InvalidParameterError
+from delta_pin.errors import InvalidParameterError, URDFConventionError
 
-__all__ = ["CLOSURE_KINDS", "Closure"]
+__all__ = ["CLOSURE_KINDS", "Closure", "read_urdf_constraints"]
 
 CLOSURE_KINDS = {"3d": 3, "6d": 6}  # kind -> equations
 
@@ -76,3 +80,73 @@ class Closure:
         )
         constraint.name = self.name
         return constraint
+
+
+_POINT_TYPES = {"point": "3d", "3d": "3d"}
+_WELD_TYPES = {"weld": "6d", "fixed": "6d", "6d": "6d"}
+
+
+def _numbers(element, attribute: str, where: str, default: str = "0 0 0") -> np.ndarray:
+    text = default if element is None else element.get(attribute, default)
+    try:
+        values = np.array([float(v) for v in text.split()])
+    except ValueError:
+        raise URDFConventionError(f"{where}: {attribute}={text!r} is not a list of numbers") from None
+    if values.shape != (3,) or not np.isfinite(values).all():
+        raise URDFConventionError(f"{where}: {attribute}={text!r} must be 3 finite numbers")
+    return values
+
+
+def _origin(element, where: str) -> pin.SE3:
+    xyz = _numbers(element, "xyz", where)
+    rpy = _numbers(element, "rpy", where)
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
+
+
+def read_urdf_constraints(urdf: str, model: pin.Model, source: str = "URDF") -> list[Closure]:
+    """The ``<constraint>`` elements of URDF text as :class:`Closure` on ``model`` (built from
+    the same text by Pinocchio).
+
+    A link may be the URDF's root link (the ground) or a link fixed to it: that frame rides on
+    joint 0 (the world), at the link's placement in the world.
+
+    Raises:
+        URDFConventionError: a constraint with an unsupported type, a missing link, bad
+            numbers, or two links of one rigid body; the message names the constraint and its line.
+    """
+    root = etree.fromstring(urdf.encode())
+    closures = []
+    for number, element in enumerate(root.iter("constraint"), 1):
+        name = element.get("name") or f"constraint_{number}"
+        where = f"{source} line {element.sourceline}"
+        kind_name = (element.get("type") or "").lower()
+        kind = _POINT_TYPES.get(kind_name) or _WELD_TYPES.get(kind_name)
+        if kind is None:
+            raise URDFConventionError(
+                f"constraint {name!r} ({where}) has type {element.get('type')!r}; "
+                "supported: 'point' (3D, the "
+                "frames' origins coincide) and 'weld' (6D, the frames coincide)"
+            )
+        anchors, links = [], []
+        for tag in ("parent", "child"):
+            link_element = element.find(tag)
+            link = None if link_element is None else link_element.get("link")
+            if link is None:
+                raise URDFConventionError(f"constraint {name!r} ({where}) has no <{tag} link='...'/>")
+            if not model.existFrame(link, pin.FrameType.BODY):
+                raise URDFConventionError(
+                    f"constraint {name!r} ({where}) names link {link!r}, which the URDF does not have"
+                )
+            # the root link and links fixed to it are on joint 0 (the ground), placed in the world
+            body = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+            anchors.append((body.parentJoint, body.placement * _origin(element.find(f"{tag}_origin"), where)))
+            links.append(link)
+        (j1, placement1), (j2, placement2) = anchors
+        if j1 == j2:
+            body = "the ground (the root link)" if j1 == 0 else f"joint {model.names[j1]!r}"
+            raise URDFConventionError(
+                f"constraint {name!r} ({where}) joins links {links[0]!r} and {links[1]!r}, which are one "
+                f"rigid body (both on {body}): it closes no loop; join links of two different bodies"
+            )
+        closures.append(Closure(name, kind, j1, placement1, j2, placement2, source=where))
+    return closures

@@ -16,11 +16,9 @@ from pathlib import Path
 
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.description import GRAVITY
-from delta_pin.model.loaders import read_urdf_constraints
-from delta_pin.model.robot import Delta, load_analytic_delta
-from delta_pin.model.urdf_tree import build_urdf_tree
+from delta_pin.model.robot import as_closed_chain, delta_robot, load_analytic_delta
 
-__all__ = ["analytic_delta", "carries_own_delta", "delta_robot", "load_delta"]
+__all__ = ["analytic_delta", "as_closed_chain", "carries_own_delta", "delta_robot", "load_delta"]
 
 
 def load_delta(
@@ -48,23 +46,6 @@ def load_delta(
         MeshFileError: a mesh visual's file does not exist (named in the message).
     """
     return delta_robot(load_analytic_delta(urdf, g=g, **xacro_args))
-
-
-def delta_robot(delta: Delta) -> ClosedChainRobot:
-    """The closed-chain robot of an analytic Delta's URDF, carrying it as ``robot.delta``."""
-    description = delta.description
-    source = "delta.urdf" if description.base_dir is None else f"{Path(description.base_dir).name}/delta.urdf"
-    model = build_urdf_tree(delta.urdf, source)
-    model.gravity = delta.pinocchio.model.gravity
-    robot = ClosedChainRobot(
-        model, read_urdf_constraints(delta.urdf, model, source), description.active_joints,
-        name=model.name or "delta", source=source, urdf=delta.urdf,
-        base_dir=None if description.base_dir is None else str(description.base_dir),
-        reference_configuration=delta.assembled_configuration(),  # the same URDF: the same q layout
-    )  # fmt: skip
-    robot.delta = delta
-    robot.set_end_effector(robot.joint_frame(description.platform_joints[-1]))
-    return robot
 
 
 def analytic_delta(robot):

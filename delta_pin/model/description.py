@@ -25,12 +25,12 @@ from delta_pin.errors import (
     URDFConventionError,
     XacroArgumentError,
 )
+from delta_pin.model.closures import Closure, read_urdf_constraints
 
 __all__ = [
     "GRAVITY",
     "DeltaDescription",
     "DeltaParameters",
-    "LoopClosure",
     "StribeckParameters",
     "chain_azimuths",
     "compile_urdf",
@@ -119,27 +119,12 @@ class DeltaParameters:
 
 
 @dataclass(frozen=True)
-class LoopClosure:
-    """A 3D point constraint ``<constraint type="point">`` between two links.
-
-    The point ``parent_origin`` [m] in the parent link's frame coincides with ``child_origin`` [m]
-    in the child link's frame.
-    """
-
-    name: str
-    parent_link: str
-    parent_origin: tuple[float, float, float]
-    child_link: str
-    child_origin: tuple[float, float, float]
-
-
-@dataclass(frozen=True)
 class DeltaDescription:
     """A compiled Delta URDF together with what was read from it."""
 
     urdf: str
     params: DeltaParameters
-    closures: tuple[LoopClosure, ...]
+    closures: tuple[Closure, ...]  # on the joints of Pinocchio's model of ``urdf``
     active_joints: tuple[str, ...] = ("active_1", "active_2", "active_3")
     platform_joints: tuple[str, ...] = ("platform_x", "platform_y", "platform_z")
     platform_link: str = "platform"
@@ -263,28 +248,6 @@ def _floats(text: str | None, what: str, count: int = 3) -> tuple[float, ...]:
     return values
 
 
-def _parse_closures(root: etree._Element) -> tuple[LoopClosure, ...]:
-    closures = []
-    for el in root.findall("constraint"):
-        name = el.get("name", "?")
-        if el.get("type") != "point":
-            raise URDFConventionError(
-                f"constraint {name!r} has type {el.get('type')!r}; only type='point' is supported"
-            )
-        parts = {}
-        for tag in ("parent", "child"):
-            link = el.find(tag)
-            origin = el.find(f"{tag}_origin")
-            if link is None or link.get("link") is None:
-                raise URDFConventionError(f"constraint {name!r} has no <{tag} link='...'/>")
-            xyz = "0 0 0" if origin is None else origin.get("xyz", "0 0 0")
-            parts[tag] = (link.get("link"), _floats(xyz, f"constraint {name!r} {tag}_origin"))
-        closures.append(
-            LoopClosure(name, parts["parent"][0], parts["parent"][1], parts["child"][0], parts["child"][1])
-        )
-    return tuple(closures)
-
-
 def _parse_friction(root: etree._Element) -> StribeckParameters | None:
     el = root.find("delta_pin_friction")
     if el is None:
@@ -336,14 +299,7 @@ def read_description(urdf: str, g: float = GRAVITY, base_dir: str | Path | None 
         model = pin.buildModelFromXML(urdf)
     except (RuntimeError, ValueError) as exc:
         raise URDFConventionError(f"Pinocchio could not parse the URDF: {exc}") from None
-    closures = _parse_closures(root)
-    link_names = {el.get("name") for el in root.findall("link")}
-    for closure in closures:
-        for link in (closure.parent_link, closure.child_link):
-            if link not in link_names:
-                raise URDFConventionError(
-                    f"constraint {closure.name!r} names link {link!r}, which the URDF does not have"
-                )
+    closures = tuple(read_urdf_constraints(urdf, model))
 
     def joint(name: str) -> int:
         if not model.existJointName(name):
@@ -375,11 +331,20 @@ def read_description(urdf: str, g: float = GRAVITY, base_dir: str | Path | None 
         forearm = model.inertias[joint(f"elbow_{i}_roll")]
         m_b_values.append(float(forearm.mass))
         forearm_across.append(float(forearm.inertia[0, 0]))
-        closure = next((c for c in closures if c.parent_link == f"forearm_{i}"), None)
-        if closure is None or closure.child_link != "platform":
+        # the forearm's tip and the platform's anchor C_i, each in its body's (joint's) frame
+        forearm_joint, platform_joint = joint(f"elbow_{i}_roll"), joint("platform_z")
+        ends = None
+        for c in closures:
+            if c.kind == "3d" and {c.joint1, c.joint2} == {forearm_joint, platform_joint}:
+                ends = (
+                    (c.placement1, c.placement2)
+                    if c.joint1 == forearm_joint
+                    else (c.placement2, c.placement1)
+                )
+        if ends is None:
             raise URDFConventionError(f"no <constraint type='point'> joins forearm_{i} to the platform")
-        l_b_values.append(float(np.linalg.norm(closure.parent_origin)))
-        r_values.append(float(np.linalg.norm(closure.child_origin)))
+        l_b_values.append(float(np.linalg.norm(ends[0].translation)))
+        r_values.append(float(np.linalg.norm(ends[1].translation)))
     for name in ("platform_x", "platform_y", "platform_z"):
         joint(name)
     platform = model.inertias[joint("platform_z")]

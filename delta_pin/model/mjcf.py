@@ -1,7 +1,7 @@
 """The Delta as MuJoCo MJCF, built from its Pinocchio model: MuJoCo as a second plant.
 
 Every joint placement, axis, mass and inertia and the closure points are read from the robot's
-Pinocchio model (:attr:`Delta.pinocchio <delta_pin.model.robot.Delta.pinocchio>`), nothing is
+Pinocchio model (the :class:`~delta_pin.model.closed_chain.ClosedChainRobot` of its URDF), nothing is
 written down twice. Two adaptations MuJoCo needs:
 
 * massless links (the elbow cross, the platform slides) are merged into the next body as
@@ -65,17 +65,17 @@ def delta_mjcf(
     """
     from delta_pin.model.delta_robot import analytic_delta
 
-    robot = analytic_delta(robot)
-    source = robot.pinocchio
+    source = analytic_delta(robot).pinocchio  # the closed-chain robot of the Delta's URDF
     model = source.model
     children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
     sites: dict[int, list[tuple[str, np.ndarray]]] = {}
-    closure_names = [c.name for c in source.description.closures]
-    for frame in model.frames:
-        if frame.type == pin.FrameType.OP_FRAME and frame.name.rsplit("_", 1)[0] in closure_names:
-            sites.setdefault(frame.parentJoint, []).append((frame.name, frame.placement.translation))
+    closure_names = [c.name for c in source.closures]
+    for name, (f1, f2, _) in zip(closure_names, source.closure_frames):
+        for tag, f in (("parent", f1), ("child", f2)):
+            frame = model.frames[f]
+            sites.setdefault(frame.parentJoint, []).append((f"{name}_{tag}", frame.placement.translation))
 
     def body(j: int, indent: str) -> str:
         placement = model.jointPlacements[j]
@@ -117,7 +117,7 @@ def delta_mjcf(
     )
     bodies = "".join(body(j, "    ") for j in children[0])
     return (
-        f'<mujoco model="{robot.pinocchio.model.name or "delta"}">\n'
+        f'<mujoco model="{model.name or "delta"}">\n'
         f'  <option timestep="{timestep!r}" integrator="RK4" gravity="{_numbers(model.gravity.linear)}"/>\n'
         f"  <worldbody>\n{bodies}  </worldbody>\n"
         f"  <equality>\n{connects}  </equality>\n"

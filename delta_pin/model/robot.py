@@ -6,14 +6,17 @@ model for every closed chain, the analytic one an accelerator where the robot is
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict
-from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
 from delta_pin.errors import AssemblyError, DeltaPinError, ForwardKinematicsError, URDFConventionError
 from delta_pin.model import kinematics
+from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.closures import read_urdf_constraints
 from delta_pin.model.description import (
     GRAVITY,
     DeltaDescription,
@@ -24,10 +27,10 @@ from delta_pin.model.description import (
 )
 from delta_pin.model.dynamics import ReducedDynamics, analytic_dynamics
 from delta_pin.model.friction import stribeck_torque
-from delta_pin.model.pinocchio_model import DeltaPinocchioModel
+from delta_pin.model.urdf_tree import build_urdf_tree
 from delta_pin.model.visuals import check_mesh_files
 
-__all__ = ["Delta", "load_analytic_delta"]
+__all__ = ["Delta", "as_closed_chain", "delta_robot", "load_analytic_delta"]
 
 # common active angles tried to show that a geometry can close its loops at all [rad]
 ASSEMBLY_PROBES = np.linspace(-1.2, 1.4, 27)
@@ -54,22 +57,68 @@ class Delta:
         """The URDF text every model of this robot is built from."""
         return self.description.urdf
 
-    @cached_property
-    def pinocchio(self) -> DeltaPinocchioModel:
-        """The constrained Pinocchio model (built on first use)."""
-        return DeltaPinocchioModel(self.description)
+    @property
+    def pinocchio(self):
+        """The constrained Pinocchio model of this robot: the
+        :class:`~delta_pin.model.closed_chain.ClosedChainRobot` of its URDF (the one robot model,
+        built on first use), which carries this analytic model as ``.delta``."""
+        return as_closed_chain(self)
 
-    def assembled_configuration(self) -> np.ndarray:
-        """The Pinocchio model's assembled q (nq,) at alpha = 0, or at the first common arm angle
-        of :data:`ASSEMBLY_PROBES` where the loops close (short forearms may not close at 0)."""
+    def closed_form_configuration(
+        self, model: pin.Model, closures, alpha: np.ndarray, xyz: np.ndarray | None = None
+    ) -> np.ndarray:
+        """q (nq,) of this Delta's tree ``model`` (built from its URDF) with the active joints at
+        alpha [rad], the platform slides at the analytic FK (eqs. 1-5) and each forearm pointing
+        from its elbow to its platform anchor C_i: the configuration the Newton assembly of the
+        closures starts from (the analytic FK closes them exactly up to the forearm direction).
+
+        Args:
+            model: the tree (``pin.Model``), its joints named as docs/architecture.md section 3.
+            closures: its loop closures (:class:`~delta_pin.model.closures.Closure`), one per
+                forearm: a forearm's tip on one side, the platform on the other.
+            alpha: active angles [rad].
+            xyz: their platform position [m] if already known (saves an FK).
+        """
+        description = self.description
+        q = pin.neutral(model)
+
+        def index(name: str) -> int:
+            return model.idx_qs[model.getJointId(name)]
+
+        q[[index(name) for name in description.active_joints]] = alpha
+        q[[index(name) for name in description.platform_joints]] = (
+            self.forward_kinematics(alpha) if xyz is None else xyz
+        )
+        data = model.createData()
+        pin.forwardKinematics(model, data, q)
+        platform = model.getJointId(description.platform_joints[-1])
+        for closure in closures:
+            ends = ((closure.joint1, closure.placement1), (closure.joint2, closure.placement2))
+            (roll, _), (joint, placement) = ends if closure.joint2 == platform else ends[::-1]
+            pitch = model.parents[roll]  # elbow_i_pitch, then elbow_i_roll on the forearm
+            parent = data.oMi[model.parents[pitch]] * model.jointPlacements[pitch]
+            target = (data.oMi[joint] * placement).translation - parent.translation
+            d = parent.rotation.T @ (target / np.linalg.norm(target))
+            # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (docs/architecture.md section 3)
+            q[model.idx_qs[roll]] = math.asin(float(np.clip(d[1], -1.0, 1.0)))
+            q[model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
+        return q
+
+    def reference_configuration(self, model: pin.Model, closures) -> np.ndarray:
+        """:meth:`closed_form_configuration` at alpha = 0, or at the first common arm angle of
+        :data:`ASSEMBLY_PROBES` where the analytic FK exists (short forearms may not close at 0)."""
         for angle in (0.0, *ASSEMBLY_PROBES):
             try:
-                return self.pinocchio.configuration(np.full(3, angle))
-            except DeltaPinError:
+                return self.closed_form_configuration(model, closures, np.full(3, angle))
+            except ForwardKinematicsError:
                 continue
         raise AssemblyError(
             f"the loops of {self!r} close at no common arm angle"
         )  # _check_assembly found one
+
+    def assembled_configuration(self) -> np.ndarray:
+        """The assembled q (nq,) of :attr:`pinocchio` (its reference configuration)."""
+        return self.pinocchio.reference_configuration.copy()
 
     def _check_assembly(self) -> None:
         for angle in ASSEMBLY_PROBES:
@@ -112,8 +161,12 @@ class Delta:
         return analytic_dynamics(self.params, alpha, alpha_dot, platform_mass)
 
     def pinocchio_dynamics(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> ReducedDynamics:
-        """M, C alpha_dot, G of the constrained Pinocchio model projected on the active joints."""
-        return self.pinocchio.reduced_dynamics(alpha, alpha_dot)
+        """M, C alpha_dot, G of the constrained Pinocchio model projected on the active joints
+        (:meth:`~delta_pin.model.closed_chain.ClosedChainRobot.reduced_dynamics`), assembled by
+        Newton from :meth:`closed_form_configuration`."""
+        closed = self.pinocchio
+        start = self.closed_form_configuration(closed.model, closed.closures, alpha)
+        return closed.reduced_dynamics(alpha, alpha_dot, closed.configuration(alpha, initial_guess=start))
 
     def friction_torque(
         self, alpha_dot: np.ndarray, normal_force: np.ndarray | float, sign_velocity_scale: float = 0.0
@@ -169,3 +222,32 @@ def load_analytic_delta(
         return Delta(description, xacro_args)
     check_mesh_files(text, base_dir)
     return Delta(read_description(text, g=g, base_dir=base_dir), xacro_args)
+
+
+def delta_robot(delta: Delta) -> ClosedChainRobot:
+    """The closed-chain robot of an analytic Delta's URDF, carrying it as ``robot.delta``."""
+    description = delta.description
+    source = "delta.urdf" if description.base_dir is None else f"{Path(description.base_dir).name}/delta.urdf"
+    model = build_urdf_tree(delta.urdf, source)
+    model.gravity.linear = np.array([0.0, 0.0, -delta.params.g])
+    closures = read_urdf_constraints(delta.urdf, model, source)
+    robot = ClosedChainRobot(
+        model, closures, description.active_joints,
+        name=model.name or "delta", source=source, urdf=delta.urdf,
+        base_dir=None if description.base_dir is None else str(description.base_dir),
+        reference_configuration=delta.reference_configuration(model, closures),
+    )  # fmt: skip
+    robot.delta = delta
+    robot.set_end_effector(robot.joint_frame(description.platform_joints[-1]))
+    if getattr(delta, "_closed_chain", None) is None:
+        delta._closed_chain = robot  # as_closed_chain's: the first closed-chain robot of this model
+    return robot
+
+
+def as_closed_chain(robot) -> ClosedChainRobot:
+    """The closed-chain robot of ``robot``: itself, or for an analytic
+    :class:`~delta_pin.model.robot.Delta` the robot of its URDF carrying it (built once)."""
+    if isinstance(robot, Delta):
+        closed = getattr(robot, "_closed_chain", None)
+        return closed if closed is not None else delta_robot(robot)
+    return robot

@@ -161,9 +161,8 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
     """Compare the analytic and Pinocchio models at random states (see the module docstring).
 
     The analytic side and the finite differences are evaluated for all samples at once; the
-    Pinocchio side calls Pinocchio state by state (its kinematics and dynamics algorithms) and
-    solves the closures and projects for all states together
-    (:meth:`~delta_pin.model.pinocchio_model.DeltaPinocchioModel.reduced_dynamics_batch`).
+    Pinocchio side is the projected model of the closed-chain robot of the same URDF
+    (:meth:`~delta_pin.model.closed_chain.ClosedChainRobot.reduced_dynamics`), state by state.
 
     Args:
         robot: the robot to check.
@@ -228,14 +227,20 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
         float(symmetric.max()), float((symmetric / np.linalg.norm(M_dot, axis=(1, 2))).max())
     )
 
-    # Pinocchio side: its algorithms state by state, the closure solves and projections batched
-    model = robot.pinocchio
-    q = model.analytic_configurations(alpha, xyz)
-    gaps = np.abs(model.closure_residuals(q)).max(axis=1)
-    for k in np.flatnonzero(gaps > 1e-13):  # close the loops first (the gap is reported either way)
-        q[k] = model.configuration(alpha[k], initial_guess=q[k])
-    reduced = model.reduced_dynamics_batch(alpha, alpha_dot, q)
-    pin_M, pin_G, pin_coriolis = reduced.M, reduced.G, reduced.coriolis
+    # Pinocchio side: the closed-chain robot of the same URDF (the one robot model), state by
+    # state: the closure gap at the analytic configuration, then the projection at the assembly
+    closed = robot.pinocchio
+    q = np.array(
+        [robot.closed_form_configuration(closed.model, closed.closures, a, x) for a, x in zip(alpha, xyz)]
+    )
+    gaps = np.array([closed.closure_gap(q_k) for q_k in q])
+    reduced = [
+        closed.reduced_dynamics(a, d, closed.configuration(a, initial_guess=q_k))
+        for a, d, q_k in zip(alpha, alpha_dot, q)
+    ]
+    pin_M = np.array([r.M for r in reduced])
+    pin_G = np.array([r.G for r in reduced])
+    pin_coriolis = np.array([r.coriolis for r in reduced])
     checks["closure"].update_value(float(gaps.max()), float(gaps.max()))
     checks["M"].update_value(*_errors(analytic.M, pin_M))
     checks["coriolis"].update_value(*_errors(analytic.coriolis, pin_coriolis))

@@ -58,9 +58,10 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
+from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
 from delta_pin.sim.loop import ControlLoop
-from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant, make_plant, truth_records
+from delta_pin.sim.plants import AnalyticPlant, Plant, truth_records
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
@@ -95,13 +96,19 @@ _FAILURES = {
 }
 
 
+def _delta_tree(plant) -> bool:
+    """Whether ``plant`` is a Pinocchio plant the Delta's compiled loops take (it declares it:
+    ``ClosedChainPlant.delta_tree``)."""
+    return getattr(plant, "delta_tree", False)
+
+
 def _is_tree(plant, mode: str = "sampled") -> bool:
     """Whether ``plant`` is the Pinocchio plant the compiled loops take in ``mode``: in full
     coordinates in sampled mode; either representation in continuous mode (BDF2 integrates the
     active coordinates and completes q(alpha) at every evaluation)."""
     if plant == "pinocchio":
         return True
-    return isinstance(plant, PinocchioPlant) and (mode == "continuous" or plant.coordinates == "full")
+    return _delta_tree(plant) and (mode == "continuous" or plant.coordinates == "full")
 
 
 def native_available() -> bool:
@@ -316,12 +323,11 @@ def _plant_record(plant: Plant, controller: AdaptiveRobustController) -> np.reco
     )
 
 
-def _attach_tree(plant_record, plant: PinocchioPlant, y0) -> None:
+def _attach_tree(plant_record, plant: ClosedChainPlant, y0) -> None:
     """The Pinocchio tree in active coordinates in the plant record: the native tree, whose
     completions of q(alpha) restart from the closed configuration at alpha0."""
     tree = plant.native_tree()
-    source = plant.robot.pinocchio
-    tree.set_active(source.active_indices, source.platform_indices, source.configuration(y0[:3]))
+    tree.set_active(plant.active, plant.platform_q_indices, plant.robot.configuration(y0[:3]))
     plant_record["tree"] = True
     plant_record["active_dynamics"] = tree.address_active
     plant_record["tree_handle"] = tree.handle
@@ -333,7 +339,7 @@ def _run_closed_loop(controller, plant: Plant, truth, reference, y0, timing) -> 
     """One run through :func:`~delta_pin.compiled.closed_loop.run_closed_loop`: the analytic plant,
     or the Pinocchio tree in active coordinates (continuous mode)."""
     plant_record = _plant_record(plant, controller)
-    if isinstance(plant, PinocchioPlant):
+    if _delta_tree(plant):
         _attach_tree(plant_record, plant, y0)
     samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
     counters = np.zeros(2, dtype=np.int64)
@@ -355,7 +361,7 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
     """One continuous run through :func:`~delta_pin.compiled.radau.run_radau`: the analytic plant
     or the Pinocchio tree in active coordinates; truth and reference on the grid dt / RADAU_GRID."""
     plant_record = _plant_record(plant, controller)
-    if isinstance(plant, PinocchioPlant):
+    if _delta_tree(plant):
         _attach_tree(plant_record, plant, y0)
     reference = records(REFERENCE, len(table.alpha))
     reference["alpha"], reference["alpha_dot"], reference["alpha_ddot"] = (
@@ -382,13 +388,12 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
     return _Outcome(samples, info, counters, failure)
 
 
-def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
+def tree_loop_inputs(plant: ClosedChainPlant, truth) -> tuple:
     """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
     with the stage :data:`NATIVE_STAGE` names, the active and platform indices in q, the
     platform's rotational inertia at each truth row, the TREE_LOOP_LIMITS record)."""
     if NATIVE_STAGE not in STAGES:
         raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be one of {', '.join(STAGES)}")
-    source = plant.robot.pinocchio
     tree = plant.native_tree()
     dynamics = tree.address_dynamics_axis if NATIVE_STAGE == "axis_tree" else tree.address_dynamics
     native_tree = record(NATIVE_TREE, dynamics=dynamics, closure_gap=tree.address_gap, handle=tree.handle)
@@ -397,12 +402,12 @@ def tree_loop_inputs(plant: PinocchioPlant, truth) -> tuple:
         TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
         failure_tolerance=plant.failure_tolerance,
     )  # fmt: skip
-    active = source.active_indices.astype(np.int64)
-    platform = source.platform_indices.astype(np.int64)
+    active = plant.active.astype(np.int64)
+    platform = plant.platform_q_indices.astype(np.int64)
     return native_tree, active, platform, rotational, limits
 
 
-def _run_on_tree(controller, plant: PinocchioPlant, truth, reference, y0, timing) -> _Outcome:
+def _run_on_tree(controller, plant: ClosedChainPlant, truth, reference, y0, timing) -> _Outcome:
     """One sampled run on the Pinocchio tree in full coordinates
     (:func:`~delta_pin.compiled.tree_loop.run_tree_sampled`), reading the truth on the half-step
     grid (as :meth:`~delta_pin.sim.plants.Plant.precompute_truth` tabulates it for ``simulate``)

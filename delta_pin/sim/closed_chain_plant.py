@@ -1,7 +1,7 @@
-"""The Pinocchio plant of any closed-chain robot: ``pin.constraintDynamics`` on its tree.
+"""The Pinocchio plant of every closed-chain robot: ``pin.constraintDynamics`` on its tree.
 
-The same physics as the Delta's :class:`~delta_pin.sim.plants.PinocchioPlant`, for a
-:class:`~delta_pin.model.closed_chain.ClosedChainRobot` from any file shape:
+One plant for every :class:`~delta_pin.model.closed_chain.ClosedChainRobot` from any file shape,
+the paper's Delta included (``PinocchioPlant`` is its older name):
 
 * ``coordinates="full"`` -- x = [q, v]: the whole tree is integrated with Baumgarte
   stabilisation (omega = 20 rad/s), and a step whose closure gap exceeds
@@ -13,9 +13,22 @@ The same physics as the Delta's :class:`~delta_pin.sim.plants.PinocchioPlant`, f
   (warm-started) and v = S alpha_dot, then reads alpha_ddot from ``constraintDynamics``; the
   loops are closed by construction, and any joint type works (what LSODA needs).
 
-Torques act on the actuated joints, minus the joint friction (eq. 12's Stribeck form with sgn
-smoothed by tanh, :class:`~delta_pin.model.friction.Friction`) and a time-varying payload m(t) [kg]
-rides as a point mass at a named frame (docs/architecture.md section 10).
+The truth is pluggable and kept apart from what a controller knows (eq. 13 of the paper,
+
+    M(q, m_o(t)) ddq + ... = S_a^T (tau - F(t) - M_f(alpha_dot, F_n(t)))   on the closures,
+
+docs/architecture.md section 10):
+
+* an uncertainty profile (:mod:`delta_pin.sim.uncertainty`: the paper's Section V, seeded random
+  or user functions) sets the mass m_o(t) of the body that carries the payload frame (its
+  rotational inertia scaled with the mass, its COM kept), the normal forces F_n(t) of the
+  actuated joints' friction and the joint disturbance F(t), for robots with three actuated joints
+  (the profiles' shape);
+* a payload m(t) [kg] rides as a point mass at a named frame (``payload_mass``);
+* joint friction on the actuated joints: eq. 12's Stribeck form with sgn smoothed by tanh
+  (:class:`~delta_pin.model.friction.Friction`), at the normal force F_n(t).
+
+A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
 
 Closures with redundant equations (a planar loop closed by a 3D point or a 6D weld) make the
 KKT system singular; for them the proximal solver runs with mu = 1e-9 until the constraint
@@ -39,56 +52,72 @@ from dataclasses import asdict
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.errors import AssemblyError, InvalidParameterError, NativeUnavailableError, SimulationError
+from delta_pin.errors import (
+    AssemblyError,
+    ForwardKinematicsError,
+    InvalidParameterError,
+    NativeUnavailableError,
+    SimulationError,
+)
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
 from delta_pin.model.core_model import core_supports
-from delta_pin.model.friction import Friction, stribeck_torque
-from delta_pin.sim.plants import Plant
+from delta_pin.model.delta_robot import as_closed_chain, carries_own_delta
+from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
+from delta_pin.sim.plants import AnalyticPlant, Plant
 
-__all__ = ["ClosedChainPlant", "closed_chain_plant"]
+__all__ = ["PLANTS", "ClosedChainPlant", "PinocchioPlant", "closed_chain_plant", "make_plant"]
+
+PLANTS = ("pinocchio", "analytic")
 
 
 class ClosedChainPlant(Plant):
     """Constrained forward dynamics of a closed-chain robot (module docstring).
 
     Args:
-        robot: the robot.
+        robot: the robot (an analytic :class:`~delta_pin.model.robot.Delta` stands for the
+            closed-chain robot of its URDF).
         friction: joint friction on the actuated joints: a :class:`Friction` with its
             ``stribeck`` parameters (or, for a recognised Delta, the URDF's), ``True`` for a
             recognised Delta's defaults, or ``None``.
+        uncertainty: the time-varying truth m_o(t), F_n(t), F(t) (:mod:`delta_pin.sim.uncertainty`,
+            three actuated joints), or ``None`` for the nominal one.
         payload_mass: m(t) [kg] as a function of time, a constant, or ``None``.
-        payload_frame: the frame the payload rides at (default: the end effector).
+        payload_frame: the frame the payload rides at and whose body's mass the uncertainty sets
+            (default: the end effector).
         coordinates: ``"full"`` or ``"active"`` (default: full where nq == nv or where the robot
             has idle motions or passive joints).
         baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
         projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
+        failure_tolerance: closure gap [m or rad] that stops the run instead of a projection
+            (default: none; any finite gap is projected, and the run stops only where the loops
+            cannot be re-assembled).
         joint_damping: apply the dampers of ``robot.joint_springs`` (``False``: springs only, a
             conservative plant, as the energy check of ``validate`` needs).
     """
 
-    name = "pinocchio_closed_chain"
+    name = "pinocchio"
 
     def __init__(
         self,
         robot: ClosedChainRobot,
         friction: Friction | bool | None = None,
+        uncertainty=None,
         *,
         payload_mass: Callable[[float], float] | float | None = None,
         payload_frame: str | None = None,
         coordinates: str | None = None,
         baumgarte_frequency: float = 20.0,
         projection_tolerance: float = 1e-10,
+        failure_tolerance: float = math.inf,
         joint_damping: bool = True,
-        uncertainty=None,
     ) -> None:
-        if uncertainty is not None:
-            raise InvalidParameterError(
-                "uncertainty profiles are the Delta's (platform mass, normal force, disturbance); a "
-                "closed-chain "
-                "robot takes payload_mass=m(t) [kg] at payload_frame= instead"
-            )
+        robot = as_closed_chain(robot)
         super().__init__(robot)
-        self.uncertainty = None
+        if uncertainty is not None and self.dof != 3:
+            raise InvalidParameterError(
+                f"uncertainty profiles give m_o(t) and three joints' F_n(t) and F(t); {robot.name!r} has "
+                f"{self.dof} actuated joint(s): give payload_mass=m(t) [kg] at payload_frame= instead"
+            )
         full_possible = robot.model.nq == robot.model.nv
         if coordinates is None:
             coordinates = "full" if full_possible or robot.has_unactuated_motion else "active"
@@ -108,7 +137,7 @@ class ClosedChainPlant(Plant):
         self._coefficient_rates = not full_possible
         self.coordinates = coordinates
         self._set_friction(friction)
-        self.model = pin.Model(robot.model)  # own copy: the payload changes the inertias
+        self.model = pin.Model(robot.model)  # own copy: the truth changes the inertias
         self.data = self.model.createData()
         self.baumgarte_gains = (baumgarte_frequency**2, 2.0 * baumgarte_frequency)
         gains = pin.BaumgarteCorrectorParameters(*self.baumgarte_gains)
@@ -126,11 +155,18 @@ class ClosedChainPlant(Plant):
             pin.ProximalSettings(1e-13, 1e-9, 200) if redundant else pin.ProximalSettings(1e-12, 0.0, 1)
         )
         self.redundant = redundant
+        self._gap_unit = " m" if all(c.kind == "3d" for c in robot.closures) else ""  # else m or rad
         self.payload_frame = robot.end_effector if payload_frame is None else robot.frame_id(payload_frame)
         frame = self.model.frames[self.payload_frame]
         self._payload_joint = frame.parentJoint
         self._payload_point = frame.placement.translation.copy()
-        self._base_inertia = pin.Inertia(self.model.inertias[self._payload_joint])
+        # the payload body's own inertia: the uncertainty's nominal mass m̄_o [kg] and the
+        # rotational inertia about its COM [kg m^2] it scales
+        nominal = pin.Inertia(self.model.inertias[self._payload_joint])
+        self.nominal_platform_mass = nominal.mass
+        self.nominal_platform_rotational = nominal.inertia
+        self._nominal_lever = nominal.lever.copy()
+        self._inertia = self.model.inertias[self._payload_joint]  # a reference, rewritten in place
         if payload_mass is not None and not callable(payload_mass):
             constant = float(payload_mass)
             if not (math.isfinite(constant) and constant >= 0.0):
@@ -140,12 +176,15 @@ class ClosedChainPlant(Plant):
                 return mass
 
         self.payload_mass = payload_mass
-        self._mass = 0.0
+        self.uncertainty = uncertainty
+        self._mass = (self.nominal_platform_mass, 0.0)  # the (body mass, payload) the model holds
         self._tau = np.zeros(self.model.nv)
         self.nq = self.model.nq
         self.active = robot.actuated_indices
         self.projection_tolerance = projection_tolerance
-        self.projections = 0
+        self.failure_tolerance = failure_tolerance
+        self.projections = 0  # steps projected back onto the loops
+        self.largest_projected_gap = 0.0  # the largest gap a projection removed [m or rad]
         self._last_q = robot.reference_configuration.copy()
         # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v
         model = robot.model
@@ -165,6 +204,26 @@ class ClosedChainPlant(Plant):
             [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
         )
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
+        self._table = None  # the truth at t = k step (precompute_truth)
+        self._native_tree = None
+        self.stepped_in_core = False  # whether sampled_core handed the loop a compiled copy
+        # the Delta's compiled loops (delta_pin.sim.batch) take this plant: the analytic Delta of
+        # its own URDF (their kernels' geometry), 1-DOF joints only and no truth they do not model
+        self.delta_tree = (
+            carries_own_delta(robot)
+            and full_possible
+            and payload_mass is None
+            and not (springs or robot.joint_couplings or carried)
+        )
+        # held_rk4's arrays: k1, k2, k3, k4, then the stage points y2, y3, y4 with their q and v views
+        stages = np.empty((7, self.model.nq + self.model.nv))
+        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[4:]]
+        self._stages = (*stages[:4], *(view for point in points for view in point))
+        self.metadata_extra = {
+            "coordinates": coordinates,
+            "baumgarte_frequency": baumgarte_frequency,
+            "projection_tolerance": projection_tolerance,
+        }
 
     def _set_friction(self, friction) -> None:
         delta = getattr(self.robot, "delta", None)
@@ -179,31 +238,100 @@ class ClosedChainPlant(Plant):
         self.stribeck = None
         if self.friction is not None:
             self.stribeck = self.friction.stribeck_for(None if delta is None else delta.params.friction)
+        # the friction as the compiled loops read it (delta_pin.compiled.layouts.FRICTION)
+        self.friction_parameters = kernel_friction(
+            self.stribeck, 0.0 if self.friction is None else self.friction.sign_velocity_scale
+        )
         self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
 
     # ------------------------------------------------------------------ truth
-    def joint_friction(self, alpha_dot: np.ndarray) -> np.ndarray:
-        """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints (0 without friction)."""
-        if self.friction is None:
-            return np.zeros(self.dof)
-        return stribeck_torque(
-            self.stribeck, alpha_dot, self._normal_force, self.friction.sign_velocity_scale
+    def evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(m_o [kg], F_n (dof,) [N], F (dof,) [N m]) at a time t [s], or (R,), (R, dof), (R, dof)
+        at an array of times: the payload body's mass, the normal forces and the disturbance."""
+        if self.uncertainty is not None:
+            return (
+                self.uncertainty.platform_mass(t, self.nominal_platform_mass),
+                self.uncertainty.normal_force(t, self._normal_force),
+                self.uncertainty.disturbance(t),
+            )
+        times = np.asarray(t, dtype=float)
+        shape = times.shape
+        return (
+            np.full(shape, self.nominal_platform_mass),
+            np.broadcast_to(self._normal_force, (*shape, self.dof)).copy(),
+            np.zeros((*shape, self.dof)),
         )
 
-    def _set_payload(self, t: float) -> None:
-        mass = 0.0 if self.payload_mass is None else float(self.payload_mass(t))
-        if mass != self._mass:
-            if not (math.isfinite(mass) and mass >= 0.0):
-                raise SimulationError(f"payload_mass(t) returned {mass!r} kg", t)
-            payload = pin.Inertia(mass, self._payload_point, np.zeros((3, 3)))
-            self.model.inertias[self._payload_joint] = self._base_inertia + payload
-            self._mass = mass
+    def precompute_truth(self, step: float, count: int) -> None:
+        """Tabulate the truth at t = k step, k < count [s] (one vectorised call): the stage times
+        of the integrator then read the table (and the payload body's rotational inertia at each
+        mass) instead of calling the profile."""
+        self._table_step = step
+        self._table = self.evaluate_truth(np.arange(count) * step)
+        self._rotational_table = self.rotational_inertia(np.asarray(self._table[0])[:, None, None])
+
+    def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """(m_o(t) [kg], F_n(t) (dof,) [N], F(t) (dof,) [N m]): the plant's time-varying truth."""
+        table = self._table
+        if table is not None:
+            k = round(t / self._table_step)
+            if 0 <= k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
+                return table[0][k], table[1][k], table[2][k]
+        if self.uncertainty is None:
+            return self.nominal_platform_mass, self._normal_force, np.zeros(self.dof)
+        return self.uncertainty.at(t, self.nominal_platform_mass, self._normal_force)
+
+    def platform_mass(self, t: float) -> float:
+        """m_o(t) [kg]: the mass of the payload frame's body."""
+        return self.truth(t)[0]
+
+    def passive_torque(self, t: float, alpha_dot: np.ndarray) -> np.ndarray:
+        """F(t) + M_f(alpha_dot, F_n(t)) [N m]: what eq. 13 adds to the left-hand side."""
+        _, normal, disturbance = self.truth(t)
+        return disturbance + self._friction(alpha_dot, normal)
+
+    def _friction(self, alpha_dot: np.ndarray, normal_force: np.ndarray) -> np.ndarray:
+        if self.friction is None:
+            return np.zeros(self.dof)
+        return stribeck_torque(self.stribeck, alpha_dot, normal_force, self.friction.sign_velocity_scale)
+
+    def joint_friction(self, alpha_dot: np.ndarray) -> np.ndarray:
+        """Friction torque M_f(alpha_dot) (dof,) [N m or N] on the actuated joints at the nominal
+        normal force (0 without friction)."""
+        return self._friction(alpha_dot, self._normal_force)
+
+    def rotational_inertia(self, mass):
+        """The payload body's rotational inertia about its COM [kg m^2] for a mass [kg] (or an
+        array of masses (R, 1, 1)): the nominal one scaled with the mass."""
+        return self.nominal_platform_rotational * (mass / self.nominal_platform_mass)
+
+    def _set_mass(self, mass: float, payload: float, rotational: np.ndarray | None = None) -> None:
+        """The payload body's inertia in the model for its mass [kg] (its COM kept, the rotational
+        inertia ``rotational``, by default :meth:`rotational_inertia` of the mass) plus a point
+        payload [kg] at the payload frame; nothing where both are unchanged."""
+        if (mass, payload) == self._mass:
+            return
+        rotational = self.rotational_inertia(mass) if rotational is None else rotational
+        if payload == 0.0 and self._mass[1] == 0.0:  # the body alone: rewritten in place
+            self._inertia.mass = mass
+            self._inertia.inertia = rotational
+        else:
+            inertia = pin.Inertia(mass, self._nominal_lever, rotational)
+            if payload:
+                inertia = inertia + pin.Inertia(payload, self._payload_point, np.zeros((3, 3)))
+            self.model.inertias[self._payload_joint] = inertia
+            self._inertia = self.model.inertias[self._payload_joint]
+        self._mass = (mass, payload)
 
     def accelerations(self, t: float, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """ddq of the constrained tree at (q, v) under actuated torques tau (dof,) at time t."""
-        self._set_payload(t)
+        """ddq of the constrained tree at (q, v) under actuated torques tau (dof,) at time t [s]."""
+        mass, normal, disturbance = self.truth(t)
+        payload = 0.0 if self.payload_mass is None else float(self.payload_mass(t))
+        if payload != self._mass[1] and not (math.isfinite(payload) and payload >= 0.0):
+            raise SimulationError(f"payload_mass(t) returned {payload!r} kg", t)
+        self._set_mass(mass, payload)
         self._tau[:] = 0.0
-        self._tau[self.active] = tau - self.joint_friction(v[self.active])
+        self._tau[self.active] = tau - (disturbance + self._friction(v[self.active], normal))
         if self._spring_v.size:
             self._tau[self._spring_v] -= self._spring_k * (q[self._spring_q] - self._spring_ref) + (
                 self._spring_d * v[self._spring_v]
@@ -296,6 +424,10 @@ class ClosedChainPlant(Plant):
         return self.finish_step_residual(x, t)[0]
 
     def finish_step_residual(self, x, t):
+        """:meth:`finish_step` and the closure residual of the state it returns, computed once: a
+        full-coordinate state whose gap exceeds ``projection_tolerance`` is projected back onto the
+        loops (positions by Newton from the actuated joints, velocities through the null space;
+        idle and passive coordinates kept where the robot has them)."""
         if self.coordinates == "active":
             return x, self.closure_residual(x)
         if self._coefficient_rates:
@@ -304,41 +436,123 @@ class ClosedChainPlant(Plant):
         if gap <= self.projection_tolerance:
             return x, gap
         if not (math.isfinite(gap) and np.isfinite(x).all()):
-            raise SimulationError(f"the loop-closure gap is {gap:.3e}: the state is no longer finite", t)
+            raise SimulationError(
+                f"the loop-closure gap is {gap:.3e}{self._gap_unit}: the state is no longer finite", t
+            )
+        if gap > self.failure_tolerance:
+            raise SimulationError(
+                f"the loop-closure gap reached {gap:.3e}{self._gap_unit}, above failure_tolerance="
+                f"{self.failure_tolerance:g}{self._gap_unit} (raise it, or shorten dt)",
+                t,
+            )
         self._last_q = x[: self.nq].copy()
-        if self.robot.has_unactuated_motion:  # idle and passive state of its own: keep it
-            try:
+        try:
+            if self.robot.has_unactuated_motion:  # idle and passive state of its own: keep it
                 q, v = self.robot.project_state(x[: self.nq], x[self.nq :])
-            except AssemblyError as exc:
-                raise SimulationError(f"cannot close the loops: {exc}", t) from None
-            self._last_q = q
-            x = np.concatenate([q, v])
-        else:
-            x = self.initial_state(*self.joint_state(x))
+            else:
+                alpha, alpha_dot = self.joint_state(x)
+                q = self.robot.configuration(alpha, initial_guess=self._last_q)
+                v = self.robot.velocity_map(q) @ alpha_dot
+        except (AssemblyError, ForwardKinematicsError) as exc:
+            raise SimulationError(
+                f"the loops cannot be re-assembled after a closure gap of {gap:.3e}{self._gap_unit}: {exc}", t
+            ) from None
+        self._last_q = q
+        x = np.concatenate([q, v])
         self.projections += 1
+        self.largest_projected_gap = max(self.largest_projected_gap, gap)
         return x, self.closure_residual(x)
+
+    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
+        """One RK4 step of length h [s] under the held torque tau from t = stage h / 2, reading the
+        truth table of :meth:`precompute_truth` (step h / 2) by index: the step of
+        :func:`~delta_pin.sim.integrators.rk4_step` on :meth:`derivative` (to rounding), without
+        its per-call overhead, through the compiled stage kernels of
+        :mod:`delta_pin.compiled.tree_kernels`. ``None`` where this fast path does not apply (a
+        plant the Delta's compiled loops do not take, active coordinates, no table for h)."""
+        table = self._table
+        if not self.delta_tree or self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
+            return None
+        masses, normals, disturbances = table
+        if stage + 2 >= len(masses):
+            return None
+        from delta_pin.compiled.tree_kernels import joint_torques_at, tree_combine, tree_stage
+
+        # the stages of rk4_step at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
+        rotational, dynamics = self._rotational_table, self._tree_dynamics
+        torques, active, friction = self._tau, self.active, self.friction_parameters
+        k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
+        q, v = x[: self.nq], x[self.nq :]
+        i, half = stage, 0.5 * h
+        torques[:] = 0.0
+        joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
+        ddq = dynamics(q, v, masses[i], rotational[i])
+        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
+        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
+        ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
+        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
+        ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
+        return tree_combine(x, k1, k2, k3, k4, v4, ddq, h / 6.0)
+
+    def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
+        """ddq under the joint torques already in ``_tau`` with the payload body's mass [kg] and
+        rotational inertia [kg m^2] (default: scaled with the mass): held_rk4's stages."""
+        self._set_mass(mass, 0.0, rotational)
+        return self._constrained(q, v, self._tau)
+
+    def native_tree(self):
+        """This plant's tree and closures in the native library
+        (:class:`delta_pin.compiled.native.TreeDynamics`, built once), for the Delta's compiled
+        loops.
+
+        Raises:
+            NativeUnavailableError: the native library cannot be built here, or the tree is not
+                one it takes (1-DOF axis joints, point closures).
+        """
+        if self._native_tree is None:
+            from delta_pin.compiled import native
+
+            self._native_tree = native.TreeDynamics(
+                native.load(strict=True), self.model, self.constraint_models, self.baumgarte_gains,
+                self._payload_joint,
+            )  # fmt: skip
+        return self._native_tree
+
+    @property
+    def platform_q_indices(self) -> np.ndarray:
+        """The indices in q of the Delta's platform slides x, y, z (its compiled loops read the
+        platform position there)."""
+        model = self.robot.model
+        return np.array(
+            [model.idx_qs[model.getJointId(name)] for name in self.robot.delta.description.platform_joints]
+        )
 
     def sampled_core(self, step: float, count: int):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where it does not apply: active coordinates, idle motions, passive joints or joint
-        couplings (:func:`~delta_pin.model.core_model.core_supports`), a joint without a
+        ``None`` where it does not apply: active coordinates, an uncertainty profile (the core
+        holds a payload table, not the profiles' F_n(t) and F(t)), idle motions, passive joints
+        or joint couplings (:func:`~delta_pin.model.core_model.core_supports`), a joint without a
         configuration rate there, or the core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
-        if self.coordinates != "full" or not core_supports(self.robot):
+        if self.coordinates != "full" or self.uncertainty is not None or not core_supports(self.robot):
             return None
         from delta_pin.sim.compiled_plant import build_core_plant
 
         try:
-            return build_core_plant(self, step / 2.0, count)
+            core = build_core_plant(self, step / 2.0, count)
         except NativeUnavailableError:
             return None
+        self.stepped_in_core = True  # the run's metadata says so ("core_plant")
+        return core
 
     def metadata(self):
         return {
             "plant": self.name,
-            "coordinates": self.coordinates,
+            **self.metadata_extra,
             "friction": None
             if self.friction is None
             else {**asdict(self.friction), "stribeck": asdict(self.stribeck)},
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.metadata(),
             "payload_frame": self.model.frames[self.payload_frame].name,
             "payload": getattr(self.payload_mass, "__name__", None),
             "redundant_closure_equations": self.redundant,
@@ -347,25 +561,41 @@ class ClosedChainPlant(Plant):
             "passive_joints": list(self.robot.passive_joints),
             "joint_springs": {name: list(values) for name, values in self.robot.joint_springs.items()},
             "closure_projections": self.projections,
-            "uncertainty": None,
+            "closure_gap_projected_max": self.largest_projected_gap,  # before its projection
         }
 
 
-def closed_chain_plant(
-    plant: str, robot: ClosedChainRobot, friction=None, uncertainty=None, **options
-) -> Plant:
-    """A plant by name for a closed-chain robot: ``"pinocchio"`` (:class:`ClosedChainPlant`) or,
-    for a recognised Delta, ``"analytic"`` (the paper's reduced ODE)."""
+PinocchioPlant = ClosedChainPlant  # the Delta's plant's older name: one plant for every robot
+
+
+def closed_chain_plant(plant: str, robot, friction=None, uncertainty=None, **options) -> Plant:
+    """A plant by name: ``"pinocchio"`` (:class:`ClosedChainPlant`) or, for a recognised Delta,
+    ``"analytic"`` (the paper's reduced ODE)."""
     if plant == "pinocchio":
-        return ClosedChainPlant(robot, friction, uncertainty=uncertainty, **options)
+        return ClosedChainPlant(robot, friction, uncertainty, **options)
     if plant == "analytic":
-        if robot.delta is None:
+        delta = getattr(robot, "delta", robot if hasattr(robot, "params") else None)
+        if delta is None:
             raise InvalidParameterError(
                 f"plant='analytic' is the Delta's reduced ODE and {robot.name!r} is not a recognised "
-                "Delta: use "
-                "plant='pinocchio'"
+                "Delta: use plant='pinocchio'"
             )
-        from delta_pin.sim.plants import AnalyticPlant
-
-        return AnalyticPlant(robot.delta, friction, uncertainty)
+        if options.get("coordinates") == "active":  # the reduced ODE's state is [alpha, alpha_dot]
+            options.pop("coordinates")
+        if options:
+            raise InvalidParameterError(
+                f"plant='analytic' takes no plant options; {sorted(options)} are the Pinocchio plant's"
+            )
+        return AnalyticPlant(delta, friction, uncertainty)
     raise InvalidParameterError(f"plant={plant!r} must be 'pinocchio' or 'analytic' (or a Plant)")
+
+
+def make_plant(plant: str | Plant, robot, friction=None, uncertainty=None, **options) -> Plant:
+    """A plant by name (``"pinocchio"``: :class:`ClosedChainPlant`, the one Pinocchio plant;
+    ``"analytic"``: the Delta's reduced ODE), or the given :class:`~delta_pin.sim.plants.Plant`
+    itself; ``options`` go to the Pinocchio plant (e.g. ``coordinates="active"``)."""
+    if isinstance(plant, Plant):
+        return plant
+    if plant not in PLANTS:
+        raise InvalidParameterError(f"plant={plant!r} must be one of {', '.join(PLANTS)} or a Plant")
+    return closed_chain_plant(plant, robot, friction, uncertainty, **options)

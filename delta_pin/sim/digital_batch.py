@@ -41,10 +41,11 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_substeps, check_timing, joint_vector
-from delta_pin.sim.batch import native_available, tree_loop_inputs
+from delta_pin.sim.batch import _delta_tree, native_available, tree_loop_inputs
+from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
 from delta_pin.sim.drive import Encoder, check_delay, check_torque_limit
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
-from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant, Plant, make_plant, truth_records
+from delta_pin.sim.plants import AnalyticPlant, Plant, truth_records
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
@@ -70,7 +71,7 @@ def digital_compilable(controller, plant, drive_effects: bool = True) -> bool:
         return False
     if plant == "analytic" or isinstance(plant, AnalyticPlant):
         return True
-    tree = plant == "pinocchio" or (isinstance(plant, PinocchioPlant) and plant.coordinates == "full")
+    tree = plant == "pinocchio" or (_delta_tree(plant) and plant.coordinates == "full")
     return tree and native_available()
 
 
@@ -221,8 +222,8 @@ def _internals(law, out, info, design_info, nz: int) -> dict[str, np.ndarray]:
 
 
 def _run_on_tree(
-    law, design, drive, noise, plant: PinocchioPlant, truth, reference, timing, state, out, info, design_info,
-    counters,
+    law, design, drive, noise, plant: ClosedChainPlant, truth, reference, timing, state, out, info,
+    design_info, counters,
 ):  # fmt: skip
     """The tree loop with projections by the plant's own routine; returns the failure or ``None``."""
     tree, active, platform, rotational, limits = tree_loop_inputs(plant, truth)

@@ -57,20 +57,22 @@ class MujocoDelta:
             delta_mjcf(robot, timestep=timestep, solref=solref, solimp=solimp)
         )
         self.data = mujoco.MjData(self.model)
-        pin_model = robot.pinocchio.model
+        closed = robot.pinocchio  # the closed-chain robot of the Delta's URDF
+        pin_model = closed.model
         names = [pin_model.names[j] for j in range(1, pin_model.njoints)]
         ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in names]
         self.qpos_index = np.array([self.model.jnt_qposadr[i] for i in ids])  # Pinocchio q order
         self.dof_index = np.array([self.model.jnt_dofadr[i] for i in ids])
-        self.active_dof = self.dof_index[robot.pinocchio.active_indices]
-        self.active_qpos = self.qpos_index[robot.pinocchio.active_indices]
-        self.platform_qpos = self.qpos_index[robot.pinocchio.platform_indices]
+        platform = [pin_model.idx_qs[pin_model.getJointId(n)] for n in robot.description.platform_joints]
+        self.active_dof = self.dof_index[closed.actuated_indices]
+        self.active_qpos = self.qpos_index[closed.actuated_q_indices]
+        self.platform_qpos = self.qpos_index[platform]
         self.site_pairs = [
             (
                 mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_parent"),
                 mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, f"{c.name}_child"),
             )
-            for c in robot.pinocchio.description.closures
+            for c in closed.closures
         ]
 
     @property

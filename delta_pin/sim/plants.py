@@ -1,22 +1,17 @@
 """Plants: the simulated "true" robot, driven by torques on the three active joints.
 
-Both plants integrate eq. 13 of the paper,
+The Delta's plants integrate eq. 13 of the paper,
 
     M(alpha, m_o(t)) alpha_ddot + C alpha_dot + G + F(t) + M_f(alpha_dot, F_n(t)) = tau,
 
 with the plant's truth (friction, time-varying platform mass m_o(t), normal force F_n(t) and
 joint disturbance F(t)) kept apart from what a controller knows:
 
-* :class:`PinocchioPlant` -- the full 12-joint tree with its three point closures, integrated
-  with ``pin.constraintDynamics`` (exact KKT solve, mu = 0). Baumgarte stabilisation
-  (omega = 20 rad/s, critically damped) damps closure drift; should the closure gap still exceed
-  ``projection_tolerance`` after a step, the passive coordinates are projected back onto the
-  constraint manifold (positions by Newton from the active angles, velocities through the null
-  space), however large the gap: a rough torque (a digital law alternating by tens of N m per
-  sample) drifts the loops by micrometres in one step, which a projection removes. Only loops
-  that cannot be re-assembled (Newton fails) stop the run. The platform
-  mass changes during the run by rewriting the platform body's inertia (its rotational inertia
-  scales with the mass);
+* the Pinocchio plant, :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant` (the one
+  plant of every closed-chain robot, ``PinocchioPlant`` its older name) -- the full tree with
+  its closures through ``pin.constraintDynamics``, Baumgarte stabilisation and a projection onto
+  the loops where the gap exceeds a tolerance; the platform mass changes during the run by
+  rewriting the platform body's inertia (its rotational inertia scales with the mass);
 * :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G) through the fast
   kernels of :mod:`delta_pin.compiled.delta_kernels`.
 
@@ -29,17 +24,14 @@ friction slope near zero is then mu_d F_n r_a / 0.01 = 6 N m s/rad on the Table 
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from dataclasses import asdict
 
 import numpy as np
-import pinocchio as pin
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
 from delta_pin.compiled.layouts import TRUTH, as_table, records
-from delta_pin.compiled.tree_kernels import joint_torques, joint_torques_at, tree_combine, tree_stage
-from delta_pin.errors import AssemblyError, ForwardKinematicsError, InvalidParameterError, SimulationError
+from delta_pin.errors import SimulationError
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
@@ -47,9 +39,7 @@ from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.uncertainty import NoUncertainty
 
-__all__ = ["PLANTS", "AnalyticPlant", "DeltaPlant", "PinocchioPlant", "Plant", "make_plant", "truth_records"]
-
-PLANTS = ("pinocchio", "analytic")
+__all__ = ["AnalyticPlant", "DeltaPlant", "Plant", "truth_records"]
 
 
 def truth_records(mass, normal_force, disturbance) -> np.ndarray:
@@ -248,279 +238,3 @@ class AnalyticPlant(DeltaPlant):
     def platform_position(self, x):
         ok, xyz, *_ = delta_terms(self._geometry_table, self._cos, self._sin, 1.0, x[:3], x[3:])
         return xyz if ok else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha
-
-
-class PinocchioPlant(DeltaPlant):
-    """The full tree with point closures through ``pin.constraintDynamics``.
-
-    Two state representations:
-
-    * ``coordinates="full"`` -- x = [q, v] (nq + nv): the whole tree is integrated, Baumgarte
-      stabilisation plus projection when the closure gap exceeds ``projection_tolerance``;
-    * ``coordinates="active"`` -- x = [alpha, alpha_dot] (generalised coordinate partitioning):
-      every evaluation completes q(alpha) by Newton (warm-started from the previous one) and
-      v = S alpha_dot, then takes alpha_ddot from ``constraintDynamics``. The loops are closed to
-      1e-13 m by construction; adaptive integrators (LSODA) need this small state.
-
-    Args:
-        coordinates: ``"full"`` or ``"active"``.
-        baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
-        projection_tolerance: closure gap [m] above which a step is projected back.
-        failure_tolerance: closure gap [m] that aborts the run without a projection (default:
-            none; any finite gap is projected, and the run stops only where the loops cannot be
-            re-assembled). The compiled loops hand every gap above ``projection_tolerance`` and
-            up to this one to :meth:`finish_step_residual`.
-    """
-
-    name = "pinocchio"
-
-    def __init__(
-        self,
-        robot: Delta,
-        friction=None,
-        uncertainty=None,
-        *,
-        coordinates: str = "full",
-        baumgarte_frequency: float = 20.0,
-        projection_tolerance: float = 1e-10,
-        failure_tolerance: float = math.inf,
-    ) -> None:
-        super().__init__(robot, friction, uncertainty)
-        robot = self.robot
-        if coordinates not in ("full", "active"):
-            raise InvalidParameterError(f"coordinates={coordinates!r} must be 'full' or 'active'")
-        self.coordinates = coordinates
-        source = robot.pinocchio
-        self._source = source
-        self.model = pin.Model(source.model)  # own copy: the platform inertia changes in time
-        self.data = self.model.createData()
-        self.constraint_models = pin.StdVec_RigidConstraintModel()
-        self.constraint_datas = pin.StdVec_RigidConstraintData()
-        self.baumgarte_gains = (baumgarte_frequency**2, 2.0 * baumgarte_frequency)  # (Kp, Kd)
-        gains = pin.BaumgarteCorrectorParameters(*self.baumgarte_gains)
-        for cm in source.constraint_models:
-            copy = pin.RigidConstraintModel(cm)
-            copy.setBaumgarteCorrectorParameters(gains)
-            self.constraint_models.append(copy)
-            self.constraint_datas.append(copy.createData())
-        pin.initConstraintDynamics(self.model, self.data, self.constraint_models, self.constraint_datas)
-        self.settings = pin.ProximalSettings(1e-12, 0.0, 1)  # mu = 0: exact KKT solve
-        self.nq = self.model.nq
-        self.active = source.active_indices
-        self._joint_indices = np.concatenate([self.active, self.nq + self.active])
-        self.projection_tolerance = projection_tolerance
-        self.failure_tolerance = failure_tolerance
-        self.projections = 0  # steps projected back onto the loops
-        self.largest_projected_gap = 0.0  # [m] the largest gap a projection removed
-        self._platform_joint = source.platform_joint
-        nominal_inertia = pin.Inertia(self.model.inertias[self._platform_joint])
-        self.nominal_platform_mass = nominal_inertia.mass  # [kg]
-        self.nominal_platform_rotational = nominal_inertia.inertia  # (3, 3) about the COM [kg m^2]
-        # the model's own platform inertia (a reference into model.inertias), rewritten in place
-        self._platform_inertia = self.model.inertias[self._platform_joint]
-        self._mass = self.nominal_platform_mass
-        self._tau = np.zeros(self.model.nv)
-        # k1, k2, k3, k4, then the stage points y2, y3, y4 of held_rk4 with their q and v views
-        stages = np.empty((7, self.model.nq + self.model.nv))
-        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[4:]]
-        self._stages = (*stages[:4], *(view for point in points for view in point))
-        self._last_q: np.ndarray | None = None
-        self._native_tree = None
-        self.metadata_extra = {
-            "coordinates": coordinates,
-            "baumgarte_frequency": baumgarte_frequency,
-            "projection_tolerance": projection_tolerance,
-        }
-
-    def rotational_inertia(self, mass):
-        """The platform's rotational inertia about its COM [kg m^2] for a platform mass [kg] (or
-        an array of masses (R, 1, 1)): the nominal one scaled with the mass."""
-        return self.nominal_platform_rotational * (mass / self.nominal_platform_mass)
-
-    def _set_platform_mass(self, mass: float, rotational: np.ndarray | None = None) -> None:
-        """Rewrite the platform body's inertia in the model (in place) for a platform mass [kg]:
-        the same COM, the rotational inertia ``rotational`` (by default
-        :meth:`rotational_inertia` of the mass); nothing when the mass is unchanged."""
-        if mass != self._mass:
-            inertia = self._platform_inertia
-            inertia.mass = mass
-            inertia.inertia = self.rotational_inertia(mass) if rotational is None else rotational
-            self._mass = mass
-
-    def _accelerations(self, q, v, tau, mass, normal_force, disturbance) -> np.ndarray:
-        """ddq of eq. 13 on the tree at (q, v) under active-joint torques tau [N m] for the
-        truth (m_o, F_n, F)."""
-        joint_torques(self._tau, self.active, tau, v, disturbance, normal_force, self._friction_table)
-        return self._tree_dynamics(q, v, mass)
-
-    def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
-        """ddq of the constrained tree at (q, v) with platform mass m_o [kg] under the joint
-        torques already in ``self._tau`` (:func:`~delta_pin.compiled.tree_kernels.joint_torques`).
-        This, the joint torques
-        and :meth:`_set_platform_mass` are the plant's physics, which :meth:`derivative` and
-        the fast sampled step :meth:`held_rk4` share."""
-        if mass != self._mass:
-            self._set_platform_mass(mass, rotational)
-        return pin.constraintDynamics(
-            self.model,
-            self.data,
-            q,
-            v,
-            self._tau,
-            self.constraint_models,
-            self.constraint_datas,
-            self.settings,
-        )
-
-    def precompute_truth(self, step: float, count: int) -> None:
-        super().precompute_truth(step, count)
-        # the platform's rotational inertia at each tabulated mass, for held_rk4
-        self._rotational_table = self.rotational_inertia(np.asarray(self._table[0])[:, None, None])
-
-    def _complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(q, v) on the constraint manifold for active coordinates (``coordinates="active"``)."""
-        guess = None
-        if self._last_q is not None:  # first-order predictor from the previous completion
-            guess = self._last_q + self._last_S @ (alpha - self._last_q[self.active])
-        try:
-            q = self._source.configuration(alpha, initial_guess=guess)
-        except AssemblyError as exc:
-            raise SimulationError(f"cannot close the loops: {exc}", t) from None
-        self._last_q, self._last_S = q, self._source.velocity_map(q)
-        return q, self._last_S @ alpha_dot
-
-    def initial_state(self, alpha, alpha_dot):
-        if self.coordinates == "active":
-            return np.concatenate([alpha, alpha_dot]).astype(float)
-        q, v = self._source.state(alpha, alpha_dot)
-        return np.concatenate([q, v])
-
-    def derivative(self, t, x, tau):
-        if self.coordinates == "active":
-            q, v = self._complete(x[:3], x[3:], t)
-        else:
-            q, v = x[: self.nq], x[self.nq :]
-        ddq = self._accelerations(q, v, tau, *self.truth(t))
-        if self.coordinates == "active":
-            return np.concatenate([x[3:], ddq[self.active]])
-        return np.concatenate([v, ddq])
-
-    def joint_state(self, x):
-        if self.coordinates == "active":
-            return x[:3], x[3:]
-        joints = x[self._joint_indices]  # one gather: [alpha, alpha_dot]
-        return joints[:3], joints[3:]
-
-    def _configuration(self, x: np.ndarray) -> np.ndarray:
-        if self.coordinates == "active":
-            return self._complete(x[:3], x[3:], float("nan"))[0]
-        return x[: self.nq]
-
-    def platform_position(self, x):
-        return self._source.platform_position(self._configuration(x))
-
-    def closure_residual(self, x):
-        return self._source.closure_gap(self._configuration(x))
-
-    def finish_step(self, x, t):
-        if self.coordinates == "active":
-            return x
-        return self.finish_step_residual(x, t)[0]
-
-    def finish_step_residual(self, x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
-        """:meth:`finish_step` and the closure residual of the state it returns, computed once."""
-        if self.coordinates == "active":
-            return super().finish_step_residual(x, t)
-        gap = self._source.closure_gap(x[: self.nq])  # closure_residual(x)
-        if gap <= self.projection_tolerance:
-            return x, gap
-        if not math.isfinite(gap) or not np.isfinite(x).all():
-            raise SimulationError(f"the loop-closure gap is {gap:.3e} m: the state is no longer finite", t)
-        if gap > self.failure_tolerance:
-            raise SimulationError(
-                f"the loop-closure gap reached {gap:.3e} m, above failure_tolerance="
-                f"{self.failure_tolerance:g} m (raise it, or shorten dt)",
-                t,
-            )
-        alpha, alpha_dot = self.joint_state(x)
-        try:
-            x = self.initial_state(alpha, alpha_dot)
-        except (AssemblyError, ForwardKinematicsError) as exc:
-            raise SimulationError(
-                f"the loops cannot be re-assembled after a closure gap of {gap:.3e} m: {exc}", t
-            ) from None
-        projected = self.closure_residual(x)
-        if not projected <= self.projection_tolerance:  # pragma: no cover - Newton closes to 1e-13 m
-            raise SimulationError(
-                f"the loops cannot be re-assembled: the gap is {projected:.3e} m after projecting a "
-                f"gap of {gap:.3e} m",
-                t,
-            )
-        self.projections += 1
-        self.largest_projected_gap = max(self.largest_projected_gap, gap)
-        return x, projected
-
-    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
-        """One RK4 step of length h [s] under the held torque tau from t = stage h / 2, reading the
-        truth table of :meth:`precompute_truth` (step h / 2) by index: the result of
-        :func:`~delta_pin.sim.integrators.rk4_step` on :meth:`derivative`, bit for bit, without its
-        per-call overhead.
-        ``None`` where this fast path does not apply (active coordinates, no table for h)."""
-        table = getattr(self, "_table", None)
-        if self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
-            return None
-        masses, normals, disturbances = table
-        if stage + 2 >= len(masses):
-            return None
-        # the stages of rk4_step at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
-        dynamics, rotational = self._tree_dynamics, self._rotational_table
-        torques, active, friction = self._tau, self.active, self._friction_table
-        k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
-        q, v = x[: self.nq], x[self.nq :]
-        i, half = stage, 0.5 * h
-        joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
-        ddq = dynamics(q, v, masses[i], rotational[i])
-        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
-        ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
-        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
-        ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
-        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
-        ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
-        return tree_combine(x, k1, k2, k3, k4, v4, ddq, h / 6.0)
-
-    def native_tree(self):
-        """This plant's tree and closures in the native library
-        (:class:`delta_pin.compiled.native.TreeDynamics`, built once), for compiled loops.
-
-        Raises:
-            NativeUnavailableError: the native library cannot be built here.
-        """
-        if self._native_tree is None:
-            from delta_pin.compiled import native  # builds the library on first use
-
-            self._native_tree = native.TreeDynamics(
-                native.load(strict=True), self.model, self.constraint_models, self.baumgarte_gains,
-                self._platform_joint,
-            )  # fmt: skip
-        return self._native_tree
-
-    def metadata(self):
-        return {
-            **super().metadata(),
-            **self.metadata_extra,
-            "closure_projections": self.projections,
-            "closure_gap_projected_max": self.largest_projected_gap,  # [m] before its projection
-        }
-
-
-def make_plant(plant: str | Plant, robot: Delta, friction=None, uncertainty=None, **options) -> Plant:
-    """A plant by name (``"pinocchio"`` or ``"analytic"``), or the given :class:`Plant` itself;
-    ``options`` go to :class:`PinocchioPlant` (e.g. ``coordinates="active"``)."""
-    if isinstance(plant, Plant):
-        return plant
-    robot = analytic_delta(robot)
-    if plant == "pinocchio":
-        return PinocchioPlant(robot, friction, uncertainty, **options)
-    if plant == "analytic":
-        return AnalyticPlant(robot, friction, uncertainty)
-    raise InvalidParameterError(f"plant={plant!r} must be one of {', '.join(PLANTS)} or a Plant")

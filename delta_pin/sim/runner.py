@@ -30,12 +30,12 @@ from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
-from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant
+from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
 from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.loop import run_python_loop
-from delta_pin.sim.plants import Plant, make_plant
+from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
@@ -125,16 +125,19 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
 def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", delta_only=False) -> bool:
     """Whether a closed-chain robot that carries the analytic Delta of its own URDF (the robot of
     ``load_delta``: ``carries_own_delta``) runs on the Delta's own plants and compiled loops:
-    unless it is given a closed-chain plant, a path of a named frame, or, in sampled mode on the
-    default plant, a controller whose law the compiled core holds for the closed chain
+    unless it is given a Pinocchio plant that those loops do not take (``delta_tree`` false: a
+    payload point, say), a path of a named frame, or, in sampled mode on the Pinocchio plant, a
+    controller whose law the compiled core holds for the closed chain
     (``sampled_core_law``: designs I/II on the projected nominal model) where the run needs
     nothing only the Delta's plants model (``delta_only``: an uncertainty profile, a sensor, a
     delay or a torque limit)."""
-    if not carries_own_delta(robot) or isinstance(plant, ClosedChainPlant):
+    given = isinstance(plant, ClosedChainPlant)
+    if not carries_own_delta(robot) or (given and not plant.delta_tree):
         return False
     if isinstance(trajectory, FramePath):  # a path of a named frame: the closed-chain path
         return False
-    if mode == "sampled" and plant == "pinocchio" and not delta_only and controller is not None:
+    delta_only = delta_only or (given and plant.uncertainty is not None)
+    if mode == "sampled" and (given or plant == "pinocchio") and not delta_only and controller is not None:
         law = getattr(controller, "sampled_core_law", None)
         if law is not None and law() is not None:
             return False  # the closed chain's compiled plant and law
@@ -316,6 +319,8 @@ def simulate(
     )  # fmt: skip
     if getattr(plant, "projections", 0):
         metadata["closure_projections"] = plant.projections
+    if getattr(plant, "stepped_in_core", False):
+        metadata["core_plant"] = True  # the plant stepped in the compiled core
     if drive is not None:
         metadata.update(sensor=None if sensor is None else sensor.metadata(), **drive.metadata())
     alpha_d, alpha_dot_d, _ = table.rows(per_sample)

@@ -793,9 +793,9 @@ def _resample(t: np.ndarray, values: np.ndarray, times: np.ndarray) -> np.ndarra
 def _configurations(robot, alphas: np.ndarray) -> list[np.ndarray]:
     """The closure-consistent configuration q(alpha) (nq,) of each row of ``alphas``.
 
-    A Delta: its analytic closure solve. A closed-chain robot: Newton assembly started at the
-    first frame from the robot's reference configuration (its assembly mode), then each frame
-    warm-started from the one before.
+    A Delta: that of its closed-chain robot (``robot.pinocchio``). A closed-chain robot: Newton
+    assembly started at the first frame from the robot's reference configuration (its assembly
+    mode), then each frame warm-started from the one before.
     """
     if not _is_closed_chain(robot):
         return [robot.pinocchio.configuration(alpha) for alpha in alphas]

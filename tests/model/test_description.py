@@ -63,8 +63,9 @@ def test_loop_closures_are_point_constraints(robot):
     closures = robot.description.closures
     assert [c.name for c in closures] == ["closure_1", "closure_2", "closure_3"]
     for closure, phi in zip(closures, chain_azimuths()):
-        assert closure.parent_origin == pytest.approx((0, 0, -0.4))
-        assert closure.child_origin == pytest.approx(
+        assert closure.kind == "3d"
+        assert closure.placement1.translation == pytest.approx((0, 0, -0.4))
+        assert closure.placement2.translation == pytest.approx(
             (0.08 * math.cos(phi), 0.08 * math.sin(phi), 0), abs=1e-15
         )
 

@@ -26,7 +26,7 @@ from delta_pin.compiled import native
 from delta_pin.control.base import Reference
 from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.sim.batch import batchable, simulate_batch
-from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.studies.experiments import (
     RunSpec,
     batch_group,

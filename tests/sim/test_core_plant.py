@@ -240,12 +240,12 @@ def test_the_delta_from_either_loader_takes_the_core_with_a_projected_nominal_mo
     for robot in (delta, loaded):
         controller = dp.design1(dp.ClosedChainNominalModel(robot), sampling_period=1e-3)
         runs.append(dp.simulate(robot, controller, dp.PathI(), t_end=0.3, mode="sampled"))
-        assert runs[-1].metadata["plant"] == "pinocchio_closed_chain"
+        assert runs[-1].metadata["plant"] == "pinocchio" and runs[-1].metadata["core_plant"]
     assert np.abs(runs[0].alpha - runs[1].alpha).max() < 1e-7
     analytic = dp.simulate(
         delta, dp.design1(dp.DeltaNominalModel(delta)), dp.PathI(), t_end=0.01, mode="sampled"
     )
-    assert analytic.metadata["plant"] == "pinocchio"
+    assert analytic.metadata["plant"] == "pinocchio" and "core_plant" not in analytic.metadata
     uncertain = dp.simulate(
         delta, dp.design1(dp.ClosedChainNominalModel(delta)), dp.PathI(), t_end=0.01, mode="sampled",
         uncertainty=dp.PaperUncertainty(),

@@ -7,8 +7,8 @@ import pytest
 
 from delta_pin.model.friction import Friction
 from delta_pin.sim import loop as loop_module
+from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.sim.integrators import rk4_step
-from delta_pin.sim.plants import PinocchioPlant
 from delta_pin.sim.runner import simulate
 from delta_pin.sim.uncertainty import FunctionUncertainty, PaperUncertainty
 from delta_pin.studies.experiments import RunSpec, run_spec
@@ -87,12 +87,12 @@ def test_platform_mass_is_rewritten_in_the_model(robot):
     tau = np.array([0.5, 0.1, -0.2])
     ddq = plant.derivative(0.7, x, tau)[plant.nq :]
     mass = robot.params.m_o * 1.7
-    nominal = pin.Inertia(robot.pinocchio.model.inertias[plant._platform_joint])
-    assert plant.model.inertias[plant._platform_joint] == pin.Inertia(
+    nominal = pin.Inertia(robot.pinocchio.model.inertias[plant._payload_joint])
+    assert plant.model.inertias[plant._payload_joint] == pin.Inertia(
         mass, nominal.lever, nominal.inertia * (mass / nominal.mass)
     )
     fresh = PinocchioPlant(robot)
-    fresh.model.inertias[plant._platform_joint] = pin.Inertia(
+    fresh.model.inertias[plant._payload_joint] = pin.Inertia(
         mass, nominal.lever, nominal.inertia * (mass / nominal.mass)
     )
     fresh._tau[fresh.active] = tau

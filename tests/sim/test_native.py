@@ -6,7 +6,7 @@ import pinocchio as pin
 import pytest
 
 from delta_pin.compiled import native
-from delta_pin.sim.plants import PinocchioPlant
+from delta_pin.sim.closed_chain_plant import PinocchioPlant
 
 pytestmark = pytest.mark.skipif(
     native.load() is None, reason=f"native library unavailable: {native._loaded.get('reason')}"
@@ -18,7 +18,7 @@ def test_tree_dynamics_equal_pin_constraint_dynamics(robot, rng):
     closed states, torques and platform masses (the inertia rewrite included)."""
     plant = PinocchioPlant(robot)
     tree = plant.native_tree()
-    for mass in (plant._mass, 0.7, 1.3, 0.7):
+    for mass in (plant.nominal_platform_mass, 0.7, 1.3, 0.7):
         alpha = rng.uniform(-0.3, 0.6, 3)
         x = plant.initial_state(alpha, rng.normal(size=3))
         q, v = x[: plant.nq], x[plant.nq :]
@@ -83,7 +83,7 @@ def test_the_axis_tree_stage_equals_pin_constraint_dynamics(robot, rng):
     tree = plant.native_tree()
     worst = 0.0
     for k in range(60):
-        mass = (plant._mass, 0.7, 1.3)[k % 3]
+        mass = (plant.nominal_platform_mass, 0.7, 1.3)[k % 3]
         x = plant.initial_state(rng.uniform(-0.3, 0.6, 3), 3.0 * rng.normal(size=3))
         q, v = x[: plant.nq].copy(), x[plant.nq :].copy()
         if k % 2:
@@ -185,7 +185,7 @@ def test_active_dynamics_equal_the_python_active_plant(robot, rng):
     tree = plant.native_tree()
     alpha = np.array([0.33, 0.2, 0.45])
     x0 = PinocchioPlant(robot).initial_state(alpha, np.zeros(3))
-    tree.set_active(robot.pinocchio.active_indices, robot.pinocchio.platform_indices, x0[: plant.nq])
+    tree.set_active(plant.active, plant.platform_q_indices, x0[: plant.nq])
     worst = 0.0
     for _ in range(30):
         alpha = alpha + rng.normal(scale=0.02, size=3)  # a walk: the completions warm-start
@@ -193,7 +193,7 @@ def test_active_dynamics_equal_the_python_active_plant(robot, rng):
         torque = 5.0 * rng.normal(size=3)
         expected = plant.derivative(0.0, np.concatenate([alpha, alpha_dot]), torque)[3:]  # no friction
         got, xyz, gap = tree.active_dynamics(
-            alpha, alpha_dot, torque, plant._mass, plant.nominal_platform_rotational
+            alpha, alpha_dot, torque, plant.nominal_platform_mass, plant.nominal_platform_rotational
         )
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
         np.testing.assert_allclose(xyz, robot.forward_kinematics(alpha), atol=1e-12)

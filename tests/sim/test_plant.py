@@ -6,7 +6,8 @@ import pytest
 
 from delta_pin.errors import SimulationError
 from delta_pin.model.friction import Friction
-from delta_pin.sim.plants import AnalyticPlant, PinocchioPlant
+from delta_pin.sim.closed_chain_plant import PinocchioPlant
+from delta_pin.sim.plants import AnalyticPlant
 from delta_pin.sim.runner import simulate
 from delta_pin.sim.uncertainty import FunctionUncertainty
 
@@ -107,7 +108,7 @@ def test_time_varying_platform_mass_reaches_the_pinocchio_model(robot):
     alpha = robot.inverse_kinematics(START)
     x = plant.initial_state(alpha, np.zeros(3))
     plant.derivative(1.0, x, np.zeros(3))
-    assert plant.model.inertias[plant._platform_joint].mass == pytest.approx(2 * robot.params.m_o)
+    assert plant.model.inertias[plant._payload_joint].mass == pytest.approx(2 * robot.params.m_o)
     # the analytic plant with the same mass sees the same acceleration
     analytic = AnalyticPlant(robot, uncertainty=heavier)
     np.testing.assert_allclose(
