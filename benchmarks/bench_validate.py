@@ -3,10 +3,11 @@
 Run: ``python benchmarks/bench_validate.py [--repeats 5] [--samples 10000]``
 
 Cases: ``validate(robot, samples)`` in-process (imports and the robot's compilation excluded);
-its Pinocchio side alone, batched (``reduced_dynamics_batch`` and the closure check, as
-``validate`` calls them) and, as the reference, the readable one-state methods on a subset
-scaled to the same number of states; and the command ``delta-pin validate --samples N`` end to
-end in a fresh interpreter (imports included: the issue's target is 2 s).
+its Pinocchio side alone as ``validate`` runs it (the closed-form starts for all states, then the
+closure gap and the projection of the one robot model in the compiled core) and, as the
+reference, the same through the robot's Python methods (``closure_gap``, ``reduced_terms``) on a
+subset scaled to the same number of states; and the command ``delta-pin validate --samples N``
+end to end in a fresh interpreter (imports included: the issue's target is 2 s).
 """
 
 from __future__ import annotations
@@ -16,27 +17,31 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 from common import Timing, machine_info, measure, print_table, report_target
 
 import delta_pin as dp
+from delta_pin.model.core_model import core_model
 from delta_pin.model.kinematics import forward_kinematics
 from delta_pin.model.validation import sample_states, validate
 
 TARGET = 2.0  # [s] delta-pin validate --samples 10000 (issue 7)
 
 
-def _pinocchio_side_batched(model, alpha, alpha_dot, xyz) -> None:
-    q = model.analytic_configurations(alpha, xyz)
-    np.abs(model.closure_residuals(q)).max(axis=1)
-    model.reduced_dynamics_batch(alpha, alpha_dot, q)
+def _pinocchio_side_core(robot, core, alpha, alpha_dot, xyz) -> None:
+    closed = robot.pinocchio
+    for d, q in zip(
+        alpha_dot, robot.delta.closed_form_configurations(closed.model, closed.closures, alpha, xyz)
+    ):
+        core.closure_gap(q)
+        core.reduced_terms(q, d)
 
 
-def _pinocchio_side_one_by_one(model, alpha, alpha_dot, xyz) -> None:
+def _pinocchio_side_python(robot, alpha, alpha_dot, xyz) -> None:
+    closed = robot.pinocchio
     for a, d, x in zip(alpha, alpha_dot, xyz):
-        q = model.analytic_configuration(a, x)
-        np.abs(model.closure_residual(q)).max()
-        model.reduced_dynamics(a, d, q)
+        q = robot.delta.closed_form_configuration(closed.model, closed.closures, a, x)
+        closed.closure_gap(q)
+        closed.reduced_terms(a, d, q)
 
 
 def _command(samples: int) -> None:
@@ -64,7 +69,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=10_000)
     args = parser.parse_args()
     robot = dp.load_delta()
-    model, n, r = robot.pinocchio, args.samples, args.repeats
+    core, n, r = core_model(robot), args.samples, args.repeats
     alpha, alpha_dot = sample_states(robot, n)
     xyz = forward_kinematics(robot.params, alpha)
     subset = max(n // 20, 1)
@@ -72,13 +77,13 @@ def main() -> None:
         measure(f"delta-pin validate --samples {n} (fresh process)", lambda: _command(n), r),
         measure(f"validate(robot, samples={n}), in-process", lambda: validate(robot, samples=n), r),
         measure(
-            f"Pinocchio side, batched ({n} states)",
-            lambda: _pinocchio_side_batched(model, alpha, alpha_dot, xyz),
+            f"Pinocchio side in the core, as validate runs it ({n} states)",
+            lambda: _pinocchio_side_core(robot, core, alpha, alpha_dot, xyz),
             r,
         ),
         _scaled(
-            f"Pinocchio side, one state at a time ({n} states)",
-            lambda: _pinocchio_side_one_by_one(model, alpha[:subset], alpha_dot[:subset], xyz[:subset]),
+            f"Pinocchio side through the robot's Python methods ({n} states)",
+            lambda: _pinocchio_side_python(robot, alpha[:subset], alpha_dot[:subset], xyz[:subset]),
             r,
             n / subset,
             f"{subset} states timed, scaled",

@@ -6,7 +6,6 @@ model for every closed chain, the analytic one an accelerator where the robot is
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict
 from pathlib import Path
 
@@ -79,29 +78,52 @@ class Delta:
             alpha: active angles [rad].
             xyz: their platform position [m] if already known (saves an FK).
         """
+        alpha = kinematics.as_vector3(alpha, "alpha")
+        return self.closed_form_configurations(model, closures, alpha[None], None if xyz is None else [xyz])[
+            0
+        ]
+
+    def closed_form_configurations(
+        self, model: pin.Model, closures, alpha: np.ndarray, xyz: np.ndarray | None = None
+    ) -> np.ndarray:
+        """:meth:`closed_form_configuration` of many states (n, 3) at once: (n, nq). One
+        Pinocchio forward-kinematics pass per state gives the elbows' parent placements and the
+        platform anchors; the forearm angles follow for all states together."""
         description = self.description
-        q = pin.neutral(model)
-
-        def index(name: str) -> int:
-            return model.idx_qs[model.getJointId(name)]
-
-        q[[index(name) for name in description.active_joints]] = alpha
-        q[[index(name) for name in description.platform_joints]] = (
-            self.forward_kinematics(alpha) if xyz is None else xyz
-        )
-        data = model.createData()
-        pin.forwardKinematics(model, data, q)
+        alpha = np.atleast_2d(np.asarray(alpha, dtype=float))
+        xyz = kinematics.forward_kinematics(self.params, alpha) if xyz is None else np.atleast_2d(xyz)
+        q = np.tile(pin.neutral(model), (len(alpha), 1))
+        for names, values in ((description.active_joints, alpha), (description.platform_joints, xyz)):
+            q[:, [model.idx_qs[model.getJointId(name)] for name in names]] = values
         platform = model.getJointId(description.platform_joints[-1])
+        rolls, pitches, anchor_joints, anchors = [], [], [], []
         for closure in closures:
             ends = ((closure.joint1, closure.placement1), (closure.joint2, closure.placement2))
             (roll, _), (joint, placement) = ends if closure.joint2 == platform else ends[::-1]
-            pitch = model.parents[roll]  # elbow_i_pitch, then elbow_i_roll on the forearm
-            parent = data.oMi[model.parents[pitch]] * model.jointPlacements[pitch]
-            target = (data.oMi[joint] * placement).translation - parent.translation
-            d = parent.rotation.T @ (target / np.linalg.norm(target))
+            rolls.append(roll)
+            pitches.append(model.parents[roll])  # elbow_i_pitch, then elbow_i_roll on the forearm
+            anchor_joints.append(joint)
+            anchors.append(placement.homogeneous)
+        joints = [model.parents[pitch] for pitch in pitches] + anchor_joints
+        unique = sorted(set(joints))
+        read = np.empty((len(q), len(unique), 4, 4))  # oMi of those joints per state
+        data = model.createData()
+        oMi = data.oMi  # a reference to the placements, updated by every kinematics pass
+        for k, q_k in enumerate(q):
+            pin.forwardKinematics(model, data, q_k)
+            for j, joint in enumerate(unique):
+                read[k, j] = oMi[joint].homogeneous
+        placements = read[:, [unique.index(joint) for joint in joints]]
+        n = len(pitches)
+        elbow = np.array([model.jointPlacements[pitch].homogeneous for pitch in pitches])
+        parent = placements[:, :n] @ elbow  # (states, closures, 4, 4): the pitch joints' frames
+        target = (placements[:, n:] @ np.array(anchors))[..., :3, 3] - parent[..., :3, 3]
+        target /= np.linalg.norm(target, axis=-1, keepdims=True)
+        d = np.einsum("...ji,...j->...i", parent[..., :3, :3], target)  # R^T target
+        for i, (pitch, roll) in enumerate(zip(pitches, rolls)):
             # forearm direction R_y(pitch) R_x(roll) [0, 0, -1] (docs/architecture.md section 3)
-            q[model.idx_qs[roll]] = math.asin(float(np.clip(d[1], -1.0, 1.0)))
-            q[model.idx_qs[pitch]] = math.atan2(-d[0], -d[2])
+            q[:, model.idx_qs[roll]] = np.arcsin(np.clip(d[:, i, 1], -1.0, 1.0))
+            q[:, model.idx_qs[pitch]] = np.arctan2(-d[:, i, 0], -d[:, i, 2])
         return q
 
     def reference_configuration(self, model: pin.Model, closures) -> np.ndarray:

@@ -30,6 +30,7 @@ import numpy as np
 
 from delta_pin.errors import DeltaPinError, InvalidParameterError
 from delta_pin.model import kinematics
+from delta_pin.model.core_model import core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.robot import Delta
 
@@ -229,18 +230,27 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
 
     # Pinocchio side: the closed-chain robot of the same URDF (the one robot model), state by
     # state: the closure gap at the analytic configuration, then the projection at the assembly
+    # Newton reaches from there -- in the compiled core where it is available (the same
+    # arithmetic as the robot's Python methods, which tests/sim/test_core_plant.py holds it to)
     closed = robot.pinocchio
-    q = np.array(
-        [robot.closed_form_configuration(closed.model, closed.closures, a, x) for a, x in zip(alpha, xyz)]
-    )
-    gaps = np.array([closed.closure_gap(q_k) for q_k in q])
-    reduced = [
-        closed.reduced_dynamics(a, d, closed.configuration(a, initial_guess=q_k))
-        for a, d, q_k in zip(alpha, alpha_dot, q)
-    ]
-    pin_M = np.array([r.M for r in reduced])
-    pin_G = np.array([r.G for r in reduced])
-    pin_coriolis = np.array([r.coriolis for r in reduced])
+    core = core_model(closed)
+    M_list, G_list, coriolis_list, gap_list = [], [], [], []
+    starts = robot.closed_form_configurations(closed.model, closed.closures, alpha, xyz)
+    for a, d, q in zip(alpha, alpha_dot, starts):
+        if core is not None:
+            gap_list.append(core.closure_gap(q))
+            closed_q = q if gap_list[-1] <= 1e-13 else core.configuration(a, q, 1e-13)[1]
+            M, _, G, coriolis = core.reduced_terms(closed_q, d)
+        else:
+            gap_list.append(closed.closure_gap(q))
+            M, _, G, coriolis = closed.reduced_terms(
+                a, d, closed.configuration(a, initial_guess=q, tol=1e-13)
+            )
+        M_list.append(M)
+        G_list.append(G)
+        coriolis_list.append(coriolis)
+    gaps = np.array(gap_list)
+    pin_M, pin_G, pin_coriolis = np.array(M_list), np.array(G_list), np.array(coriolis_list)
     checks["closure"].update_value(float(gaps.max()), float(gaps.max()))
     checks["M"].update_value(*_errors(analytic.M, pin_M))
     checks["coriolis"].update_value(*_errors(analytic.coriolis, pin_coriolis))
