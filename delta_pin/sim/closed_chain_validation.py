@@ -14,6 +14,12 @@ Five checks, each against an independent reference (docs/architecture.md section
    passive joints and a free base move with it): the drift of kinetic + gravity + spring energy
    relative to the largest kinetic energy, and the closure gap along it.
 
+Where the robot carries the paper's analytic model (``robot.delta``: the robot of ``load_delta``,
+a Delta recognised in any file), the report adds its M, C alpha_dot and G (eqs. 7-9) against the
+projection at the same states, to the recognition's tolerance (relative 1e-9): one validator for
+the Delta and every other robot (``delta-pin validate`` without ``--robot`` keeps the analytic
+model's own, lighter table: IK/FK, J and J_dot by differences, M, C alpha_dot, G).
+
 An underactuated robot (passive joints, a free base) has no reduced model: checks 2-4 are then
 not run, and the report says so; the closure and energy checks still are. The report's notes
 open with the robot's mobility classification (:meth:`ClosedChainRobot.summary`).
@@ -48,6 +54,7 @@ import pinocchio as pin
 
 from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.delta_recognition import RELATIVE_TOLERANCE as ANALYTIC_TOLERANCE
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant
 from delta_pin.sim.integrators import rk4_step
 
@@ -370,6 +377,7 @@ def validate_closed_chain(
     reduced = not robot.passive_joints  # an underactuated robot has no reduced model to check
     gaps, plant_errors, conditions = [], [], []
     gravity, coriolis_check = _Worst(), _Worst()
+    analytic_errors: dict[str, float] = {}  # the analytic Delta's M, C alpha_dot, G (robot.delta)
     evaluations = _Evaluations(robot)
     for _ in range(samples):
         alpha = robot.home + rng.uniform(-spread, spread, robot.dof)
@@ -388,6 +396,14 @@ def validate_closed_chain(
         if not reduced:
             continue
         M, C, G, coriolis = robot.reduced_terms(alpha, alpha_dot, q)
+        if robot.delta is not None:  # the paper's analytic model against the projection
+            analytic = robot.delta.analytic_dynamics(alpha, alpha_dot)
+            for name, ours, theirs in (
+                ("M", analytic.M, M),
+                ("C a_dot", analytic.coriolis, coriolis),
+                ("G", analytic.G, G),
+            ):
+                analytic_errors[name] = max(analytic_errors.get(name, 0.0), _relative(ours, theirs))
         tau = rng.normal(0.0, 1.0, robot.dof)
         v = robot.velocity_map(q) @ alpha_dot
         plant_alpha_ddot = plant.accelerations(0.0, q, v, tau)[robot.actuated_indices]
@@ -407,6 +423,12 @@ def validate_closed_chain(
         report.notes.append(
             "plant, gravity, coriolis: not run: the robot is underactuated (passive joints "
             f"{', '.join(robot.passive_joints)}), so it has no reduced model"
+        )
+    for name, error in analytic_errors.items():
+        report.checks[f"analytic {name}"] = (
+            error,
+            ANALYTIC_TOLERANCE,
+            f"the paper's {name} (eqs. 7-9, robot.delta) vs the projection (relative)",
         )
     motion = _energy_drift(robot, energy_duration, rng, dt)
     report.checks["energy"] = (
