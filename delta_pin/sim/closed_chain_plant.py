@@ -64,6 +64,7 @@ from delta_pin.model.core_model import core_supports
 from delta_pin.model.delta_robot import as_closed_chain, carries_own_delta
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
+from delta_pin.sim.truth import PlantTruth
 
 __all__ = ["PLANTS", "ClosedChainPlant", "PinocchioPlant", "closed_chain_plant", "make_plant"]
 
@@ -204,7 +205,7 @@ class ClosedChainPlant(Plant):
             [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
         )
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
-        self._table = None  # the truth at t = k step (precompute_truth)
+        self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
         self._native_tree = None
         self.stepped_in_core = False  # whether sampled_core handed the loop a compiled copy
         # the Delta's compiled loops (delta_pin.sim.batch) take this plant: the analytic Delta of
@@ -248,38 +249,18 @@ class ClosedChainPlant(Plant):
     def evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(m_o [kg], F_n (dof,) [N], F (dof,) [N m]) at a time t [s], or (R,), (R, dof), (R, dof)
         at an array of times: the payload body's mass, the normal forces and the disturbance."""
-        if self.uncertainty is not None:
-            return (
-                self.uncertainty.platform_mass(t, self.nominal_platform_mass),
-                self.uncertainty.normal_force(t, self._normal_force),
-                self.uncertainty.disturbance(t),
-            )
-        times = np.asarray(t, dtype=float)
-        shape = times.shape
-        return (
-            np.full(shape, self.nominal_platform_mass),
-            np.broadcast_to(self._normal_force, (*shape, self.dof)).copy(),
-            np.zeros((*shape, self.dof)),
-        )
+        return self._truth.evaluate(t)
 
     def precompute_truth(self, step: float, count: int) -> None:
         """Tabulate the truth at t = k step, k < count [s] (one vectorised call): the stage times
         of the integrator then read the table (and the payload body's rotational inertia at each
         mass) instead of calling the profile."""
-        self._table_step = step
-        self._table = self.evaluate_truth(np.arange(count) * step)
-        self._rotational_table = self.rotational_inertia(np.asarray(self._table[0])[:, None, None])
+        self._truth.tabulate(step, count)
+        self._rotational_table = self.rotational_inertia(np.asarray(self._truth.table[0])[:, None, None])
 
     def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(m_o(t) [kg], F_n(t) (dof,) [N], F(t) (dof,) [N m]): the plant's time-varying truth."""
-        table = self._table
-        if table is not None:
-            k = round(t / self._table_step)
-            if 0 <= k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
-                return table[0][k], table[1][k], table[2][k]
-        if self.uncertainty is None:
-            return self.nominal_platform_mass, self._normal_force, np.zeros(self.dof)
-        return self.uncertainty.at(t, self.nominal_platform_mass, self._normal_force)
+        return self._truth.at(t)
 
     def platform_mass(self, t: float) -> float:
         """m_o(t) [kg]: the mass of the payload frame's body."""
@@ -470,8 +451,8 @@ class ClosedChainPlant(Plant):
         its per-call overhead, through the compiled stage kernels of
         :mod:`delta_pin.compiled.tree_kernels`. ``None`` where this fast path does not apply (a
         plant the Delta's compiled loops do not take, active coordinates, no table for h)."""
-        table = self._table
-        if not self.delta_tree or self.coordinates != "full" or table is None or self._table_step != 0.5 * h:
+        table = self._truth.table
+        if not self.delta_tree or self.coordinates != "full" or table is None or self._truth.step != 0.5 * h:
             return None
         masses, normals, disturbances = table
         if stage + 2 >= len(masses):

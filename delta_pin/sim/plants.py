@@ -37,6 +37,7 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
+from delta_pin.sim.truth import PlantTruth
 from delta_pin.sim.uncertainty import NoUncertainty
 
 __all__ = ["AnalyticPlant", "DeltaPlant", "Plant", "truth_records"]
@@ -153,34 +154,22 @@ class DeltaPlant(Plant):
             self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
         self._friction_table = as_table(self.friction_parameters)  # what Python passes to kernels
         self.uncertainty = NoUncertainty() if uncertainty is None else uncertainty
+        normal_force = 0.0 if self.friction is None else self.friction.normal_force
+        self._truth = PlantTruth(self.uncertainty, robot.params.m_o, np.full(3, normal_force))
 
-    # ------------------------------------------------------------------ truth shared by both plants
-    def _nominal_normal_force(self) -> float:
-        return 0.0 if self.friction is None else self.friction.normal_force
-
+    # ------------------------------------------------------------------ truth
     def evaluate_truth(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(m_o, F_n, F) at a time or an array of times, straight from the uncertainty profile."""
-        nominal_mass = self.robot.params.m_o
-        return (
-            self.uncertainty.platform_mass(t, nominal_mass),
-            self.uncertainty.normal_force(t, self._nominal_normal_force()),
-            self.uncertainty.disturbance(t),
-        )
+        return self._truth.evaluate(t)
 
     def precompute_truth(self, step: float, count: int) -> None:
         """Tabulate m_o, F_n, F at t = k step, k < count [s] (one vectorised call): the
         integrator's stage times then read the table instead of calling the profile."""
-        self._table_step = step
-        self._table = self.evaluate_truth(np.arange(count) * step)
+        self._truth.tabulate(step, count)
 
     def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(m_o(t) [kg], F_n(t) (3,) [N], F(t) (3,) [N m]): the plant's time-varying truth."""
-        table = getattr(self, "_table", None)
-        if table is not None:
-            k = round(t / self._table_step)
-            if k < len(table[0]) and abs(k * self._table_step - t) <= 1e-9 * self._table_step:
-                return table[0][k], table[1][k], table[2][k]
-        return self.uncertainty.at(t, self.robot.params.m_o, np.full(3, self._nominal_normal_force()))
+        return self._truth.at(t)
 
     def platform_mass(self, t: float) -> float:
         """m_o(t) [kg]."""

@@ -4,6 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import delta_pin as dp
 from delta_pin.errors import SimulationError
 from delta_pin.model.friction import Friction
 from delta_pin.sim.closed_chain_plant import PinocchioPlant
@@ -170,3 +171,23 @@ def test_a_finite_failure_tolerance_still_stops_the_run(robot):
     assert after <= 1e-10 and relaxed.projections == 1
     assert relaxed.metadata()["closure_gap_projected_max"] == pytest.approx(gap)
     np.testing.assert_array_equal(projected[relaxed.active], x[relaxed.active])  # alpha kept
+
+
+def test_both_plants_read_one_truth(robot):
+    """The Pinocchio and the analytic plant of the Delta take the same m_o(t), F_n(t), F(t) from
+    one profile (equal arrays: the same arithmetic), the Pinocchio plant's nominal mass the
+    platform body's (the URDF's m_o); a 2-actuator robot takes the nominal truth of its own shape,
+    and an uncertainty profile (three joints) is refused for it in one line."""
+    times = np.linspace(0.0, 2.0, 9)
+    uncertainty = dp.PaperUncertainty()
+    pinocchio = PinocchioPlant(robot, dp.Friction(), uncertainty)
+    analytic = AnalyticPlant(robot, dp.Friction(), uncertainty)
+    assert pinocchio.nominal_platform_mass == robot.params.m_o
+    for ours, theirs in zip(pinocchio.evaluate_truth(times), analytic.evaluate_truth(times)):
+        np.testing.assert_array_equal(ours, theirs)
+    assert np.ptp(pinocchio.evaluate_truth(times)[0]) > 0.1  # the mass does vary
+    five_bar = dp.load_robot("five_bar")
+    _, normal, disturbance = dp.ClosedChainPlant(five_bar).truth(0.3)
+    assert np.shape(normal) == np.shape(disturbance) == (2,) and not disturbance.any()
+    with pytest.raises(dp.InvalidParameterError, match="2 actuated joint"):
+        dp.ClosedChainPlant(five_bar, uncertainty=uncertainty)
