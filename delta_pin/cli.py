@@ -328,9 +328,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
-    """Simulate ``spec`` and write run.npz, summary.json (and --html) into the locked ``folder``."""
+    """``run``: simulate the packaged Delta's scenario ``spec`` and write it (:func:`_save_run`)."""
     from delta_pin.studies.experiments import run_spec
-    from delta_pin.studies.metrics import compute_metrics, window_note
 
     print(
         f"delta-pin run: {spec.controller} on path {spec.path}, {spec.plant} plant, {spec.mode} mode, "
@@ -338,6 +337,15 @@ def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
         flush=True,
     )
     run = run_spec(spec, robot, progress=None)  # a progress bar on a terminal
+    return _save_run(args, out, robot, folder, run, {"spec": spec.as_dict()})
+
+
+def _save_run(args: argparse.Namespace, out: Path, robot, folder, run, head: dict) -> int:
+    """Write a computed run into the locked ``folder``: run.npz, summary.json (``head``, then the
+    metrics, the closures' record, warnings and the files written) and the --html page; print
+    the metrics. One writer for both scenarios of ``run`` (the packaged Delta's and --robot's)."""
+    from delta_pin.studies.metrics import compute_metrics, window_note
+
     metrics = compute_metrics(run)
     folder.start()  # the new run is computed: the earlier one's files go now, not before
     run.save(out / "run.npz")
@@ -356,7 +364,7 @@ def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
         if _inside(written[-1], out) is not None:
             folder.record(written[-1:])
     summary = {
-        "spec": spec.as_dict(),
+        **head,
         "metrics": metrics.as_dict(),
         "closure_residual_max": float(run.closure_residual.max()),
         # steps whose loop-closure gap was projected back (Pinocchio plant; null on the analytic)
@@ -372,17 +380,17 @@ def _write_run(args: argparse.Namespace, out: Path, spec, robot, folder) -> int:
     _finish_run_folder(folder, out, [*written, out / "summary.json"])
     for name, value in metrics.as_dict().items():
         print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
+    print(f"  {'closure_residual_max':<28} {summary['closure_residual_max']:.3g}")
     if run.metadata.get("closure_projections"):
         print(
             f"  {'closure_projections':<28} {run.metadata['closure_projections']} (largest gap projected "
-            f"back: {run.metadata.get('closure_gap_projected_max', float('nan')):.3g} m)"
+            f"back: {run.metadata.get('closure_gap_projected_max', float('nan')):.3g})"
         )
     note = window_note(run)
     if note:
         print(f"  note: {note}")
-    print(f"wrote {out / 'run.npz'} and {out / 'summary.json'}")
-    if args.html is not None:
-        print(f"wrote {written[-1]}")
+    for path in [*written, out / "summary.json"]:
+        print(f"wrote {path}")
     return 0
 
 
@@ -404,7 +412,7 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
 
 
 def _write_robot_run(args: argparse.Namespace, out: Path, robot, folder) -> int:
-    """Simulate ``run --robot`` and write run.npz, summary.json (and --html) into ``folder``."""
+    """``run --robot``: simulate the robot's scenario and write it (:func:`_save_run`)."""
     from delta_pin.studies.closed_chain_run import run_closed_chain
 
     run, description = run_closed_chain(
@@ -412,39 +420,7 @@ def _write_robot_run(args: argparse.Namespace, out: Path, robot, folder) -> int:
         t_end=args.t_end, radius=args.radius, period=args.period, sampling_aware=args.sampling_aware,
         announce=lambda text: print(text, flush=True),
     )  # fmt: skip
-    from delta_pin.studies.metrics import compute_metrics, window_note
-
-    metrics = compute_metrics(run)
-    folder.start()  # the new run is computed: the earlier one's files go now, not before
-    run.save(out / "run.npz")
-    folder.record([out / "run.npz"])
-    written = [out / "run.npz"]
-    if args.html is not None:
-        from delta_pin.viz.meshcat_export import export_html
-
-        written.append(export_html(run, args.html, robot))
-        if _inside(written[-1], out) is not None:
-            folder.record(written[-1:])
-    summary = {
-        "robot": run.metadata["robot"],
-        "run": description,
-        "metrics": metrics.as_dict(),
-        "closure_residual_max": float(run.closure_residual.max()),
-        "closure_projections": run.metadata.get("closure_projections"),
-        "warnings": [],
-        "outputs": [str(path.resolve()) for path in [*written, out / "summary.json"]],
-    }
-    write_text_atomically(out / "summary.json", json.dumps(summary, indent=2) + "\n")
-    _finish_run_folder(folder, out, [*written, out / "summary.json"])
-    for name, value in metrics.as_dict().items():
-        print(f"  {name:<28} {value if value is None else f'{value:.6g}'}")
-    print(f"  {'closure_residual_max':<28} {summary['closure_residual_max']:.3g}")
-    note = window_note(run)
-    if note:
-        print(f"  note: {note}")
-    for path in [*written, out / "summary.json"]:
-        print(f"wrote {path}")
-    return 0
+    return _save_run(args, out, robot, folder, run, {"robot": run.metadata["robot"], "run": description})
 
 
 RUN_FILES = ("run.npz", "summary.json")  # what `run` writes into --out, besides --html
