@@ -915,8 +915,35 @@ class ClosedChainRobot:
             return self.delta.forward_kinematics(alpha)
         alpha = np.asarray(alpha, dtype=float)
         if alpha.ndim == 2:
+            if frame is None or self._frame(frame) == self.end_effector:
+                core = self._core_chain()
+                if core is not None:  # the same assembly and placement, in the compiled core
+                    return self._core_forward_kinematics(core, alpha)
             return np.array([self.forward_kinematics(row, frame) for row in alpha])
         return self.frame_placement(self.configuration(alpha), frame).translation.copy()
+
+    def _core_chain(self):
+        """This robot in the compiled core (:func:`~delta_pin.model.core_model.core_model`, built
+        once), or ``None`` where the core does not take it or cannot be imported."""
+        cached = self.__dict__.get("_core")
+        if cached is None or cached[0] != self.end_effector:  # the core holds its end effector
+            from delta_pin.model.core_model import core_model
+
+            cached = self._core = (self.end_effector, core_model(self))
+        return cached[1]
+
+    def _core_forward_kinematics(self, core, alpha: np.ndarray) -> np.ndarray:
+        """The end effector's positions (N, 3) at the rows of alpha (N, dof), each assembled by
+        the core's Newton warm-started from the one before (a row it does not close: the robot's
+        own :meth:`configuration`, which names the worst closure)."""
+        out = np.empty((len(alpha), 3))
+        q = self._last_q
+        for k, row in enumerate(alpha):
+            closed, q_next = core.configuration(row, q)
+            q = q_next if closed else self.configuration(row, initial_guess=q)
+            out[k] = core.end_effector_position(q)
+        self._last_q = q.copy()
+        return out
 
     def frame_jacobian(self, q: np.ndarray, frame: str | int | None = None) -> np.ndarray:
         """Closed-loop Jacobian (6, dof) of a frame: its [linear; angular] velocity

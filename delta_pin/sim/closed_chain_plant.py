@@ -60,7 +60,7 @@ from delta_pin.errors import (
     SimulationError,
 )
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
-from delta_pin.model.core_model import core_supports
+from delta_pin.model.core_model import core_model, core_supports
 from delta_pin.model.delta_robot import as_closed_chain, carries_own_delta
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
@@ -205,6 +205,7 @@ class ClosedChainPlant(Plant):
             [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
         )
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
+        self._core_chain = None  # the core's ClosedChainModel for completions (False: none here)
         self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
         self._native_tree = None
         self.stepped_in_core = False  # whether sampled_core handed the loop a compiled copy
@@ -347,7 +348,18 @@ class ClosedChainPlant(Plant):
     # ------------------------------------------------------------------ state interface
     def complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) on the loops for actuated positions and velocities, warm-started from the last
-        completion (the active-coordinate state's full configuration); t [s] only names a failure."""
+        completion (the active-coordinate state's full configuration); t [s] only names a failure.
+
+        In the compiled core where it takes the robot (the same Newton and null space as the
+        robot's Python methods, :mod:`delta_pin.model.core_model`); a completion the core does not
+        close is retried by the robot's own, which names the worst closure where it fails too."""
+        if self._core_chain is None:
+            self._core_chain = core_model(self.robot) or False
+        if self._core_chain:
+            closed, q = self._core_chain.configuration(np.asarray(alpha, dtype=float), self._last_q)
+            if closed:
+                self._last_q = q
+                return q, self._core_chain.velocity_map(q) @ alpha_dot
         try:
             q = self.robot.configuration(alpha, initial_guess=self._last_q)
         except AssemblyError as exc:

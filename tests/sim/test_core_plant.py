@@ -277,3 +277,25 @@ def test_computed_torque_and_pd_in_the_core_equal_their_readable_laws(kind):
         assert np.abs(getattr(core, name) - getattr(python, name)).max() < 1e-10, name
     assert core.internals == {} == python.internals
     assert np.abs(python.alpha - python.alpha[0]).max() > 1e-3  # it moved
+
+
+def test_active_coordinate_completions_and_end_effector_paths_in_the_core(robot_name):
+    """The active-coordinate plant completes q(alpha), v = S alpha_dot in the core, and a robot's
+    end-effector positions along many actuated states are assembled there: both equal the
+    robot's Python Newton and null space to 1e-11 (two Newton runs to the same 1e-12 closure
+    tolerance from the same start; the closure Jacobian's conditioning amplifies the rest)."""
+    robot, python = dp.load_robot(robot_name), dp.load_robot(robot_name)  # the core's, the reference
+    rng = np.random.default_rng(5)
+    alphas = robot.home + rng.uniform(-0.05, 0.05, (8, robot.dof))
+    plant = dp.ClosedChainPlant(robot, coordinates="active")
+    for alpha in alphas:
+        alpha_dot = rng.normal(0.0, 0.5, robot.dof)
+        start = plant._last_q.copy()
+        q, v = plant.complete(alpha, alpha_dot, 0.0)
+        assert plant._core_chain  # the core took the completion
+        expected = python.configuration(alpha, initial_guess=start)
+        np.testing.assert_allclose(q, expected, rtol=0, atol=1e-11)
+        np.testing.assert_allclose(v, python.velocity_map(expected) @ alpha_dot, rtol=1e-9, atol=1e-11)
+    frame = robot.end_effector_name
+    reference = np.array([robot.frame_placement(robot.configuration(a), frame).translation for a in alphas])
+    np.testing.assert_allclose(robot.forward_kinematics(alphas, frame), reference, rtol=0, atol=1e-11)
