@@ -232,6 +232,15 @@ class LQR(Controller):
             - self.K @ error
         )
 
+    def sampled_core_law(self):
+        """The compiled core's LQR (``LQR`` of ``delta_pin/core/controller.hpp``, :meth:`evaluate`'s
+        arithmetic with this linearisation and gain) where the nominal model has one there; else
+        ``None``."""
+        return self.nominal.core_law(
+            "LQR", self.name, self.alpha0, self.G0, self.dG, self.M0, self.K,
+            friction_compensation=self.friction_compensation,
+        )  # fmt: skip
+
     def metadata(self):
         return {
             "name": self.name,

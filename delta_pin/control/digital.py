@@ -151,6 +151,20 @@ class TimeDelayControl(Controller):
         next_state = np.concatenate([alpha, previous, tau, commands[:-1].ravel(), [min(seen + 1.0, 3.0)]])
         return ControlOutput(tau=tau, next_state=next_state, internals={"lumped_estimate": lumped})
 
+    def sampled_core_law(self):
+        """The compiled core's time-delay control (``TimeDelayControl`` of
+        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
+        model has one there (:meth:`NominalModel.core_law
+        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``. Its first samples' N̂ is
+        C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""
+        return self.nominal.core_law(
+            "TimeDelayControl", self.name, self.dt, self.K_p, self.K_v, self.delay, self.pairing == "mean",
+            friction_compensation=False,
+        )  # fmt: skip
+
+    def core_law_internals(self, law) -> dict[str, np.ndarray]:
+        return {"lumped_estimate": np.array(law.lumped_estimate)}
+
     def metadata(self) -> dict:
         return {
             "name": self.name,

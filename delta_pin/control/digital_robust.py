@@ -281,6 +281,23 @@ class DigitalRobustController(Controller):
         }
         return ControlOutput(tau=tau, next_state=next_state, internals=internals)
 
+    def sampled_core_law(self):
+        """The compiled core's law with its observer (``DigitalRobust`` of
+        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
+        model has one there (:meth:`NominalModel.core_law
+        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
+        observer = self.observer
+        limit = np.zeros(0) if self.torque_limit is None else self.torque_limit
+        return self.nominal.core_law(
+            "DigitalRobust", self.name, self.dt, self.delay, self.K_p, self.K_v, self.D, self.beta, self.b1,
+            self.b2, self.b3, self.epsilon, self.layer_samples, limit, observer.transition,
+            observer.input_gain, observer.gain, friction_compensation=self.friction_compensation,
+        )  # fmt: skip
+
+    def core_law_internals(self, law) -> dict[str, np.ndarray]:
+        names = ("rho_hat", "robust_torque", "disturbance_estimate", "velocity_estimate", "s")
+        return {name: np.array(getattr(law, name)) for name in names}
+
     def metadata(self) -> dict:
         return {
             "name": self.name,

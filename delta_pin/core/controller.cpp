@@ -53,20 +53,46 @@ namespace delta_pin
     const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
   {
     const Eigen::Index n = nominal_.dof();
-    if (alpha_dot.size() != n || ref_alpha.size() != n || ref_alpha_dot.size() != n || ref_alpha_ddot.size() != n)
+    if (alpha.size() != n || alpha_dot.size() != n || ref_alpha.size() != n || ref_alpha_dot.size() != n
+        || ref_alpha_ddot.size() != n)
       throw std::invalid_argument("the joint state and the reference need one value per actuated joint");
+    compute(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
+  }
+
+  void ProjectedLaw::terms(const Vector & alpha, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G)
+  {
     Vector q;
     if (!nominal_.configuration(alpha, q_, q))
       throw SimulationFailure("the nominal model's loops do not close at alpha=" + joints(alpha));
     q_ = q;
-    Matrix M, C;
-    Vector G, C_alpha_dot;
+    Vector C_alpha_dot;
     nominal_.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
+  }
+
+  Vector ProjectedLaw::compensation(const Vector & alpha_dot) const
+  {
     Vector compensation = disturbance_;
     if (friction_.enabled)
-      for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index i = 0; i < compensation.size(); ++i)
         compensation[i] += friction_.torque(alpha_dot[i], friction_.normal_force[i]);
-    law(M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
+    return compensation;
+  }
+
+  void ProjectedLaw::compute(
+    const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+    const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
+  {
+    Matrix M, C;
+    Vector G;
+    terms(alpha, alpha_dot, M, C, G);
+    law(M, C, G, compensation(alpha_dot), alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
+  }
+
+  void ProjectedLaw::law(
+    const Matrix &, const Matrix &, const Vector &, const Vector &, const Vector &, const Vector &, const Vector &,
+    const Vector &, const Vector &, const Vector &, Vector &, Vector &)
+  {
+    throw std::logic_error("law '" + name_ + "' overrides neither compute() nor law()");
   }
 
   void ProjectedLaw::start(
@@ -96,7 +122,10 @@ namespace delta_pin
     const double t = k * dt_;
     if (k > 0)
     {
-      z_ += dt_ * z_dot_;  // Controller.advance: explicit Euler once per sample
+      if (discrete_)
+        z_ = z_dot_;  // Controller.advance: the discrete-time law's next state
+      else
+        z_ += dt_ * z_dot_;  // Controller.advance: explicit Euler once per sample
       if (!(x.allFinite() && z_.allFinite()))
       {
         SimulationFailure failure("the state became non-finite (alpha=" + joints(alpha) + ")");
@@ -229,5 +258,121 @@ namespace delta_pin
     robust_gain[k] = info_.robust_gain;
     omega_norm[k] = info_.omega_norm;
     adaptation_active[k] = info_.adaptation_active;
+  }
+
+  TimeDelayControlLaw::TimeDelayControlLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const TimeDelayGains & gains)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , gains_(gains)
+  {
+    if (!(gains_.period > 0.0) || gains_.delay < 0)
+      throw std::invalid_argument("time-delay control needs a period > 0 and a delay >= 0");
+    set_discrete();
+  }
+
+  void TimeDelayControlLaw::law(
+    const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+    const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+    const Vector & z, Vector & torque, Vector & next)
+  {
+    const Eigen::Index n = alpha.size();
+    if (z.size() != time_delay_state_size(gains_, n))
+      throw std::invalid_argument("the time-delay control's state has the wrong size");
+    const Vector rest = C * alpha_dot + G + compensation;  // C̄ alpha_dot + Ḡ + F̄ (no M̄_f: none set)
+    torque.resize(n);
+    lumped_.resize(n);
+    next.resize(z.size());
+    time_delay_control(gains_, M, rest, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z.data(),
+                       next.data(), torque, lumped_);
+  }
+
+  void TimeDelayControlLaw::start_records(long samples) { lumped_estimate.setZero(samples, dof()); }
+
+  void TimeDelayControlLaw::record(long k) { lumped_estimate.row(k) = lumped_.transpose(); }
+
+  DigitalRobustLaw::DigitalRobustLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const DigitalRobustGains<Eigen::Dynamic> & gains)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , gains_(gains)
+  {
+    const Eigen::Index size = gains_.transition.rows();
+    if (size < 3 || size > observer_max || gains_.transition.cols() != size || gains_.input_gain.size() != size
+        || gains_.observer_gain.size() != size)
+      throw std::invalid_argument("the observer needs Phi (S x S), Gamma (S) and L (S) with 3 <= S <= 6");
+    if (!(gains_.period > 0.0) || gains_.delay < 0 || !(gains_.layer_samples >= 1.0))
+      throw std::invalid_argument("digital-robust needs a period > 0, a delay >= 0 and layer_samples >= 1");
+    if (gains_.has_limit && gains_.torque_limit.size() != dof())
+      throw std::invalid_argument("the torque limit needs one value per actuated joint");
+    set_discrete();
+  }
+
+  void DigitalRobustLaw::compute(
+    const Vector & alpha, const Vector &, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+    const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & next)
+  {
+    if (z.size() != digital_robust_state_size(gains_, alpha.size()))
+      throw std::invalid_argument("the digital-robust law's state has the wrong size");
+    auto model = [this](const Vector & a, const Vector & a_dot, Matrix & M, Vector & n_bar)
+    {
+      Matrix C;
+      Vector G;
+      terms(a, a_dot, M, C, G);
+      n_bar = C * a_dot + G + compensation(a_dot);
+      return true;
+    };
+    next.resize(z.size());
+    digital_robust_law<Eigen::Dynamic>(gains_, model, alpha, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z.data(),
+                                       next.data(), torque, info_);
+  }
+
+  void DigitalRobustLaw::start_records(long samples)
+  {
+    rho_hat.setZero(samples, 1);
+    robust_torque.setZero(samples, dof());
+    disturbance_estimate.setZero(samples, dof());
+    velocity_estimate.setZero(samples, dof());
+    s.setZero(samples, dof());
+  }
+
+  void DigitalRobustLaw::record(long k)
+  {
+    rho_hat(k, 0) = info_.rho_hat;
+    robust_torque.row(k) = info_.robust_torque.transpose();
+    disturbance_estimate.row(k) = info_.disturbance_estimate.transpose();
+    velocity_estimate.row(k) = info_.velocity_estimate.transpose();
+    s.row(k) = info_.s.transpose();
+  }
+
+  LqrLaw::LqrLaw(
+    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const LqrGains<Eigen::Dynamic> & gains)
+  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+                 disturbance, name)
+  , gains_(gains)
+  {
+    const Eigen::Index n = dof();
+    if (gains_.alpha0.size() != n || gains_.gravity.size() != n || gains_.gravity_slope.rows() != n
+        || gains_.gravity_slope.cols() != n || gains_.inertia.rows() != n || gains_.inertia.cols() != n
+        || gains_.gain.rows() != n || gains_.gain.cols() != 2 * n)
+      throw std::invalid_argument("the LQR needs alpha0, G0 (n), dG/dalpha, M0 (n x n) and K (n x 2n)");
+  }
+
+  void LqrLaw::compute(
+    const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+    const Vector & ref_alpha_ddot, const Vector &, Vector & torque, Vector & state_dot)
+  {
+    torque = lqr_law<Eigen::Dynamic>(gains_, compensation(alpha_dot), alpha, alpha_dot, ref_alpha, ref_alpha_dot,
+                                     ref_alpha_ddot);
+    state_dot.resize(0);
   }
 } // namespace delta_pin

@@ -5,6 +5,9 @@
 
 #include "closed_chain.hpp"
 #include "control/adaptive_robust_law.hpp"
+#include "control/digital_robust_law.hpp"
+#include "control/lqr_law.hpp"
+#include "control/time_delay_control.hpp"
 
 #include <Eigen/Dense>
 
@@ -69,15 +72,31 @@ namespace delta_pin
     RowMatrix tau, state;  // the records of the last run (samples rows)
 
   protected:
-    // the law from the nominal M, C, G at the state and F̄ [+ M̄_f] (compensation)
+    // One evaluation: tau and the state's derivative (a continuous-time state) or its next value
+    // (a discrete-time law, see set_discrete). By default law() on the nominal M, C, G at the
+    // measured state; a law that evaluates the model elsewhere, or not at all, overrides this.
+    virtual void compute(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha,
+                         const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot, const Vector & state,
+                         Vector & tau, Vector & state_dot);
+    // the law from the nominal M, C, G at the state and F̄ [+ M̄_f] (compensation); for the laws
+    // that keep compute()'s default
     virtual void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation,
                      const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
-                     const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot) = 0;
+                     const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot);
+    // the nominal M, C, G at (alpha, alpha_dot), assembled from the previous call's configuration
+    // (SimulationFailure where the loops do not close)
+    void terms(const Vector & alpha, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G);
+    // F̄ [+ M̄_f(alpha_dot) where set_friction switched it on] [N m]
+    Vector compensation(const Vector & alpha_dot) const;
+    // the state advances to compute()'s next value each sample, not by Euler (Controller.advance
+    // of a law with a next_state)
+    void set_discrete() { discrete_ = true; }
     virtual void start_records(long /*samples*/) {}
     virtual void record(long /*k*/) {}
     int dof() const { return nominal_.dof(); }
 
   private:
+    bool discrete_ = false;
     ClosedChainModel nominal_;
     Vector q_;  // the nominal model's last assembly (warm start)
     Vector disturbance_;
@@ -151,5 +170,76 @@ namespace delta_pin
   private:
     AdaptiveRobustGains<Eigen::Dynamic> gains_;
     AdaptiveRobustInternals<Eigen::Dynamic> info_;
+  };
+
+  // Time-delay control (TimeDelayControl in delta_pin/control/digital.py; time_delay_control.hpp),
+  // discrete-time: its state is the Python law's, the estimate N̂ recorded as lumped_estimate.
+  class TimeDelayControlLaw : public ProjectedLaw
+  {
+  public:
+    TimeDelayControlLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const TimeDelayGains & gains);
+
+    RowMatrix lumped_estimate;  // records [N m]
+
+  protected:
+    void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
+             const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot,
+             const Vector & state, Vector & tau, Vector & next_state) override;
+    void start_records(long samples) override;
+    void record(long k) override;
+
+  private:
+    TimeDelayGains gains_;
+    Vector lumped_;
+  };
+
+  // The sampled-data adaptive robust law with its extended-state observer (DigitalRobustController
+  // in delta_pin/control/digital_robust.py; digital_robust_law.hpp), discrete-time, the nominal
+  // model evaluated at the observer's estimate (and at the predicted ones over the delay).
+  class DigitalRobustLaw : public ProjectedLaw
+  {
+  public:
+    DigitalRobustLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const DigitalRobustGains<Eigen::Dynamic> & gains);
+
+    // records: rho_hat (samples x 1) [N m], the robust torque and M̄ f̂ [N m], the velocity
+    // estimate and s [rad/s]
+    RowMatrix rho_hat, robust_torque, disturbance_estimate, velocity_estimate, s;
+
+  protected:
+    void compute(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+                 const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & next_state) override;
+    void start_records(long samples) override;
+    void record(long k) override;
+
+  private:
+    DigitalRobustGains<Eigen::Dynamic> gains_;
+    DigitalRobustInternals<Eigen::Dynamic> info_;
+  };
+
+  // The LQR baseline (LQR in delta_pin/control/baselines.py; lqr_law.hpp): no model evaluation
+  // per sample, only the compensation F̄ [+ M̄_f].
+  class LqrLaw : public ProjectedLaw
+  {
+  public:
+    LqrLaw(
+      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
+      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
+      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const LqrGains<Eigen::Dynamic> & gains);
+
+  protected:
+    void compute(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
+                 const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot) override;
+
+  private:
+    LqrGains<Eigen::Dynamic> gains_;
   };
 } // namespace delta_pin

@@ -302,6 +302,82 @@ NB_MODULE(_core, m)
     .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)
     .def_ro("omega_norm", &delta_pin::AdaptiveRobust::omega_norm)
     .def_ro("adaptation_active", &delta_pin::AdaptiveRobust::adaptation_active);
+  nb::class_<delta_pin::TimeDelayControlLaw, delta_pin::ProjectedLaw>(m, "TimeDelayControl")
+    .def(
+      "__init__",
+      [](delta_pin::TimeDelayControlLaw * self, const std::string & model_text, const Closures & closures,
+         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+         const std::string & name, double dt, double K_p, double K_v, int delay, bool mean_pairing)
+      {
+        delta_pin::TimeDelayGains g;
+        g.period = dt;
+        g.K_p = K_p;
+        g.K_v = K_v;
+        g.delay = delay;
+        g.mean_pairing = mean_pairing;
+        new (self) delta_pin::TimeDelayControlLaw(
+          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          disturbance, name, g);
+      })
+    .def_ro("lumped_estimate", &delta_pin::TimeDelayControlLaw::lumped_estimate);
+  nb::class_<delta_pin::DigitalRobustLaw, delta_pin::ProjectedLaw>(m, "DigitalRobust")
+    .def(
+      "__init__",
+      [](delta_pin::DigitalRobustLaw * self, const std::string & model_text, const Closures & closures,
+         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+         const std::string & name, double dt, int delay, double K_p, double K_v, double D, double beta, double b1,
+         double b2, double b3, double epsilon, double layer_samples, const Eigen::VectorXd & torque_limit,
+         const Eigen::MatrixXd & transition, const Eigen::VectorXd & input_gain, const Eigen::VectorXd & observer_gain)
+      {
+        const Eigen::Index size = transition.rows();
+        if (size < 3 || size > delta_pin::observer_max)
+          throw std::invalid_argument("the observer needs 3 to 6 states per joint");
+        delta_pin::DigitalRobustGains<Eigen::Dynamic> g;
+        g.period = dt;
+        g.delay = delay;
+        g.K_p = K_p;
+        g.K_v = K_v;
+        g.D = D;
+        g.beta = beta;
+        g.b1 = b1;
+        g.b2 = b2;
+        g.b3 = b3;
+        g.epsilon = epsilon;
+        g.layer_samples = layer_samples;
+        g.has_limit = torque_limit.size() > 0;  // empty: no limit
+        g.torque_limit = torque_limit;
+        g.transition = transition;
+        g.input_gain = input_gain;
+        g.observer_gain = observer_gain;
+        new (self) delta_pin::DigitalRobustLaw(
+          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          disturbance, name, g);
+      })
+    .def_ro("rho_hat", &delta_pin::DigitalRobustLaw::rho_hat)
+    .def_ro("robust_torque", &delta_pin::DigitalRobustLaw::robust_torque)
+    .def_ro("disturbance_estimate", &delta_pin::DigitalRobustLaw::disturbance_estimate)
+    .def_ro("velocity_estimate", &delta_pin::DigitalRobustLaw::velocity_estimate)
+    .def_ro("s", &delta_pin::DigitalRobustLaw::s);
+  nb::class_<delta_pin::LqrLaw, delta_pin::ProjectedLaw>(m, "LQR").def(
+    "__init__",
+    [](delta_pin::LqrLaw * self, const std::string & model_text, const Closures & closures,
+       const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+       size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+       const std::string & name, const Eigen::VectorXd & alpha0, const Eigen::VectorXd & gravity,
+       const Eigen::MatrixXd & gravity_slope, const Eigen::MatrixXd & inertia, const Eigen::MatrixXd & gain)
+    {
+      delta_pin::LqrGains<Eigen::Dynamic> g;
+      g.alpha0 = alpha0;
+      g.gravity = gravity;
+      g.gravity_slope = gravity_slope;
+      g.inertia = inertia;
+      g.gain = gain;
+      new (self) delta_pin::LqrLaw(
+        model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+        disturbance, name, g);
+    });
   m.def(
     "symbols",
     []()
