@@ -1,6 +1,7 @@
-"""One step of design I in the standalone C++ library (examples/drive_cpp: Eigen only, no Python,
-no Pinocchio) against the same step through delta-pin from Python (the numba kernel behind
-``AdaptiveRobustController.evaluate``), measured in the same run.
+"""One step of design I and one of the digital-robust law in the standalone C++ library
+(examples/drive_cpp: Eigen only, no Python, no Pinocchio) against the same steps through delta-pin
+from Python (the numba kernels behind ``AdaptiveRobustController.evaluate`` and
+``DigitalRobustController.evaluate``), measured in the same run.
 
 Run: ``python benchmarks/bench_drive_cpp.py [--repeats 3]`` (needs cmake and a C++ compiler)
 """
@@ -24,6 +25,34 @@ from delta_pin.control.base import Reference
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "drive_cpp"
 
 
+def _replays(folder: Path, design: str, repeats: int) -> Timing:
+    """drive_replay's time per step [s] over ``repeats`` replays of ``design``'s golden vectors."""
+    golden = folder / f"golden-{design}"
+    subprocess.run(
+        [sys.executable, str(EXAMPLE / "make_golden.py"), str(golden), "--design", design],
+        check=True,
+        capture_output=True,
+    )
+    replay = [
+        str(folder / "build" / "drive_replay"),
+        str(golden / "parameters.txt"),
+        str(golden / "golden.csv"),
+    ]
+    steps = []
+    for _ in range(repeats):
+        out = subprocess.run(replay, check=True, capture_output=True, text=True).stdout
+        steps.append(float(re.search(r"time per step ([0-9.]+) ns", out).group(1)) * 1e-9)
+        allocations = int(re.search(r"heap allocations during the steps (\d+)", out).group(1))
+        error = float(
+            re.search(r"largest torque error \(relative to the largest torque\) (\S+)", out).group(1)
+        )
+    return Timing(
+        f"{design} step, C library (drive_replay)",
+        steps,
+        f"{allocations} heap allocations, error {error:.1e}",
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
@@ -34,32 +63,39 @@ def main() -> None:
         return
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
-        subprocess.run([sys.executable, str(EXAMPLE / "make_golden.py"), str(folder / "golden")], check=True)
         configure = ["cmake", "-S", str(EXAMPLE), "-B", str(folder / "build"), "-DCMAKE_BUILD_TYPE=Release"]
         subprocess.run([*configure, f"-DPython_EXECUTABLE={sys.executable}"], check=True, capture_output=True)
         subprocess.run(["cmake", "--build", str(folder / "build")], check=True, capture_output=True)
-        steps = []
-        for _ in range(args.repeats):
-            out = subprocess.run(
-                [str(folder / "build" / "drive_replay"), str(folder / "golden" / "parameters.txt"),
-                 str(folder / "golden" / "golden.csv")], check=True, capture_output=True, text=True,
-            ).stdout  # fmt: skip
-            steps.append(float(re.search(r"time per step ([0-9.]+) ns", out).group(1)) * 1e-9)
-            allocations = int(re.search(r"heap allocations during the steps (\d+)", out).group(1))
-    c_library = Timing("design I step, C library (drive_replay)", steps, f"{allocations} heap allocations")
+        design_c = _replays(folder, "I", args.repeats)
+        digital_c = _replays(folder, "digital-robust", args.repeats)
     robot = dp.load_delta()
-    controller = dp.design1(dp.DeltaNominalModel(robot), sampling_period=1e-3)
+    nominal = dp.DeltaNominalModel(robot)
     alpha, rate = np.full(3, 0.33), np.array([0.1, -0.2, 0.3])
     reference = Reference(alpha + 0.01, rate, np.zeros(3))
-    state = controller.initial_state()
-    python = Timing(
-        "the same step through delta-pin from Python (numba kernel)",
-        per_call(lambda: controller.evaluate(0.0, alpha, rate, reference, state), 2000, args.repeats),
+    design = dp.design1(nominal, sampling_period=1e-3)
+    state = design.initial_state()
+    design_python = Timing(
+        "the design I step through delta-pin from Python (numba kernel)",
+        per_call(lambda: design.evaluate(0.0, alpha, rate, reference, state), 2000, args.repeats),
+    )
+    digital = dp.digital_robust(nominal, 1e-3, delay=1, torque_limit=5.0)
+    digital_state = digital.evaluate(0.0, alpha, rate, reference, digital.initial_state()).next_state
+    digital_python = Timing(
+        "the digital-robust step through delta-pin from Python (numba kernel)",
+        per_call(lambda: digital.evaluate(0.0, alpha, rate, reference, digital_state), 2000, args.repeats),
     )
     print_table(
-        "one design I step (sampling-aware), Delta analytic nominal model", [c_library, python], python
+        "one design I step (sampling-aware), Delta analytic nominal model",
+        [design_c, design_python],
+        design_python,
     )
-    report_target("one design I step in the standalone C++ library", c_library.median, 3e-6)
+    print_table(
+        "one digital-robust step (one sample of delay), Delta analytic nominal model",
+        [digital_c, digital_python],
+        digital_python,
+    )
+    report_target("one design I step in the standalone C++ library", design_c.median, 3e-6)
+    report_target("one digital-robust step in the standalone C++ library", digital_c.median, 3e-6)
 
 
 if __name__ == "__main__":

@@ -1,11 +1,15 @@
-"""examples/drive_cpp: designs I and II built as a small C++ library without Python or Pinocchio
-(delta_pin/core/control/, Eigen only) from the installed package's sources, replaying golden
-vectors recorded from delta-pin's readable law (make_golden.py).
+"""examples/drive_cpp: designs I and II and the digital-robust law built as a small C++ library
+without Python or Pinocchio (delta_pin/core/control/, Eigen only) from the installed package's
+sources, replaying golden vectors recorded from delta-pin's readable law (make_golden.py).
 
 The replay itself checks every torque to 1e-12 of the largest torque and every rho_hat to 1e-12
 relative (the same arithmetic in another language: measured ~3e-16), and that no step allocates
-on the heap (a counting operator new); this test runs it for design I (sampling-aware) and
-design II (the paper's law, over the 0.5 s before it diverges at 1 kHz) and reads its report."""
+on the heap (a counting operator new); this test runs it for design I (sampling-aware), design II
+(the paper's law, over the 0.5 s before it diverges at 1 kHz) and the digital-robust law (one
+sample of delay, a torque limit; 2 s of path I) and reads its report. The digital-robust torques
+are held to 1e-10: the law is a recursion (its observer, commands and model at the estimate) that
+each side carries, and its rounding differences grow to ~6e-12 by 2 s (examples/drive_cpp/main.cpp
+says why); per sample the arithmetic agrees to ~1e-14 (tests/sim/test_core_laws.py)."""
 
 import re
 import shutil
@@ -36,7 +40,13 @@ def replay(tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize(
-    "arguments", [["--design", "I"], ["--design", "II", "--paper-law", "--samples", "500"]], ids=["I", "II"]
+    "arguments",
+    [
+        ["--design", "I"],
+        ["--design", "II", "--paper-law", "--samples", "500"],
+        ["--design", "digital-robust"],
+    ],
+    ids=["I", "II", "digital-robust"],
 )
 def test_the_c_library_replays_the_readable_law_without_allocating(replay, tmp_path, arguments):
     golden = tmp_path / "golden"
@@ -53,7 +63,9 @@ def test_the_c_library_replays_the_readable_law_without_allocating(replay, tmp_p
     )
     report = dict(re.findall(r"^(.*?) ([-+0-9.e]+)(?: ns)?$", ran.stdout, flags=re.MULTILINE))
     assert ran.returncode == 0, ran.stdout + ran.stderr
-    assert float(report["largest torque error (relative to the largest torque)"]) <= 1e-12
+    tolerance = 1e-10 if "digital-robust" in arguments else 1e-12  # module docstring
+    assert float(report["torque tolerance"]) == tolerance
+    assert float(report["largest torque error (relative to the largest torque)"]) <= tolerance
     assert float(report["largest rho_hat error (relative)"]) <= 1e-12
     assert int(report["heap allocations during the steps"]) == 0
     assert int(report["samples"]) == int(arguments[-1]) + 1 if "--samples" in arguments else 2001

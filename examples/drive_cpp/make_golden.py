@@ -1,12 +1,16 @@
-"""Golden vectors for examples/drive_cpp: design I (or II) on the Delta's analytic nominal model,
-computed by delta-pin's readable law (``AdaptiveRobustController.evaluate_reference``) along the
-joint states of a simulated run, sample by sample with rho_hat advancing as a drive advances it.
+"""Golden vectors for examples/drive_cpp: design I (or II), or the digital-robust law, on the
+Delta's analytic nominal model, computed by delta-pin's readable law
+(``AdaptiveRobustController.evaluate_reference``, ``DigitalRobustController.evaluate_reference``)
+along the joint states of a simulated run, sample by sample with the law's state advancing as a
+drive advances it.
 
-Writes ``parameters.txt`` (the controller's numbers, ``name = value ...``) and ``golden.csv`` (per
+Writes ``parameters.txt`` (the controller's numbers, ``name value ...``) and ``golden.csv`` (per
 sample: measured alpha, alpha_dot, the reference alpha, alpha_dot, alpha_ddot, then the torque
-and the rho_hat the law used), which ``drive_replay`` replays through the C library.
+and the rho_hat the law used), which ``drive_replay`` replays through the C library. The
+digital-robust law (``--design digital-robust``: one sample of delay, a torque limit) reads only
+the angles; its file carries the observer's matrices and ``law 2``.
 
-Run: ``python make_golden.py OUT_DIR [--design I|II] [--samples 2000] [--paper-law]``
+Run: ``python make_golden.py OUT_DIR [--design I|II|digital-robust] [--samples 2000] [--paper-law]``
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from delta_pin.model.kinematics import chain_trigonometry
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
-    parser.add_argument("--design", choices=("I", "II"), default="I")
+    parser.add_argument("--design", choices=("I", "II", "digital-robust"), default="I")
     parser.add_argument("--samples", type=int, default=2000)
     parser.add_argument(
         "--paper-law", action="store_true", help="the paper's robust gain (diverges at 1 kHz after ~0.58 s)"
@@ -33,6 +37,9 @@ def main() -> None:
     dt = 1e-3
     robot = dp.load_delta()
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(0.02, -0.01, 0.03))
+    if args.design == "digital-robust":
+        digital_robust(robot, nominal, dt, args)
+        return
     options = {} if args.paper_law else {"sampling_period": dt}  # the sampling-aware law by default
     controller = (dp.design1 if args.design == "I" else dp.design2)(nominal, **options)
     # the joint states of a real run (the analytic plant, the paper's friction), as a drive would read them
@@ -54,11 +61,7 @@ def main() -> None:
         "mu_v": friction.mu_v, "sign_scale": friction.sign_velocity_scale, "normal_force": p.normal_force,
         "disturbance": p.disturbance, "period": dt,
     }  # fmt: skip
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "parameters.txt", "w") as file:
-        for name, value in numbers.items():
-            values = np.atleast_1d(np.asarray(value, dtype=float))
-            file.write(name + " " + " ".join(repr(float(v)) for v in values) + "\n")
+    write_parameters(args.out, numbers)
     path = dp.PathI().joint_reference(robot, run.t)  # alpha^d, alpha_dot^d, alpha_ddot^d per sample
     z = controller.initial_state()
     rows = []
@@ -68,14 +71,60 @@ def main() -> None:
         rows.append([*run.alpha[k], *run.alpha_dot[k], *reference.alpha, *reference.alpha_dot,
                      *reference.alpha_ddot, *out.tau, z[0]])  # fmt: skip
         z = controller.advance(z, out, dt)
+    write_golden(args.out, rows)
+
+
+def digital_robust(robot, nominal, dt: float, args) -> None:
+    """The digital-robust law's golden vectors: the law's own closed loop (analytic plant, the
+    paper's friction, one sample of delay, a torque limit the observer is told of)."""
+    controller = dp.digital_robust(nominal, dt, delay=1, torque_limit=5.0, rho0=0.05)
+    options = {"plant": "analytic", "t_end": args.samples * dt, "mode": "sampled", "dt": dt, "delay": 1}
+    run = dp.simulate(robot, controller, dp.PathI(), friction=dp.Friction(), **options)
+    p = controller.kernel_parameters  # the nominal model's numbers as the compiled steps read them
+    geometry, friction, observer = p.geometry, p.friction, controller.observer
+    cos_phi, sin_phi = chain_trigonometry()
+    numbers = {
+        "law": 2, "R": geometry.R, "r": geometry.r, "l_a": geometry.l_a, "l_b": geometry.l_b,
+        "arm_inertia": geometry.arm_inertia, "arm_gravity": geometry.arm_gravity, "g": geometry.g,
+        "m_eq": p.m_eq, "cos_phi": cos_phi, "sin_phi": sin_phi, "period": dt, "delay": controller.delay,
+        "K_p": controller.K_p, "K_v": controller.K_v, "D": controller.D, "beta": controller.beta,
+        "b1": controller.b1, "b2": controller.b2, "b3": controller.b3, "epsilon": controller.epsilon,
+        "layer_samples": controller.layer_samples, "rho0": controller.rho0, "has_limit": 1,
+        "torque_limit": controller.torque_limit, "observer_size": observer.size,
+        "transition": observer.transition.ravel(), "input_gain": observer.input_gain,
+        "observer_gain": observer.gain, "friction": int(friction.on), "r_a": friction.r_a,
+        "v_s": friction.v_s, "mu_s": friction.mu_s, "mu_d": friction.mu_d, "mu_v": friction.mu_v,
+        "sign_scale": friction.sign_velocity_scale, "normal_force": p.normal_force,
+        "disturbance": p.disturbance,
+    }  # fmt: skip
+    write_parameters(args.out, numbers)
+    path = dp.PathI().joint_reference(robot, run.t)
+    z = controller.initial_state()
+    rows = []
+    for k in range(len(run.t)):
+        reference = Reference(path.alpha[k], path.alpha_dot[k], path.alpha_ddot[k])
+        out = controller.evaluate_reference(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
+        rows.append([*run.alpha[k], *run.alpha_dot[k], *reference.alpha, *reference.alpha_dot,
+                     *reference.alpha_ddot, *out.tau, z[-2]])  # fmt: skip
+        z = controller.advance(z, out, dt)
+    write_golden(args.out, rows)
+
+
+def write_parameters(out: Path, numbers: dict) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "parameters.txt", "w") as file:
+        for name, value in numbers.items():
+            values = np.atleast_1d(np.asarray(value, dtype=float))
+            file.write(name + " " + " ".join(repr(float(v)) for v in values) + "\n")
+
+
+def write_golden(out: Path, rows: list) -> None:
     header = (
         "alpha0,alpha1,alpha2,alpha_dot0,alpha_dot1,alpha_dot2,ref0,ref1,ref2,ref_dot0,ref_dot1,ref_dot2,"
     )
     header += "ref_ddot0,ref_ddot1,ref_ddot2,tau0,tau1,tau2,rho"
-    np.savetxt(
-        args.out / "golden.csv", np.array(rows), delimiter=",", header=header, comments="", fmt="%.17g"
-    )
-    print(f"wrote {len(rows)} samples to {args.out / 'golden.csv'}")
+    np.savetxt(out / "golden.csv", np.array(rows), delimiter=",", header=header, comments="", fmt="%.17g")
+    print(f"wrote {len(rows)} samples to {out / 'golden.csv'}")
 
 
 if __name__ == "__main__":
