@@ -95,6 +95,26 @@ namespace delta_pin
     throw std::logic_error("law '" + name_ + "' overrides neither compute() nor law()");
   }
 
+  void ProjectedLaw::set_drive(
+    bool sensor, double resolution, const RowMatrix & noise, bool exact_velocity, bool drive, int delay,
+    const Vector & torque_limit)
+  {
+    const Eigen::Index n = nominal_.dof();
+    if (sensor && !(resolution > 0.0))
+      throw std::invalid_argument("the encoder needs a resolution > 0 [rad]");
+    if (noise.size() && noise.cols() != n)
+      throw std::invalid_argument("the encoder noise needs one column per actuated joint");
+    if (delay < 0 || (torque_limit.size() && torque_limit.size() != n))
+      throw std::invalid_argument("the drive needs a delay >= 0 and one torque limit per actuated joint (or none)");
+    sensor_ = sensor;
+    resolution_ = resolution;
+    noise_ = noise;
+    exact_velocity_ = exact_velocity;
+    drive_ = drive;
+    delay_ = drive ? delay : 0;
+    limit_ = drive ? torque_limit : Vector();
+  }
+
   void ProjectedLaw::start(
     const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
     const Vector & state0, long samples, double max_joint_speed)
@@ -110,8 +130,15 @@ namespace delta_pin
     max_joint_speed_ = max_joint_speed;
     z_ = state0;
     z_dot_ = Vector::Zero(state0.size());
+    if (sensor_ && noise_.size() && noise_.rows() < samples)
+      throw std::invalid_argument("the encoder noise needs one row per sample");
     tau.setZero(samples, n);
     state.setZero(samples, state0.size());
+    tau_command.setZero(drive_ ? samples : 0, n);
+    pending_.setZero(delay_, n);
+    head_ = 0;
+    hits = 0;
+    has_previous_ = false;
     start_records(samples);
   }
 
@@ -143,10 +170,23 @@ namespace delta_pin
         throw failure;
       }
     }
+    Vector measured = alpha, rate = alpha_dot;
+    if (sensor_)  // Encoder.read
+    {
+      for (Eigen::Index i = 0; i < measured.size(); ++i)
+      {
+        const double angle = noise_.size() ? alpha[i] + noise_(k, i) : alpha[i];
+        measured[i] = std::nearbyint(angle / resolution_) * resolution_;  // np.round: half to even
+      }
+      if (!exact_velocity_)
+        rate = has_previous_ ? Vector((measured - previous_) / dt_) : Vector::Zero(measured.size());
+      previous_ = measured;
+      has_previous_ = true;
+    }
     Vector torque;
     try
     {
-      evaluate(alpha, alpha_dot, alpha_d_.row(k).transpose(), alpha_dot_d_.row(k).transpose(),
+      evaluate(measured, rate, alpha_d_.row(k).transpose(), alpha_dot_d_.row(k).transpose(),
                alpha_ddot_d_.row(k).transpose(), z_, torque, z_dot_);
     }
     catch (SimulationFailure & failure)
@@ -159,6 +199,24 @@ namespace delta_pin
       SimulationFailure failure("controller '" + name_ + "' returned a non-finite torque " + joints(torque));
       failure.time = t;
       throw failure;
+    }
+    if (drive_)  // Drive.apply
+    {
+      tau_command.row(k) = torque.transpose();
+      if (delay_ > 0)
+      {
+        const Vector command = torque;
+        torque = pending_.row(head_).transpose();
+        pending_.row(head_) = command.transpose();
+        head_ = (head_ + 1) % delay_;
+      }
+      if (limit_.size())
+      {
+        const Vector clipped = torque.cwiseMax(-limit_).cwiseMin(limit_);
+        if (clipped != torque)
+          ++hits;
+        torque = clipped;
+      }
     }
     tau.row(k) = torque.transpose();
     state.row(k) = z_.transpose();

@@ -64,12 +64,22 @@ namespace delta_pin
     // [s], the initial state and the number of samples to record
     void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
                const Vector & state0, long samples, double max_joint_speed);
+    // The drive between the plant and the law (delta_pin/sim/drive.py), before start(): with
+    // `sensor`, the law reads round((alpha + noise_k) / q) q (q = resolution [rad]; noise: one row
+    // of angles [rad] per sample, or none) and, unless exact_velocity, the backward difference of
+    // the readings (zero at the first sample); with `drive`, the command of sample k acts from
+    // sample k + delay (zero before), clipped to +-torque_limit [N m] (empty: none), and `hits`
+    // counts the samples at which the limit bound.
+    void set_drive(bool sensor, double resolution, const RowMatrix & noise, bool exact_velocity, bool drive, int delay,
+                   const Vector & torque_limit);
     Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) override;
     // one evaluation at a state: tau and the state's derivative
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
                   const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot);
 
-    RowMatrix tau, state;  // the records of the last run (samples rows)
+    RowMatrix tau, state;  // the records of the last run (samples rows): the torque that acted, the state
+    RowMatrix tau_command;  // with a drive: the law's command (samples rows)
+    long hits = 0;  // with a torque limit: the samples at which it bound
 
   protected:
     // One evaluation: tau and the state's derivative (a continuous-time state) or its next value
@@ -97,6 +107,13 @@ namespace delta_pin
 
   private:
     bool discrete_ = false;
+    // the drive (set_drive)
+    bool sensor_ = false, exact_velocity_ = false, drive_ = false, has_previous_ = false;
+    double resolution_ = 0.0;
+    RowMatrix noise_, pending_;  // pending_: the delayed commands, a ring of delay rows
+    Vector limit_, previous_;
+    int delay_ = 0;
+    long head_ = 0;
     ClosedChainModel nominal_;
     Vector q_;  // the nominal model's last assembly (warm start)
     Vector disturbance_;

@@ -242,7 +242,12 @@ NB_MODULE(_core, m)
         return std::make_tuple(tau, state_dot);
       },
       "(tau, the state's derivative) at one state.")
+    .def("set_drive", &delta_pin::ProjectedLaw::set_drive,
+         "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive (delay "
+         "[samples], torque limit [N m] or empty) between the plant and the law, before start().")
     .def_ro("tau", &delta_pin::ProjectedLaw::tau)
+    .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
+    .def_ro("hits", &delta_pin::ProjectedLaw::hits)
     .def_ro("state", &delta_pin::ProjectedLaw::state);
   typedef std::vector<std::tuple<size_t, size_t, int>> Closures;
   nb::class_<delta_pin::ComputedTorqueLaw, delta_pin::ProjectedLaw>(m, "ComputedTorque")

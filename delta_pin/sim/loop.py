@@ -104,7 +104,9 @@ def run_python_loop(
     In sampled mode a plant with a compiled copy (:meth:`Plant.sampled_core
     <delta_pin.sim.plants.Plant.sampled_core>`) is integrated by the compiled core, which calls
     the controller back once per sample (the same steps; ``compiled=False``: this loop's own
-    RK4, the reference; ``compiled=True``: required).
+    RK4, the reference; ``compiled=True``: required). A controller with a compiled law there
+    (:meth:`Controller.sampled_core_law <delta_pin.control.base.Controller.sampled_core_law>`) runs
+    in the core with the sensor and the drive, Python not called during the run.
     """
     steps, dt = len(t) - 1, t[1] - t[0]
     h = dt / substeps
@@ -190,9 +192,14 @@ def run_python_loop(
             f"compiled=True: plant {plant.name!r} has no compiled sampled loop here (sampled mode, full "
             "coordinates, no idle motions or passive joints); use compiled=None or False"
         )
-    law = controller.sampled_core_law() if core is not None and sensor is None and drive is None else None
+    law = controller.sampled_core_law() if core is not None else None
+    own_velocity = type(controller).estimate_velocity is not Controller.estimate_velocity
+    if sensor is not None and sensor.velocity == "none" and own_velocity:
+        law = None  # the controller estimates the velocity from the readings itself, in Python
     if law is not None:
-        # the compiled plant, loop and law: Python is not called until the run ends
+        # the compiled plant, loop, drive and law: Python is not called until the run ends
+        if sensor is not None or drive is not None:
+            _set_core_drive(law, sensor, drive, steps + 1, dof)
         reference_alpha, reference_alpha_dot, reference_alpha_ddot = (
             np.ascontiguousarray(r) for r in reference_rows
         )
@@ -206,6 +213,9 @@ def run_python_loop(
         record.tau = np.array(law.tau)
         record.take_plant_records(recorded)
         record.internals = controller.core_law_internals(law)
+        if drive is not None:
+            record.internals["tau_command"] = np.array(law.tau_command)
+            drive.hits = int(law.hits)
         bar.close()
         return record
     if core is not None:
@@ -260,6 +270,26 @@ def run_python_loop(
     bar.close()
     record.internals = _stacked(internals)
     return record
+
+
+def _set_core_drive(law, sensor: Encoder | None, drive: Drive | None, samples: int, dof: int) -> None:
+    """The encoder and the drive of :func:`run_python_loop` in a compiled law's loop: the same
+    readings (the encoder's noise drawn from its seed in the order :meth:`Encoder.read
+    <delta_pin.sim.drive.Encoder.read>` draws it, one row of ``dof`` angles per sample), delay and
+    torque limit."""
+    noise = np.zeros((0, dof))
+    if sensor is not None and sensor.noise > 0.0:
+        noise = np.random.default_rng(sensor.seed).normal(0.0, sensor.noise, (samples, dof))
+    limit = np.zeros(0) if drive is None or drive.torque_limit is None else drive.torque_limit
+    law.set_drive(
+        sensor is not None,
+        0.0 if sensor is None else sensor.resolution,
+        noise,
+        sensor is not None and sensor.velocity == "exact",
+        drive is not None,
+        0 if drive is None else drive.delay,
+        limit,
+    )
 
 
 def _stacked(internals: dict[str, list]) -> dict[str, np.ndarray]:
