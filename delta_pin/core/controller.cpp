@@ -1,4 +1,5 @@
-// Designs I and II on a closed chain's projected nominal model (controller.hpp).
+// The sampled laws on a closed chain's projected nominal model (controller.hpp): ProjectedLaw with
+// its drive, designs I/II, computed torque, PD + gravity, time-delay control, digital-robust, LQR.
 
 #include "controller.hpp"
 

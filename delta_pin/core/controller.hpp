@@ -47,7 +47,8 @@ namespace delta_pin
   // every such law shares -- the nominal model (assembled from the previous sample), the
   // reference table, the loop's checks of each sample (state finite, |alpha_dot| within the
   // limit, the torque finite: the messages of delta_pin.sim.integrators.check_state and
-  // ControlLoop.control), the state advanced by explicit Euler (Controller.advance) and the
+  // ControlLoop.control), the state advanced by explicit Euler or to a discrete-time law's next
+  // state (Controller.advance), the drive between the plant and the law (set_drive) and the
   // records of the torque and the state.
   class ProjectedLaw : public SampledController
   {
