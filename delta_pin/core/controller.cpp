@@ -143,6 +143,25 @@ namespace delta_pin
     start_records(samples);
   }
 
+  void ProjectedLaw::start_continuous(long samples, Eigen::Index states)
+  {
+    const Eigen::Index n = nominal_.dof();
+    tau.setZero(samples, n);
+    state.setZero(samples, states);
+    tau_command.setZero(0, n);
+    hits = 0;
+    start_records(samples);
+  }
+
+  void ProjectedLaw::keep(long k, const Vector & torque, const Vector & state_k)
+  {
+    if (k >= tau.rows() || state.cols() != state_k.size())
+      throw std::invalid_argument("ProjectedLaw::keep beyond the samples or the state of start_continuous()");
+    tau.row(k) = torque.transpose();
+    state.row(k) = state_k.transpose();
+    record(k);
+  }
+
   Vector ProjectedLaw::control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot)
   {
     if (k >= tau.rows())

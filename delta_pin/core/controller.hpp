@@ -78,6 +78,12 @@ namespace delta_pin
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
                   const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot);
 
+    // The continuous mode (continuous.hpp), where the integrator gives the reference and the
+    // state: records for `samples` samples of `states` state values, then keep(k, ...) after the evaluate() of sample k
+    // stores its torque, the state and the law's internals.
+    void start_continuous(long samples, Eigen::Index states);
+    void keep(long k, const Vector & torque, const Vector & state_k);
+
     RowMatrix tau, state;  // the records of the last run (samples rows): the torque that acted, the state
     RowMatrix tau_command;  // with a drive: the law's command (samples rows)
     long hits = 0;  // with a torque limit: the samples at which it bound

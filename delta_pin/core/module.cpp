@@ -89,6 +89,8 @@ namespace
   }
 } // namespace
 
+void bind_continuous(nb::module_ & m);  // continuous_binding.cpp
+
 NB_MODULE(_core, m)
 {
   m.doc() = "delta-pin's compiled core (see delta_pin/compiled/core.py)";
@@ -150,6 +152,7 @@ NB_MODULE(_core, m)
       "(failed sample or -1, last q, alpha, alpha_dot, alpha_ddot, reached xyz) of a frame's path.");
 
   nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
+  bind_continuous(m);
   nb::class_<ClosedChainPlant>(m, "ClosedChainPlant")
     .def(
       "__init__",

@@ -59,6 +59,7 @@ from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
+from delta_pin.sim.continuous_core import RADAU_FIRST_STEP, RADAU_MAX_STEP
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
 from delta_pin.sim.loop import ControlLoop
 from delta_pin.sim.plants import AnalyticPlant, Plant, truth_records
@@ -82,8 +83,6 @@ __all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"
 #: system; docs/architecture.md, section 6). tests/sim/test_compiled_loops.py runs both against
 #: the Python loop.
 NATIVE_STAGE = "axis_tree"
-RADAU_FIRST_STEP = 1e-5  # [s]: the run starts in the reaching phase, 0.083 rad off the path
-RADAU_MAX_STEP = 1e-2  # [s]
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
 _FAILURES = {
     closed_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",

@@ -6,8 +6,10 @@ Two timings (docs/architecture.md section 6):
   hold) over [t_k, t_k + dt) while the plant integrates with ``substeps`` RK4 steps; the
   controller's internal state (rho_hat) advances once per period, z_{k+1} = z_k + dt z_dot_k;
 * ``mode="continuous"`` -- the analysis of the paper: the controller is evaluated inside the
-  integrator (the compiled Radau IIA with error control by default for designs I/II, LSODA for
-  other controllers; RK4 or the compiled fixed-step BDF2 on request).
+  integrator (the compiled Radau IIA with error control by default for the laws the compiled
+  loops hold -- the Delta's loops, or the core's for any closed chain
+  (:mod:`delta_pin.sim.continuous_core`) --, LSODA for other controllers; RK4 or the compiled
+  fixed-step BDF2 on request).
 
 :func:`simulate` checks its arguments, chooses the compiled loops
 (:func:`~delta_pin.sim.batch.simulate_batch`) where they apply or the Python loop
@@ -31,6 +33,7 @@ from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.batch import batchable, simulate_batch
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
+from delta_pin.sim.continuous_core import continuous_core, run_core_continuous
 from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
@@ -103,23 +106,47 @@ def _runs_compiled(
 def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode):
     """(compiled, plant) for a closed-chain robot: the Python loop, with its plant in the compiled
     core in sampled mode (:meth:`~delta_pin.sim.plants.Plant.sampled_core`), on its constrained
-    Pinocchio plant, or the Delta's analytic plant where it is a recognised Delta."""
-    if compiled and mode != "sampled":
+    Pinocchio plant, or the Delta's analytic plant where it is a recognised Delta; in continuous
+    mode the core's Radau IIA where it applies (:func:`_closed_chain_integrator`)."""
+    if compiled and mode != "sampled" and integrator not in ("auto", "radau"):
         raise InvalidParameterError(
-            f"compiled=True: {robot.name!r} has a compiled plant in sampled mode only; in continuous "
-            "mode it runs the Python loop (compiled=None or False)"
+            f"compiled=True: {robot.name!r} runs compiled in continuous mode with integrator='radau' "
+            f"only, not {integrator!r} (compiled=None or False)"
         )
-    if integrator in ("bdf2", "radau"):
+    if integrator == "bdf2":
         raise InvalidParameterError(
-            f"integrator={integrator!r} exists in the Delta's compiled loops only; a closed-chain robot "
-            "takes "
-            "'rk4' (sampled) or 'lsoda' (continuous)"
+            "integrator='bdf2' exists in the Delta's compiled loops only; a closed-chain robot takes 'rk4' "
+            "(sampled), 'radau' or 'lsoda' (continuous)"
         )
     if isinstance(plant, str):
         # LSODA's small state, where the actuated joints carry the whole motion
         coordinates = "active" if mode == "continuous" and not robot.has_unactuated_motion else None
         plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
     return compiled, plant
+
+
+def _closed_chain_integrator(
+    integrator: str, plant, controller, compiled: bool | None = None
+) -> tuple[str, tuple | None]:
+    """(integrator, compiled plant and law) of a closed chain's continuous run: the core's Radau
+    IIA (:mod:`delta_pin.sim.continuous_core`) where the controller has a compiled law and the
+    plant a compiled copy (``"auto"`` or ``"radau"``), else LSODA (``"auto"``; ``"radau"`` or
+    ``compiled=True``: one line that says why not)."""
+    if integrator not in ("auto", "radau"):
+        return integrator, None
+    in_core = continuous_core(plant, controller) if isinstance(plant, ClosedChainPlant) else None
+    if in_core is not None:
+        return "radau", in_core
+    if integrator == "radau" or compiled:
+        name = getattr(controller, "name", type(controller).__name__)
+        asked = "integrator='radau'" if integrator == "radau" else "compiled=True"
+        raise InvalidParameterError(
+            f"{asked}: a closed chain runs continuous in the compiled core with a controller that has a "
+            "compiled law (designs I/II, computed torque, PD, LQR) on a plant without an uncertainty or "
+            f"payload profile, idle motions or passive joints; controller {name!r} on plant "
+            f"{getattr(plant, 'name', plant)!r} takes integrator='lsoda' (compiled=None or False)"
+        )
+    return "lsoda", None
 
 
 def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", delta_only=False) -> bool:
@@ -221,7 +248,9 @@ def simulate(
             nominal model, on either plant -- the Pinocchio plant in
             active coordinates through the native library; 3.7e-8 rad from a tight reference over
             15 s of path I at the default tolerances, reaching phase included, in ~0.1 s on the
-            analytic plant) or ``"bdf2"`` (compiled implicit BDF2 with fixed steps dt / substeps;
+            analytic plant; any other closed chain: the compiled core's Radau IIA,
+            :mod:`delta_pin.sim.continuous_core`, with a controller that has a compiled law --
+            designs I/II, computed torque, PD, LQR) or ``"bdf2"`` (compiled implicit BDF2 with fixed steps dt / substeps;
             up to 5e-4 rad off in a reaching phase; what sweeps batch). ``"auto"`` takes RK4 in
             sampled mode and, in continuous mode, where the robust term's boundary-layer gain makes
             the closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains), Radau where
@@ -261,10 +290,13 @@ def simulate(
     if _runs_as_delta(robot, plant, trajectory, controller, mode, delta_only):
         robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
     core = None  # the compiled core's plant for a closed-chain robot's sampled loop: where it applies
+    in_core = None  # the core's plant and law for a closed chain's continuous run: where they apply
     if isinstance(robot, ClosedChainRobot):
         core, plant = _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
         compiled = False  # the Delta's compiled loops
         friction = uncertainty = None  # now the plant's
+        if mode == "continuous" and core is not False:
+            integrator, in_core = _closed_chain_integrator(integrator, plant, as_controller(controller), core)
     integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
@@ -276,7 +308,7 @@ def simulate(
             alpha_dot0=alpha_dot0, friction=friction, uncertainty=uncertainty, sensor=sensor, delay=delay,
             torque_limit=torque_limit,
         )  # fmt: skip
-    if _runs_compiled(controller, plant, mode, integrator, compiled, drive_effects):
+    if in_core is None and _runs_compiled(controller, plant, mode, integrator, compiled, drive_effects):
         return simulate_batch(
             robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,
             mode=mode, alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction,
@@ -305,22 +337,29 @@ def simulate(
         sensor.reset()
 
     wall = time.perf_counter()
-    record = run_python_loop(
-        controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
-        integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
-        sensor=sensor, drive=drive, compiled=core,
-    )  # fmt: skip
+    counters = {}
+    if in_core is not None:
+        record, counters = run_core_continuous(
+            in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol
+        )
+    else:
+        record = run_python_loop(
+            controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
+            integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
+            sensor=sensor, drive=drive, compiled=core,
+        )  # fmt: skip
     wall = time.perf_counter() - wall
 
     metadata = run_metadata(
         robot, controller, trajectory, plant, mode=mode, dt=dt, t_end=steps * dt, substeps=substeps,
-        integrator=integrator, **({"rtol": rtol, "atol": atol} if integrator == "lsoda" else {}),
+        integrator=integrator, **({"rtol": rtol, "atol": atol} if integrator in ("lsoda", "radau") else {}),
         alpha0=alpha0.tolist(), alpha_dot0=alpha_dot0.tolist(), wall_time=wall,
     )  # fmt: skip
     if getattr(plant, "projections", 0):
         metadata["closure_projections"] = plant.projections
-    if getattr(plant, "stepped_in_core", False):
+    if getattr(plant, "stepped_in_core", False) or in_core is not None:
         metadata["core_plant"] = True  # the plant stepped in the compiled core
+    metadata.update(counters)
     if drive is not None:
         metadata.update(sensor=None if sensor is None else sensor.metadata(), **drive.metadata())
     alpha_d, alpha_dot_d, _ = table.rows(per_sample)

@@ -1,0 +1,176 @@
+#include "continuous.hpp"
+
+#include "failure.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace delta_pin
+{
+  void HermiteReference::at(double t, Vector & a, Vector & a_dot, Vector & a_ddot) const
+  {
+    const long last = (long)alpha.rows() - 1;
+    const double u = t / step;
+    const long k = std::min(std::max((long)u, 0L), last);
+    const double s = u - (double)k;
+    if (s <= 1e-9 || k == last || s >= 1.0 - 1e-9)
+    {
+      const long row = (s >= 1.0 - 1e-9 && k < last) ? k + 1 : k;
+      a = alpha.row(row).transpose();
+      a_dot = alpha_dot.row(row).transpose();
+      a_ddot = alpha_ddot.row(row).transpose();
+      return;
+    }
+    const double s2 = s * s, s3 = s2 * s, h = step;
+    const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
+    auto hermite = [&](const RowMatrix & y, const RowMatrix & dy) -> Vector
+    { return (h00 * y.row(k) + h10 * h * dy.row(k) + h01 * y.row(k + 1) + h11 * h * dy.row(k + 1)).transpose(); };
+    a = hermite(alpha, alpha_dot);
+    a_dot = hermite(alpha_dot, alpha_ddot);
+    a_ddot = hermite(alpha_ddot, alpha_dddot);
+  }
+
+  namespace
+  {
+    std::string joints(const Vector & x)
+    {
+      std::ostringstream out;
+      out.precision(6);
+      out << "[";
+      for (Eigen::Index i = 0; i < x.size(); ++i)
+        out << (i ? ", " : "") << x[i];
+      out << "]";
+      return out.str();
+    }
+
+    SimulationFailure failure(const std::string & message, double t)
+    {
+      SimulationFailure error(message);
+      error.time = t;
+      return error;
+    }
+  } // namespace
+
+  void run_continuous(
+    ClosedChainPlant & plant, ProjectedLaw & law, const HermiteReference & reference, const Indices & actuated_v,
+    const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
+    long samples,
+    const RadauOptions & options, double max_joint_speed, ContinuousRun & run)
+  {
+    ClosedChainModel & chain = plant.chain();
+    const int n = (int)alpha0.size(), nz = (int)z0.size();
+    if (actuated_v.size() != n || alpha_dot0.size() != n)
+      throw std::invalid_argument("alpha0, alpha_dot0 and the actuated joints need one value per actuated joint");
+    if (!(dt > 0.0) || samples < 1)
+      throw std::invalid_argument("run_continuous needs dt > 0 and at least one sample");
+    Vector q_last = Vector::Zero(plant.nq());
+    {
+      Vector q;
+      if (!chain.configuration(alpha0, q_start, q))
+        throw failure("cannot close the loops at alpha0=" + joints(alpha0), 0.0);
+      q_last = q;
+    }
+    Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(plant.nq()), v, ddq;
+    // (q, v, tau, z_dot) at (t, y): the completion, the law and the plant's dynamics
+    auto complete = [&](double t, const Vector & y)
+    {
+      const Vector alpha = y.head(n);
+      if (!chain.configuration(alpha, q_last, q))
+        throw failure("cannot close the loops at alpha=" + joints(alpha), t);
+      q_last = q;
+      v = chain.velocity_map(q) * y.segment(n, n);
+      reference.at(t, ref_a, ref_ad, ref_add);
+      try
+      {
+        law.evaluate(alpha, y.segment(n, n), ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);
+      }
+      catch (SimulationFailure & error)
+      {
+        if (std::isnan(error.time))
+          error.time = t;
+        throw;
+      }
+      if (!tau.allFinite())
+        throw failure("the controller returned a non-finite torque " + joints(tau), t);
+    };
+    auto rhs = [&](double t, const Vector & y, Vector & dy)
+    {
+      if (!y.allFinite())
+        throw failure("the state became non-finite (alpha=" + joints(y.head(n)) + ")", t);
+      complete(t, y);
+      ddq = plant.accelerations(q, v, tau, 0);
+      dy.resize(y.size());
+      dy.head(n) = y.segment(n, n);
+      for (int i = 0; i < n; ++i)
+        dy[n + i] = ddq[actuated_v[i]];
+      dy.tail(nz) = z_dot;
+    };
+    Vector y(2 * n + nz);
+    y << alpha0, alpha_dot0, z0;
+    run.alpha.setZero(samples, n);
+    run.alpha_dot.setZero(samples, n);
+    law.start_continuous(samples, nz);
+    run.q.setZero(samples, plant.nq());
+    run.v.setZero(samples, plant.nv());
+    run.xyz.setZero(samples, 3);
+    run.gap.setZero(samples);
+    run.samples = 0;
+    auto record = [&](long k, const Vector & yk)
+    {
+      const double t = (double)k * dt;
+      const double speed = yk.segment(n, n).cwiseAbs().maxCoeff();
+      if (!yk.allFinite())
+        throw failure("the state became non-finite (alpha=" + joints(yk.head(n)) + ")", t);
+      if (speed > max_joint_speed)
+      {
+        std::ostringstream text;
+        text.precision(3);
+        text << "the run diverged: |alpha_dot| = " << speed << " rad/s > " << max_joint_speed << " rad/s";
+        throw failure(text.str(), t);
+      }
+      complete(t, yk);
+      run.alpha.row(k) = yk.head(n).transpose();
+      run.alpha_dot.row(k) = yk.segment(n, n).transpose();
+      law.keep(k, tau, yk.tail(nz));
+      run.q.row(k) = q.transpose();
+      run.v.row(k) = v.transpose();
+      run.xyz.row(k) = chain.end_effector_position(q).transpose();
+      run.gap[k] = chain.closure_gap(q);
+      run.samples = k + 1;
+    };
+    try
+    {
+      record(0, y);
+      RadauOptions bounded = options;
+      bounded.t_bound = (double)(samples - 1) * dt;  // the reference ends there
+      RadauIIA radau(rhs, y, 0.0, bounded);
+      for (long k = 1; k < samples; ++k)
+      {
+        const double t = (double)k * dt;
+        try
+        {
+          radau.advance_past(t);
+        }
+        catch (const SimulationFailure &)
+        {
+          run.counters = radau.counters;
+          throw;
+        }
+        catch (const std::exception & error)  // the step size collapsed, a non-finite derivative
+        {
+          run.counters = radau.counters;
+          throw failure(std::string("radau: ") + error.what(), radau.t());
+        }
+        record(k, radau.at(t));
+      }
+      run.counters = radau.counters;
+    }
+    catch (const SimulationFailure & error)
+    {
+      run.failure_time = error.time;
+      throw;
+    }
+  }
+} // namespace delta_pin

@@ -1,0 +1,114 @@
+"""The continuous mode of a closed-chain robot in the compiled core (docs/architecture.md section 7).
+
+The plant (:func:`~delta_pin.sim.compiled_plant.build_core_plant`) and a controller's compiled law
+(:meth:`Controller.sampled_core_law <delta_pin.control.base.Controller.sampled_core_law>`) are
+integrated as one ODE by the core's Radau IIA of order 5 with error control
+(``delta_pin/core/radau.hpp``, ``continuous.hpp``), in active coordinates
+
+    y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau), z_dot]:
+
+every evaluation assembles q(alpha) by Newton, v = S alpha_dot, the law's torque and state rate at
+the reference of that time, and the constrained dynamics of the tree -- the arithmetic of the
+Python plant in active coordinates with LSODA (:mod:`delta_pin.sim.loop`), which the tests hold it
+to. The samples t_k = k dt are read from the collocation polynomial of the step that covers them.
+Python is not called during the run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from delta_pin.compiled.core import core
+from delta_pin.errors import NativeUnavailableError, SimulationError
+from delta_pin.model.core_model import core_supports
+from delta_pin.sim.integrators import MAX_JOINT_SPEED
+from delta_pin.sim.loop import LoopRecord
+
+__all__ = ["RADAU_FIRST_STEP", "RADAU_MAX_STEP", "continuous_core", "run_core_continuous"]
+
+RADAU_FIRST_STEP = 1e-5  # [s]: a run starts in the reaching phase, off the path
+RADAU_MAX_STEP = 1e-2  # [s]
+
+
+def continuous_core(plant, controller) -> tuple[object, object] | None:
+    """(the core's plant, the controller's compiled law) for a continuous run of ``plant`` (a
+    :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`) in the core, or ``None`` where
+    it does not apply: the controller has no compiled law (a user's Python law), the plant carries
+    an uncertainty profile or a payload profile (tabulated on a sampled grid in the core), idle
+    motions, passive joints or joint couplings (:func:`~delta_pin.model.core_model.core_supports`),
+    or the core is off (``DELTA_PIN_NATIVE=0``) or not importable."""
+    make_law = getattr(controller, "sampled_core_law", None)
+    if make_law is None or getattr(controller, "dt", None) is not None:  # discrete-time: sampled only
+        return None
+    if plant.uncertainty is not None or plant.payload_mass is not None or not core_supports(plant.robot):
+        return None
+    from delta_pin.sim.compiled_plant import build_core_plant
+
+    try:
+        law = make_law()
+        if law is None:
+            return None
+        return build_core_plant(plant), law
+    except NativeUnavailableError:
+        return None
+
+
+def run_core_continuous(
+    compiled: tuple[object, object],
+    controller,
+    plant,
+    table,
+    alpha0: np.ndarray,
+    alpha_dot0: np.ndarray,
+    t: np.ndarray,
+    rtol: float,
+    atol: float,
+) -> tuple[LoopRecord, dict]:
+    """Run the compiled plant and law of :func:`continuous_core` from (alpha0 [rad], alpha_dot0
+    [rad/s]) over the sample times t [s]; ``table``: the reference on the grid dt / 4 with its
+    jerk (cubic Hermite between its rows, as LSODA's). Returns the record and Radau's counters.
+
+    Raises:
+        SimulationError: the loops cannot be closed, the state or the torque became non-finite,
+            |alpha_dot| exceeded the divergence limit or the step size collapsed (at the time it
+            happened).
+    """
+    core_plant, law = compiled
+    module = core()
+    controller.reset()
+    run = module.new_continuous_run()
+    z0 = np.asarray(controller.initial_state(), dtype=float)
+    arrays = (
+        np.ascontiguousarray(a) for a in (table.alpha, table.alpha_dot, table.alpha_ddot, table.alpha_dddot)
+    )
+    start = (
+        plant.robot.reference_configuration,
+        np.asarray(alpha0, float),
+        np.asarray(alpha_dot0, float),
+        z0,
+    )
+    try:
+        module.run_continuous(
+            core_plant, law, table.step, *arrays, plant.active.astype(np.int32), *start, float(t[1] - t[0]),
+            len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run,
+        )  # fmt: skip
+    except module.SimulationFailure as exc:
+        time = run.failure_time
+        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
+    steps, rejected, evaluations, jacobians, factorizations = run.counters
+    record = LoopRecord(
+        alpha=np.array(run.alpha),
+        alpha_dot=np.array(run.alpha_dot),
+        tau=np.array(law.tau),
+        xyz=np.array(run.xyz),
+        closure_residual=np.array(run.gap),
+    )
+    record.q, record.v = np.array(run.q), np.array(run.v)
+    record.internals = controller.core_law_internals(law)
+    counters = {
+        "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
+        "jacobians": int(jacobians), "factorizations": int(factorizations),
+    }  # fmt: skip
+    return record, counters
