@@ -1,0 +1,442 @@
+"""A user's workflow: an excitation to run, a simulated log to try it on, the fit, its validation.
+
+* :func:`simulate_log` -- run an excitation on the Pinocchio plant of a (true) robot under a
+  computed-torque controller on the nominal (CAD) model, and log what a drive measures: 17-bit
+  encoder positions and torques with Gaussian noise of 1 % of each joint's RMS torque;
+* :func:`identify` (``dp.identify``) -- the fit of a log: base parameters, OLS and WLS with
+  covariance, the physically consistent estimate, and for a Delta the paper's lumped terms and the
+  xacro arguments of the identified robot (``load_delta(**result.xacro_arguments)``);
+* :func:`validate` -- torque prediction on a log the fit never saw (RMS and max per joint, relative).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from delta_pin.errors import InvalidParameterError
+from delta_pin.identification.base import BaseParameters, base_parameters
+from delta_pin.identification.consistent import ConsistentEstimate, consistent_estimate
+from delta_pin.identification.estimation import (
+    Estimate,
+    check_identifiable,
+    filtered_states,
+    least_squares_fit,
+    log_regressor,
+    parallel_filter,
+    reversal_mask,
+)
+from delta_pin.identification.excitation import FourierExcitation
+from delta_pin.identification.log import IdentificationLog, read_log
+from delta_pin.identification.regressor import ClosedChainRegressor, JointColumns
+
+__all__ = [
+    "IdentificationResult",
+    "delta_lumped_map",
+    "friction_truth",
+    "identified_robot",
+    "identify",
+    "simulate_log",
+    "validate",
+]
+
+
+def friction_truth(robot, friction) -> dict:
+    """The joint columns' true values {"fv", "fc", "fs"} [N m s/rad, N m, N m] of a plant's eq. 12
+    friction (a :class:`~delta_pin.model.friction.Friction`): fv = mu_v r_a, fc = mu_d F_n r_a,
+    fs = (mu_s - mu_d) F_n r_a."""
+    if friction is None:
+        return {}
+    delta = getattr(robot, "delta", None)
+    s = friction.stribeck_for(None if delta is None else delta.params.friction)
+    n = friction.normal_force
+    return {"fv": s.mu_v * s.r_a, "fc": s.mu_d * n * s.r_a, "fs": (s.mu_s - s.mu_d) * n * s.r_a}
+
+
+def simulate_log(
+    robot,
+    trajectory: FourierExcitation,
+    *,
+    nominal=None,
+    friction=True,
+    payload_mass: float = 0.0,
+    dt: float = 1e-3,
+    encoder_bits: int = 17,
+    torque_noise: float = 0.01,
+    seed: int = 0,
+):
+    """Run ``trajectory`` on the Pinocchio plant of ``robot`` (the truth) and return
+    (the log a drive would record, the :class:`~delta_pin.sim.run.Run`).
+
+    Args:
+        nominal: the robot whose projected model the computed-torque controller uses (default:
+            ``robot``; pass the CAD robot to track with a wrong model, as on a real robot).
+        friction: the plant's friction (:class:`~delta_pin.model.friction.Friction`, ``True`` for
+            a Delta's Table 1 friction at F_n = 15 N, or ``None``).
+        payload_mass: a point mass [kg] at the end effector.
+        dt: sample period [s].
+        encoder_bits: the positions are read by an encoder of 2^bits counts per turn.
+        torque_noise: standard deviation of the torque noise, relative to each joint's RMS torque.
+        seed: seed of the torque noise.
+    """
+    from delta_pin.control import ComputedTorque
+    from delta_pin.control.nominal import ClosedChainNominalModel
+    from delta_pin.model.friction import Friction
+    from delta_pin.sim.closed_chain_plant import ClosedChainPlant
+    from delta_pin.sim.drive import Encoder
+    from delta_pin.sim.runner import simulate
+
+    if friction is True:
+        friction = Friction()
+    controller = ComputedTorque(ClosedChainNominalModel(robot if nominal is None else nominal),
+                                D=20.0, T_p=20.0, T_v=20.0)  # fmt: skip
+    plant = ClosedChainPlant(robot, friction=friction or None, payload_mass=payload_mass or None)
+    run = simulate(robot, controller, trajectory, plant=plant, t_end=trajectory.duration, dt=dt,
+                   alpha0=trajectory.alpha0, alpha_dot0=np.zeros(robot.dof))  # fmt: skip
+    encoder = Encoder(bits=encoder_bits, velocity="none")
+    alpha = np.array([encoder.read(a, None, dt)[0] for a in run.alpha])
+    rng = np.random.default_rng(seed)
+    rms = np.sqrt((run.tau**2).mean(axis=0))
+    tau = run.tau + rng.normal(0.0, 1.0, run.tau.shape) * torque_noise * rms
+    header = {
+        "robot": robot.name,
+        "source": "delta-pin identify simulate",
+        "encoder_bits": encoder_bits,
+        "torque_noise_relative": torque_noise,
+        "torque_hold": "zoh",
+        "payload_mass_kg": payload_mass,
+        "seed": seed,
+    }
+    log = IdentificationLog(run.t.copy(), alpha, tau, tuple(robot.actuated_joints), None, header)
+    return log, run
+
+
+def delta_lumped_map(regressor: ClosedChainRegressor, base: BaseParameters, states: int = 60, seed: int = 1):
+    """The paper's lumped parameters of a Delta (eqs. 7-9) in terms of the base parameters.
+
+    Eqs. 7-9 are linear in seven numbers: per arm the inertia about its hinge
+    I_i = (m_a / 3 + m_b / 2) l_a^2 [kg m^2] and the gravity lever k_i = (m_a + m_b) l_a / 2 [kg m]
+    (erratum 1's corrected G), and the platform-side mass m_eq = m_o + 3/2 m_b [kg]:
+    tau = I alpha_ddot + J^T m_eq (J alpha_ddot + J_dot alpha_dot + g e_z) - g k cos(alpha). The
+    paper's regressor Y_p (columns of these) lies in the span of the base regressor Y_b: Y_p = Y_b A,
+    A (r, 7) by least squares over generic states (residual reported). Then a robot that follows the
+    lumped model has beta = A theta_p, and theta_p = A^+ beta for an estimate.
+
+    Returns:
+        (names (7,), A (r, 7), the fit's largest residual relative to |Y_p|).
+    """
+    from delta_pin.identification.base import generic_states
+
+    robot = regressor.robot
+    delta = robot.delta
+    if delta is None:
+        raise InvalidParameterError(f"robot {robot.name!r} is not a recognised Delta: no lumped terms")
+    p = delta.params
+    alpha, alpha_dot, alpha_ddot = generic_states(robot, states, seed)
+    Y = base.reduce(regressor.stack(alpha, alpha_dot, alpha_ddot)).reshape(-1, base.rank)
+    regressor._last_q = robot.reference_configuration.copy()
+    columns = []
+    for a, ad, add in zip(alpha, alpha_dot, alpha_ddot, strict=True):
+        J = delta.jacobian(a)
+        drift = delta.jacobian_derivative_times_velocity(a, ad)
+        block = np.zeros((3, 7))
+        block[:, :3] = np.diag(add)
+        block[:, 3:6] = np.diag(-p.g * np.cos(a))
+        block[:, 6] = J.T @ (J @ add + drift + np.array([0.0, 0.0, p.g]))
+        columns.append(block)
+    Y_p = np.vstack(columns)
+    A, *_ = np.linalg.lstsq(Y, Y_p, rcond=None)
+    residual = float(np.abs(Y @ A - Y_p).max() / np.abs(Y_p).max())
+    names = ["I_1", "I_2", "I_3", "k_1", "k_2", "k_3", "m_eq"]
+    return names, A, residual
+
+
+@dataclass
+class IdentificationResult:
+    """What :func:`identify` returns.
+
+    Attributes:
+        regressor, base: the regressor and its base parameters.
+        names: the base parameters' short names (r,); ``expressions`` their combinations.
+        ols, wls: the least-squares estimates; ``consistent`` the physically consistent one
+            (``None`` where not asked for).
+        theta_nominal: the nominal (CAD) standard parameters.
+        residual_rms: RMS of tau - Y beta_wls per joint (dof,) [N m]; ``tau_rms`` of tau.
+        condition: cond of the column-scaled base regressor of the log.
+        timings: seconds per step.
+        lumped: for a Delta, the paper's terms {name: value} from WLS; ``xacro_arguments`` the
+            masses and friction of the identified Delta (``load_delta(**xacro_arguments)``).
+    """
+
+    regressor: ClosedChainRegressor
+    base: BaseParameters
+    names: list[str]
+    expressions: list[str]
+    ols: Estimate
+    wls: Estimate
+    consistent: ConsistentEstimate | None
+    theta_nominal: np.ndarray
+    residual_rms: np.ndarray
+    tau_rms: np.ndarray
+    condition: float
+    samples: int
+    cutoff: float = 20.0
+    timings: dict = field(default_factory=dict)
+    lumped: dict | None = None
+    xacro_arguments: dict | None = None
+    friction: dict = field(default_factory=dict)
+
+    @property
+    def beta(self) -> np.ndarray:
+        """The WLS base parameters (r,)."""
+        return self.wls.beta
+
+    def predict(
+        self, log: IdentificationLog, estimate: str = "wls", **options
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(predicted, measured) torques (N, dof) along a log, from filtered states
+        (:func:`~delta_pin.identification.estimation.filtered_states` with ``options``)."""
+        states = filtered_states(log, cutoff=self.cutoff, **options)
+        Y, tau = parallel_filter(log_regressor(self.regressor, states, _stride(log)), states.tau,
+                                 log.sample_rate, self.cutoff)  # fmt: skip
+        beta = (
+            self.consistent.beta
+            if estimate == "consistent" and self.consistent is not None
+            else self.wls.beta
+        )
+        return self.base.reduce(Y) @ beta, tau
+
+
+def decimation(rate: float, cutoff: float) -> int:
+    """Rows kept after the parallel filter: every rate / (2 cutoff)-th (the Nyquist interval of the
+    filtered band)."""
+    return max(1, int(rate // (2.0 * cutoff)))
+
+
+def _stride(log: IdentificationLog) -> int:
+    """Every stride-th sample is evaluated in full (the rest interpolated): a coarse rate >= 200 Hz."""
+    return max(1, int(log.sample_rate // 200))
+
+
+def identify(
+    robot,
+    data: IdentificationLog | str | Path,
+    *,
+    columns: JointColumns | None = None,
+    massless: str = "fixed",
+    cutoff: float = 20.0,
+    consistent: bool = True,
+    prior_robot=None,
+    refine_stribeck: bool = False,
+) -> IdentificationResult:
+    """Identify ``robot``'s base parameters from a log (docs/identification.md).
+
+    Args:
+        robot: the robot as loaded from its (CAD) file: its kinematics are taken as exact, its
+            inertias only as the prior of the physically consistent estimate.
+        data: an :class:`~delta_pin.identification.log.IdentificationLog` or the path of a CSV log.
+        columns: the actuated-joint columns (default: :class:`ClosedChainRegressor`'s).
+        massless: bodies without mass in the file: ``"fixed"`` or ``"free"``.
+        cutoff: the position filter's cut-off [Hz].
+        consistent: also compute the physically consistent estimate.
+        prior_robot: the robot whose parameters are the prior (default ``robot``).
+        refine_stribeck: refine the Stribeck velocity v_s by a 1-D search (variable projection).
+
+    Raises:
+        InvalidParameterError: a bad log (one line: column, line), an excitation that leaves
+            base parameters unidentifiable (named).
+    """
+    timings = {}
+    start = time.perf_counter()
+    regressor = ClosedChainRegressor(robot, columns, massless=massless)
+    if not isinstance(data, IdentificationLog):
+        data = read_log(data, robot.actuated_joints)
+    elif tuple(data.joints) != tuple(robot.actuated_joints):
+        raise InvalidParameterError(
+            f"the log's joints {list(data.joints)} are not the robot's actuated joints "
+            f"{list(robot.actuated_joints)}"
+        )
+    base = base_parameters(regressor)
+    timings["base_parameters"] = time.perf_counter() - start
+    t0 = time.perf_counter()
+    states = filtered_states(data, cutoff=cutoff)
+    timings["filter"] = time.perf_counter() - t0
+    if refine_stribeck and regressor.columns.stribeck_velocity is not None:
+        regressor = _refine_stribeck(regressor, states, data, massless, cutoff)
+    t0 = time.perf_counter()
+    Y, tau = parallel_filter(
+        log_regressor(regressor, states, _stride(data)), states.tau, data.sample_rate, cutoff
+    )
+    timings["regressor"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    names = base.short_names()
+    # the filtered rows are band-limited to the cut-off: keep one per Nyquist interval, so that
+    # their noise is (nearly) independent and the covariance formula holds (estimation docstring)
+    step = decimation(data.sample_rate, cutoff)
+    mask = reversal_mask(states.alpha_dot, data.sample_rate, cutoff)[::step]
+    Y, tau = Y[::step], tau[::step]
+    Y_base = base.reduce(Y)
+    W = Y_base.reshape(-1, base.rank)[mask.ravel()]
+    check_identifiable(W, names)
+    ols, wls = least_squares_fit(Y_base, tau, mask)
+    norms = np.linalg.norm(W, axis=0)
+    singular = np.linalg.svd(W / norms, compute_uv=False)
+    timings["least_squares"] = time.perf_counter() - t0
+    theta_nominal = regressor.parameters(prior_robot or robot)
+    estimate = None
+    if consistent:
+        t0 = time.perf_counter()
+
+        estimate = consistent_estimate(regressor, base, wls.beta, wls.R, theta_nominal)
+        timings["consistent"] = time.perf_counter() - t0
+    residual = np.where(mask, tau - Y_base @ wls.beta, 0.0)
+    kept = np.maximum(mask.sum(axis=0), 1)
+    result = IdentificationResult(
+        regressor=regressor,
+        base=base,
+        names=names,
+        expressions=base.expressions(),
+        ols=ols,
+        wls=wls,
+        consistent=estimate,
+        theta_nominal=theta_nominal,
+        residual_rms=np.sqrt((residual**2).sum(axis=0) / kept),
+        tau_rms=np.sqrt((np.where(mask, tau, 0.0) ** 2).sum(axis=0) / kept),
+        condition=float(singular[0] / singular[-1]),
+        samples=int(mask.sum()),
+        cutoff=cutoff,
+        timings=timings,
+    )
+    result.friction = _friction_estimates(regressor, base, wls)
+    if getattr(robot, "delta", None) is not None:
+        t0 = time.perf_counter()
+        lumped_names, A, fit = delta_lumped_map(regressor, base)
+        values = np.linalg.lstsq(A, wls.beta, rcond=None)[0]
+        result.lumped = {"names": lumped_names, "values": values.tolist(), "span_residual": fit}
+        result.xacro_arguments = _delta_xacro_arguments(robot, values, result.friction)
+        timings["lumped"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - start
+    return result
+
+
+def _friction_estimates(regressor, base, estimate) -> dict:
+    """{"fv": (dof,), ...}: the joint columns that are base parameters of their own, per joint
+    (NaN where a joint column is lumped with others or absent)."""
+    out = {}
+    n = regressor.inertial_count
+    index = {int(k): i for i, k in enumerate(base.independent)}
+    for kind, (prefix, _) in enumerate(regressor.columns.kinds()):
+        values = []
+        for j in range(regressor.dof):
+            column = n + kind * regressor.dof + j
+            i = index.get(column)
+            alone = i is not None and not np.any(base.K[i])
+            values.append(float(estimate.beta[i]) if alone else math.nan)
+        out[prefix] = values
+    return out
+
+
+def _delta_xacro_arguments(robot, lumped: np.ndarray, friction: dict) -> dict:
+    """m_a, m_b, m_o [kg] (and the friction's mu_v, mu_d, mu_s at the URDF's r_a and F_n = 15 N) of
+    the Delta whose eqs. 7-9 are the identified lumped terms (means over the arms):
+    I = (m_a/3 + m_b/2) l_a^2, k = (m_a + m_b) l_a / 2, m_eq = m_o + 3/2 m_b."""
+    p = robot.delta.params
+    inertia, lever, m_eq = float(np.mean(lumped[:3])), float(np.mean(lumped[3:6])), float(lumped[6])
+    m_a = 6.0 * (lever / p.l_a - inertia / p.l_a**2)
+    m_b = 2.0 * lever / p.l_a - m_a
+    m_o = m_eq - 1.5 * m_b
+    args = {"m_a": m_a, "m_b": m_b, "m_o": m_o}
+    stribeck = p.friction
+    if stribeck is not None and friction:
+        normal = 15.0  # the Friction default: eq. 12's coefficients are per newton of F_n
+        r_a = stribeck.r_a
+        fv, fc = np.nanmean(friction.get("fv", [math.nan])), np.nanmean(friction.get("fc", [math.nan]))
+        fs = np.nanmean(friction.get("fs", [0.0]))
+        if np.isfinite(fv) and np.isfinite(fc):
+            args.update(
+                mu_v=fv / r_a,
+                mu_d=fc / (normal * r_a),
+                mu_s=(fc + (fs if np.isfinite(fs) else 0.0)) / (normal * r_a),
+            )
+    return {k: float(v) for k, v in args.items()}
+
+
+def _refine_stribeck(regressor, states, log, massless, cutoff):
+    """The Stribeck velocity v_s [m/s] minimising the WLS residual (a bounded 1-D search over
+    log v_s, the linear parameters re-fitted at each v_s: variable projection)."""
+    from dataclasses import replace
+
+    from scipy.optimize import minimize_scalar
+
+    base = base_parameters(regressor)
+    n = regressor.inertial_count
+    Y_tree, tau = parallel_filter(log_regressor(regressor, states, _stride(log))[:, :, :n], states.tau,
+                                  log.sample_rate, cutoff)  # fmt: skip
+
+    def cost(log_vs):
+        columns = replace(regressor.columns, stribeck_velocity=float(np.exp(log_vs)))
+        joint = parallel_filter(
+            columns.block(states.alpha_dot, states.alpha_ddot), tau, log.sample_rate, cutoff
+        )[0]
+        Y = np.concatenate([Y_tree, joint], axis=2)
+        W = base.reduce(Y).reshape(-1, base.rank)
+        beta, *_ = np.linalg.lstsq(W, tau.reshape(-1), rcond=None)
+        return float(((W @ beta - tau.reshape(-1)) ** 2).sum())
+
+    v0 = regressor.columns.stribeck_velocity
+    found = minimize_scalar(cost, bounds=(np.log(v0 / 10), np.log(v0 * 10)), method="bounded",
+                            options={"xatol": 1e-4})  # fmt: skip
+    columns = replace(regressor.columns, stribeck_velocity=float(np.exp(found.x)))
+    return ClosedChainRegressor(regressor.robot, columns, massless=massless)
+
+
+def validate(
+    result: IdentificationResult, log: IdentificationLog | str | Path, estimate: str = "wls"
+) -> dict:
+    """Torque prediction on a log the fit never saw: per joint the RMS and max of the error, and
+    both relative to the measured torque's RMS.
+
+    Returns:
+        {"rms": (dof,), "max": (dof,), "rms_relative": (dof,), "max_relative": (dof,),
+        "rms_relative_all": the error's RMS over all joints / the torque's}.
+    """
+    robot = result.regressor.robot
+    if not isinstance(log, IdentificationLog):
+        log = read_log(log, robot.actuated_joints)
+    predicted, measured = result.predict(log, estimate)
+    error = predicted - measured
+    rms_tau = np.sqrt((measured**2).mean(axis=0))
+    rms = np.sqrt((error**2).mean(axis=0))
+    peak = np.abs(error).max(axis=0)
+    return {
+        "rms": rms.tolist(),
+        "max": peak.tolist(),
+        "rms_relative": (rms / rms_tau).tolist(),
+        "max_relative": (peak / rms_tau).tolist(),
+        "rms_relative_all": float(np.sqrt((error**2).mean()) / np.sqrt((measured**2).mean())),
+    }
+
+
+def identified_robot(result: IdentificationResult, estimate: str = "consistent"):
+    """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` with the identified standard
+    parameters (the physically consistent estimate; its bodies physical), to build a controller's
+    nominal model (:class:`~delta_pin.control.nominal.ClosedChainNominalModel`). For a Delta, prefer
+    ``load_delta(**result.xacro_arguments)`` (the paper's analytic model at the identified masses)."""
+    if result.consistent is None:
+        raise InvalidParameterError(
+            "the fit was made with consistent=False: no standard parameters to build a robot from"
+        )
+    regressor = result.regressor
+    robot = regressor.robot.with_payload(0.0)
+    theta = result.consistent.theta
+    for i, k in enumerate(regressor.bodies):
+        inertia = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
+        robot.model.inertias[int(k) + 1] = inertia
+        robot.tree.inertias[int(k) + 1] = inertia
+    robot.data = robot.model.createData()
+    return robot
