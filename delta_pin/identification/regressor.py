@@ -239,12 +239,13 @@ class ClosedChainRegressor:
         return theta
 
     def kinematics(
-        self, alpha: np.ndarray, alpha_dot: np.ndarray, alpha_ddot: np.ndarray
+        self, alpha: np.ndarray, alpha_dot: np.ndarray, alpha_ddot: np.ndarray, q: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(q, v, a, S) of one state: the assembled configuration q(alpha) (warm-started from the
-        previous call), v = S alpha_dot, a = S alpha_ddot + S_dot alpha_dot [SI]."""
+        """(q, v, a, S) of one state: the assembled configuration q(alpha) (``q`` where known, else
+        warm-started from the previous call), v = S alpha_dot, a = S alpha_ddot + S_dot alpha_dot [SI]."""
         robot = self.robot
-        q = robot.configuration(alpha, initial_guess=self._last_q)
+        if q is None:
+            q = robot.configuration(alpha, initial_guess=self._last_q)
         self._last_q = q
         S = robot.velocity_map(q)
         J = robot.closure_jacobian(q)
@@ -257,18 +258,19 @@ class ClosedChainRegressor:
         )
         return q, v, S @ alpha_ddot + drift, S
 
-    def tree_rows(self, alpha, alpha_dot, alpha_ddot) -> np.ndarray:
-        """S^T Y_tree (dof, ``inertial_count``) at one state [rad, rad/s, rad/s^2]."""
+    def tree_rows(self, alpha, alpha_dot, alpha_ddot, q: np.ndarray | None = None) -> np.ndarray:
+        """S^T Y_tree (dof, ``inertial_count``) at one state [rad, rad/s, rad/s^2] (``q``: its
+        assembled configuration, where known)."""
         q, v, a, S = self.kinematics(
-            np.asarray(alpha, float), np.asarray(alpha_dot, float), np.asarray(alpha_ddot, float)
+            np.asarray(alpha, float), np.asarray(alpha_dot, float), np.asarray(alpha_ddot, float), q
         )
         Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
         return S.T @ Y[:, self.tree_columns]
 
-    def rows(self, alpha, alpha_dot, alpha_ddot) -> np.ndarray:
+    def rows(self, alpha, alpha_dot, alpha_ddot, q: np.ndarray | None = None) -> np.ndarray:
         """Y (dof, ``size``) at one state [rad, rad/s, rad/s^2]: tau_act = Y theta [N m]."""
         joint = self.columns.block(np.asarray(alpha_dot, float), np.asarray(alpha_ddot, float))[0]
-        return np.hstack([self.tree_rows(alpha, alpha_dot, alpha_ddot), joint])
+        return np.hstack([self.tree_rows(alpha, alpha_dot, alpha_ddot, q), joint])
 
     def stack(
         self,
