@@ -30,6 +30,7 @@ BENCHMARKS = {
     "bench_cli.py": ["--repeats", "5"],
     "bench_engine.py": ["--repeats", "3"],
     "bench_drive_cpp.py": ["--repeats", "3"],
+    "bench_continuous.py": ["--repeats", "3"],
 }
 QUICK = {
     "bench_model.py": ["--repeats", "3", "--calls", "500"],

@@ -82,6 +82,7 @@ namespace delta_pin
       q_last = q;
       v = chain.velocity_map(q) * y.segment(n, n);
       reference.at(t, ref_a, ref_ad, ref_add);
+      law.warm_start(q);
       try
       {
         law.evaluate(alpha, y.segment(n, n), ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);

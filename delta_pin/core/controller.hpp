@@ -83,6 +83,13 @@ namespace delta_pin
     // stores its torque, the state and the law's internals.
     void start_continuous(long samples, Eigen::Index states);
     void keep(long k, const Vector & torque, const Vector & state_k);
+    // the nominal model's next assembly starts from q (the plant's, where it has the same
+    // configuration space: Newton then closes at once when the kinematics agree)
+    void warm_start(const Vector & q)
+    {
+      if (q.size() == q_.size())
+        q_ = q;
+    }
 
     RowMatrix tau, state;  // the records of the last run (samples rows): the torque that acted, the state
     RowMatrix tau_command;  // with a drive: the law's command (samples rows)

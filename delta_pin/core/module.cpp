@@ -135,6 +135,33 @@ NB_MODULE(_core, m)
       },
       "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
     .def("end_effector_position", &ClosedChainModel::end_effector_position)
+    .def(
+      "end_effector_positions",
+      [](ClosedChainModel & self, const RowMatrix & alpha, const Eigen::VectorXd & guess)
+      {
+        // rows assembled in turn, each warm-started from the one before, up to the first that
+        // does not close (its index, or -1)
+        RowMatrix xyz = RowMatrix::Zero(alpha.rows(), 3);
+        Eigen::VectorXd q = guess, next;
+        long failed = -1;
+        {
+          nb::gil_scoped_release release;
+          for (Eigen::Index k = 0; k < alpha.rows(); ++k)
+          {
+            if (!self.configuration(alpha.row(k).transpose(), q, next))
+            {
+              failed = (long)k;
+              break;
+            }
+            q = next;
+            xyz.row(k) = self.end_effector_position(q).transpose();
+          }
+        }
+        return std::make_tuple(failed, q, xyz);
+      },
+      nb::arg("alpha"), nb::arg("guess"),
+      "(first row that does not close or -1, the last closed q, end-effector positions (N, 3)) along the "
+      "rows of alpha (N, dof), each assembled from the one before.")
     .def("frame_jacobian", &ClosedChainModel::frame_jacobian)
     .def("frame_acceleration_drift", &ClosedChainModel::frame_acceleration_drift)
     .def(

@@ -937,11 +937,15 @@ class ClosedChainRobot:
         the core's Newton warm-started from the one before (a row it does not close: the robot's
         own :meth:`configuration`, which names the worst closure)."""
         out = np.empty((len(alpha), 3))
-        q = self._last_q
-        for k, row in enumerate(alpha):
-            closed, q_next = core.configuration(row, q)
-            q = q_next if closed else self.configuration(row, initial_guess=q)
+        q, start = self._last_q, 0
+        while start < len(alpha):
+            failed, q, out[start:] = core.end_effector_positions(np.ascontiguousarray(alpha[start:]), q)
+            if failed < 0:
+                break
+            k = start + failed  # Newton did not close it from the row before: the robot's own
+            q = self.configuration(alpha[k], initial_guess=q)
             out[k] = core.end_effector_position(q)
+            start = k + 1
         self._last_q = q.copy()
         return out
 

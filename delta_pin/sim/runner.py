@@ -242,19 +242,16 @@ def simulate(
         uncertainty: an :class:`~delta_pin.sim.uncertainty.Uncertainty` profile or ``None``.
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
         integrator: ``"rk4"`` (fixed step dt / substeps), ``"lsoda"`` (scipy's adaptive
-            stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (the compiled
-            Radau IIA of order 5 with error control, :mod:`delta_pin.compiled.radau`: continuous
-            mode, designs I/II with their compiled step and the LQR on the Delta's analytic
-            nominal model, on either plant -- the Pinocchio plant in
-            active coordinates through the native library; 3.7e-8 rad from a tight reference over
-            15 s of path I at the default tolerances, reaching phase included, in ~0.1 s on the
-            analytic plant; any other closed chain: the compiled core's Radau IIA,
+            stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (a compiled
+            Radau IIA of order 5 with error control, continuous mode: for the Delta's analytic
+            nominal model designs I/II and the LQR with their compiled steps on either plant,
+            :mod:`delta_pin.compiled.radau`; for any other closed chain the compiled core's,
             :mod:`delta_pin.sim.continuous_core`, with a controller that has a compiled law --
-            designs I/II, computed torque, PD, LQR) or ``"bdf2"`` (compiled implicit BDF2 with fixed steps dt / substeps;
-            up to 5e-4 rad off in a reaching phase; what sweeps batch). ``"auto"`` takes RK4 in
-            sampled mode and, in continuous mode, where the robust term's boundary-layer gain makes
-            the closed loop stiff (eigenvalues near -2e5 1/s with the paper's gains), Radau where
-            it applies and LSODA elsewhere.
+            designs I/II, computed torque, PD, LQR) or ``"bdf2"`` (compiled implicit BDF2 with
+            fixed steps dt / substeps, off by more than Radau in a reaching phase; what sweeps
+            batch). ``"auto"`` takes RK4 in sampled mode and, in continuous mode, Radau where it
+            applies (the robust term's boundary-layer gain makes the closed loop stiff) and LSODA
+            elsewhere.
         rtol, atol: LSODA's or Radau's tolerances (relative; absolute in SI units of the state). For designs
             I/II rtol is tightened where needed to resolve the robust term's boundary layer (a fast
             path such as the Adept cycle); ``metadata["rtol"]`` is the one used.
