@@ -135,6 +135,7 @@ _PUBLIC = {
     "delta_pin.sim.runner": ("simulate",),
     "delta_pin.sim.batch": ("simulate_batch",),
     "delta_pin.sim.closed_chain_plant": ("ClosedChainPlant", "PinocchioPlant"),
+    "delta_pin.identification.workflow": ("identify",),
 }
 _LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
 _LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use

@@ -689,6 +689,175 @@ def _cmd_view(args: argparse.Namespace) -> int:
 _DEBUG_HELP = "on an error, show Python's traceback instead of one line"
 
 
+# ---------------------------------------------------------------- identify (issue 24) ----------
+# delta-pin identify excite | simulate | fit: closed-chain dynamic identification
+# (delta_pin/identification, docs/identification.md); this block is its whole command.
+
+
+def _identify_robot(args: argparse.Namespace):
+    """The robot of --robot (any closed chain) or of --urdf/--set (the packaged Delta)."""
+    return _closed_chain_robot(args) if args.robot is not None else _load_robot(args)
+
+
+def _identify_excite(args: argparse.Namespace) -> int:
+    from delta_pin.identification.base import base_parameters
+    from delta_pin.identification.excitation import ExcitationLimits, check_excitation, optimize_excitation
+    from delta_pin.identification.regressor import ClosedChainRegressor
+    from delta_pin.identification.workflow import write_trajectory
+
+    _check_output_file("--out", args.out)
+    robot = _identify_robot(args)
+    regressor = ClosedChainRegressor(robot)
+    base = base_parameters(regressor)
+    theta = regressor.parameters()
+    limits = ExcitationLimits(position_range=args.position_range, velocity_limit=args.velocity_limit,
+                              jacobian_condition=args.jacobian_condition)  # fmt: skip
+    trajectory, info = optimize_excitation(
+        regressor, base, theta, harmonics=args.harmonics, period=args.period, duration=args.duration,
+        limits=limits, max_iterations=args.iterations, seed=args.seed,
+    )  # fmt: skip
+    met = check_excitation(regressor, trajectory, theta, limits=limits, rate=args.rate)
+    write_trajectory(args.out, trajectory, robot, args.rate)
+    print(
+        f"wrote {args.out}: {args.duration:g} s at {args.rate:g} Hz, {base.rank} base parameters, cond "
+        f"{info['condition_initial']:.4g} -> {info['condition']:.4g} ({info['iterations']} iterations); "
+        f"max |alpha - alpha0| {max(met['position']):.3g}, |alpha_dot| {max(met['velocity']):.3g}, "
+        f"cond J_p {met['jacobian_condition']:.3g}"
+    )
+    return 0
+
+
+def _identify_simulate(args: argparse.Namespace) -> int:
+    from delta_pin.identification.log import write_log
+    from delta_pin.identification.workflow import perturbed_robot, read_trajectory, simulate_log
+    from delta_pin.model.delta_robot import load_delta
+
+    _check_output_file("--out", args.out)
+    robot = _identify_robot(args)
+    trajectory = read_trajectory(args.trajectory, robot)
+    if args.true_settings:
+        if args.robot is not None:
+            raise InvalidParameterError(
+                "--true-set takes the packaged Delta's xacro arguments; with --robot use --mass-spread"
+            )
+        true = load_delta(
+            getattr(args, "urdf", None),
+            **{**_parse_settings(args.settings), **_parse_settings(args.true_settings)},
+        )
+    elif args.mass_spread > 0.0:
+        true = perturbed_robot(robot, args.mass_spread, args.seed)
+    else:
+        true = robot
+    friction = True if getattr(true, "delta", None) is not None and not args.no_friction else None
+    log, run = simulate_log(
+        true, trajectory, nominal=robot, friction=friction, payload_mass=args.payload, dt=1.0 / args.rate,
+        encoder_bits=args.encoder_bits, torque_noise=args.torque_noise, seed=args.seed,
+    )  # fmt: skip
+    write_log(args.out, log)
+    error = float(abs(run.alpha - run.alpha_d).max()) if len(run.t) else 0.0
+    print(
+        f"wrote {args.out}: {len(log)} samples of {trajectory.duration:g} s; "
+        f"largest tracking error {error:.3g}"
+    )
+    return 0
+
+
+def _identify_fit(args: argparse.Namespace) -> int:
+    from delta_pin.identification.log import read_log
+    from delta_pin.identification.report import write_report
+    from delta_pin.identification.workflow import identify, validate
+
+    _check_output_dir("--out", args.out)
+    robot = _identify_robot(args)
+    log = read_log(args.data, robot.actuated_joints)
+    unseen = None if args.validate is None else read_log(args.validate, robot.actuated_joints)
+    result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent)
+    validation = None if unseen is None else validate(result, unseen)
+    written = write_report(result, log, args.out, validation, figures=not args.no_figures)
+    relative = ", ".join(f"{x:.3g}" for x in result.residual_rms / result.tau_rms)
+    print(f"{result.base.rank} base parameters identified in {result.timings['total']:.2f} s; "
+          f"residual {relative} "
+          f"of the torque's RMS; cond {result.condition:.4g}")  # fmt: skip
+    if validation is not None:
+        print(
+            "validation: torque error RMS "
+            + ", ".join(f"{x:.3g}" for x in validation["rms_relative"])
+            + " relative"
+        )
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
+def _add_identify_command(add) -> None:
+    identify = add(
+        "identify", help="identify a closed-chain robot's dynamics from joint data (docs/identification.md)"
+    )
+    actions = identify.add_subparsers(dest="identify_command", required=True)
+
+    def action(name: str, **options) -> argparse.ArgumentParser:
+        parser = actions.add_parser(name, formatter_class=_HelpFormatter, **options)
+        _add_robot_arguments(parser)
+        _robot_file_arguments(parser)
+        return parser
+
+    excite = action(
+        "excite", help="an excitation trajectory (Fourier series optimised for the regressor's condition)"
+    )
+    excite.add_argument("--out", type=Path, required=True, help="the trajectory CSV (t, q[J], qd[J], qdd[J])")
+    excite.add_argument("--duration", type=_seconds, default=20.0, help="length [s]")
+    excite.add_argument("--period", type=_seconds, default=5.0, help="the Fourier series' period [s]")
+    excite.add_argument("--harmonics", type=_integer(1), default=8, help="harmonics per joint")
+    excite.add_argument("--iterations", type=_integer(0), default=30, help="optimiser iterations")
+    excite.add_argument("--rate", type=float, default=1000.0, help="sample rate of the file [Hz]")
+    excite.add_argument(
+        "--position-range", type=float, default=None, help="largest |alpha - alpha0| [rad or m]"
+    )
+    excite.add_argument(
+        "--velocity-limit", type=float, default=None, help="largest |alpha_dot| [rad/s or m/s]"
+    )
+    excite.add_argument(
+        "--jacobian-condition", type=float, default=100.0, help="largest cond J_p along the path"
+    )
+    excite.add_argument("--seed", type=int, default=0, help="seed of the optimiser's start")
+    excite.set_defaults(func=_identify_excite)
+
+    simulate = action(
+        "simulate", help="a log of the Pinocchio plant running an excitation (encoders, torque noise)"
+    )
+    simulate.add_argument(
+        "--trajectory", type=Path, required=True, help="a file of delta-pin identify excite"
+    )
+    simulate.add_argument("--out", type=Path, required=True, help="the log CSV (t, q[J], tau[J])")
+    simulate.add_argument(
+        "--true-set", dest="true_settings", action="append", default=[], metavar="NAME=VALUE",
+        help="the simulated (true) Delta's xacro arguments, e.g. m_a=0.26 (repeatable)",
+    )  # fmt: skip
+    simulate.add_argument(
+        "--mass-spread", type=float, default=0.0,
+        help="scale each body's inertia by a seeded factor in [1 - s, 1 + s] (the true robot)",
+    )  # fmt: skip
+    simulate.add_argument("--payload", type=float, default=0.0, help="a point mass at the end effector [kg]")
+    simulate.add_argument(
+        "--encoder-bits", type=_integer(8), default=17, help="encoder resolution (2^bits per turn)"
+    )
+    simulate.add_argument(
+        "--torque-noise", type=float, default=0.01, help="torque noise, relative to its RMS"
+    )
+    simulate.add_argument("--rate", type=float, default=1000.0, help="sample and control rate [Hz]")
+    simulate.add_argument("--no-friction", action="store_true", help="no joint friction in the plant (Delta)")
+    simulate.add_argument("--seed", type=int, default=0, help="seed of the noise and of --mass-spread")
+    simulate.set_defaults(func=_identify_simulate)
+
+    fit = action("fit", help="fit base parameters to a log; write parameters.json, report.md, figures")
+    fit.add_argument("--data", type=Path, required=True, help="the log CSV (docs/identification.md)")
+    fit.add_argument("--out", type=Path, required=True, help="output folder")
+    fit.add_argument("--validate", type=Path, default=None, help="a second log the fit does not see")
+    fit.add_argument("--cutoff", type=float, default=20.0, help="the parallel filter's cut-off [Hz]")
+    fit.add_argument("--no-consistent", action="store_true", help="skip the physically consistent estimate")
+    fit.add_argument("--no-figures", action="store_true", help="write no figures")
+    fit.set_defaults(func=_identify_fit)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="delta-pin",
@@ -848,6 +1017,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--robot", default=None, help="the robot file of a run on a closed-chain robot (None: from the run)"
     )
     view.set_defaults(func=_cmd_view)
+    _add_identify_command(add)  # identify excite | simulate | fit (issue 24)
     return parser
 
 

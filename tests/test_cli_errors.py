@@ -130,6 +130,14 @@ CASES = [
     (["view", "{missing}"], 2, "{missing}' does not exist"),
     (["view", "{npz}"], 2, "{npz}' is not a readable delta-pin run"),
     (["view", "{binary}"], 2, "{binary}' is not a readable delta-pin run"),
+    # identify (issue 24; the log's own errors: tests/identification/test_bad_input.py)
+    (["identify", "fit", "--data", "{missing}", "--out", "{out}"], 2, "{missing}: no such file"),
+    (["identify", "fit", "--data", "{binary}", "--out", "{out}"], 2, "{binary} is not a text file"),
+    (
+        ["identify", "simulate", "--trajectory", "{file}", "--out", "{out}/log.csv"],
+        2,
+        "no '# fourier:' header",
+    ),
     # runs whose arrays or metadata are not what Run.save writes (issue 25: "unexpected ...")
     (
         ["view", "{run_list_metadata}"],

@@ -157,24 +157,52 @@ def consistent_estimate(
 
     scale = np.maximum(np.abs(theta_prior), 1e-3 * np.abs(theta_prior).max())
     prior = np.sqrt(prior_weight) * np.linalg.norm(R_w @ beta_wls) / np.sqrt(p)
+    # the residual is linear in theta: r = A theta - c, so its Jacobian is A dtheta/dphi, the
+    # latter block-diagonal (10 x 10 per body by central differences of the log-Cholesky map,
+    # exact to ~1e-10 relative: a polynomial of exponentials; the identity on the joint columns)
+    B = np.zeros((base.rank, p))
+    B[np.arange(base.rank), base.independent] = 1.0
+    B[:, base.dependent] = base.K
+    A = np.vstack([R_w @ B, prior * np.diag(1.0 / scale)])
+    c = np.concatenate([R_w @ beta_wls, prior * theta_prior / scale])
+    nb = 10 * len(bodies)
+    columns = np.concatenate([np.arange(10 * k, 10 * k + 10) for k in bodies] + [np.arange(n_in, p)])
 
     def residual(x):
-        theta = unpack(x)
-        return np.concatenate([R_w @ (base.values(theta) - beta_wls), prior * (theta - theta_prior) / scale])
+        return A @ unpack(x) - c
 
+    def jacobian(x):
+        D = np.zeros((p, len(x)))
+        for i, k in enumerate(bodies):
+            phi = x[10 * i : 10 * i + 10]
+            for m in range(10):
+                h = 1e-6 * max(1.0, abs(phi[m]))
+                up, down = phi.copy(), phi.copy()
+                up[m] += h
+                down[m] -= h
+                D[10 * k : 10 * k + 10, 10 * i + m] = (
+                    log_cholesky_to_parameters(up) - log_cholesky_to_parameters(down)
+                ) / (2 * h)
+        D[n_in:, nb:] = np.eye(p - n_in)
+        return A @ D
+
+    del columns
     # start: the prior's bodies, the WLS estimate's joint columns where they are base parameters
     x0 = [parameters_to_log_cholesky(theta_prior[10 * k : 10 * k + 10]) for k in bodies]
     joint0 = np.array(theta_prior[n_in:], dtype=float)
-    names = regressor.names
     for i, k in enumerate(base.independent):
         if k >= n_in:
             joint0[k - n_in] = beta_wls[i]
-    joint0 = np.maximum(joint0, np.where(np.isfinite(joint_lower), joint_lower, -np.inf))
     joint0 = np.where(np.isfinite(joint_lower), np.maximum(joint0, 1e-9), joint0)
     x0 = np.concatenate([*x0, joint0])
-    lower = np.concatenate([np.full(10 * len(bodies), -np.inf), joint_lower])
-    result = least_squares(residual, x0, bounds=(lower, np.full_like(lower, np.inf)), method="trf",
-                           x_scale="jac", max_nfev=2000)  # fmt: skip
+    # the logarithms bounded (a mass or a principal inertia within e^-30 .. e^10 of 1 kg, kg m^2):
+    # no overflow of exp, and nothing a real body needs
+    free = [np.inf] * 6
+    lower = np.concatenate([np.tile([-15.0] * 4 + [-np.inf] * 6, len(bodies)), joint_lower])
+    upper = np.concatenate([np.tile([5.0, 10.0, 10.0, 10.0, *free], len(bodies)), np.full(p - n_in, np.inf)])
+    x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
+    result = least_squares(residual, x0, jac=jacobian, bounds=(lower, upper), method="trf", x_scale="jac",
+                           max_nfev=150, ftol=1e-10, xtol=1e-10)  # fmt: skip
     theta = unpack(result.x)
     beta = base.values(theta)
     eigen = []
@@ -184,7 +212,6 @@ def consistent_estimate(
         Sigma = 0.5 * np.trace(inertia) * np.eye(3) - inertia
         J = np.block([[Sigma, np.array([[hx], [hy], [hz]])], [np.array([[hx, hy, hz, m]])]])
         eigen.append(float(np.linalg.eigvalsh(J).min()))
-    del names
     return ConsistentEstimate(
         theta=theta,
         beta=beta,

@@ -93,7 +93,12 @@ def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> Identific
     path = Path(path)
     if not path.is_file():
         raise InvalidParameterError(f"log {path}: no such file")
-    lines = path.read_text(encoding="utf-8").splitlines()
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError:
+        raise InvalidParameterError(
+            f"log {path} is not a text file (a CSV log: docs/identification.md)"
+        ) from None
     header: dict[str, str] = {}
     first = None
     for number, line in enumerate(lines, 1):

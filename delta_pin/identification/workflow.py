@@ -41,8 +41,11 @@ __all__ = [
     "friction_truth",
     "identified_robot",
     "identify",
+    "perturbed_robot",
+    "read_trajectory",
     "simulate_log",
     "validate",
+    "write_trajectory",
 ]
 
 
@@ -185,6 +188,7 @@ class IdentificationResult:
     tau_rms: np.ndarray
     condition: float
     samples: int
+    singular_values: np.ndarray | None = None
     cutoff: float = 20.0
     timings: dict = field(default_factory=dict)
     lumped: dict | None = None
@@ -308,7 +312,8 @@ def identify(
         residual_rms=np.sqrt((residual**2).sum(axis=0) / kept),
         tau_rms=np.sqrt((np.where(mask, tau, 0.0) ** 2).sum(axis=0) / kept),
         condition=float(singular[0] / singular[-1]),
-        samples=int(mask.sum()),
+        samples=int(mask.sum(axis=0).min()),
+        singular_values=singular / singular[0],
         cutoff=cutoff,
         timings=timings,
     )
@@ -440,3 +445,85 @@ def identified_robot(result: IdentificationResult, estimate: str = "consistent")
         robot.tree.inertias[int(k) + 1] = inertia
     robot.data = robot.model.createData()
     return robot
+
+
+def perturbed_robot(robot, spread: float = 0.3, seed: int = 0):
+    """A copy of ``robot`` whose every body with mass has its inertia (mass, first moment, inertia:
+    the COM kept) scaled by a seeded factor uniform in [1 - spread, 1 + spread]: a "true" robot
+    the CAD file gets wrong. For a Delta prefer ``load_delta(m_a=..., m_b=..., m_o=...)``."""
+    if not 0.0 <= spread < 1.0:
+        raise InvalidParameterError(f"mass spread {spread} must lie in [0, 1)")
+    rng = np.random.default_rng(seed)
+    true = robot.with_payload(0.0)
+    for j in range(1, true.model.njoints):
+        inertia = true.model.inertias[j]
+        if inertia.mass > 0.0:
+            scaled = pin.Inertia.FromDynamicParameters(
+                inertia.toDynamicParameters() * rng.uniform(1 - spread, 1 + spread)
+            )
+            true.model.inertias[j] = scaled
+            true.tree.inertias[j] = scaled
+    true.data = true.model.createData()
+    return true
+
+
+def write_trajectory(path: str | Path, trajectory: FourierExcitation, robot, rate: float = 1000.0) -> Path:
+    """The excitation as a CSV a drive can play: ``t, q[J], qd[J], qdd[J]`` at ``rate`` [Hz], its
+    Fourier coefficients in the header (``# fourier: {json}``, what :func:`read_trajectory` reads)."""
+    import json
+
+    from delta_pin.utils.atomic import atomic_open
+
+    t = np.arange(0.0, trajectory.duration + 0.5 / rate, 1.0 / rate)
+    alpha, alpha_dot, alpha_ddot = trajectory.evaluate(t)
+    joints = robot.actuated_joints
+    columns = [
+        "t",
+        *(f"q[{j}]" for j in joints),
+        *(f"qd[{j}]" for j in joints),
+        *(f"qdd[{j}]" for j in joints),
+    ]
+    with atomic_open(path, "w", newline="") as handle:
+        handle.write("# delta-pin excitation trajectory\n")
+        handle.write(f"# robot: {robot.name}\n# sample_rate_hz: {rate:g}\n")
+        handle.write(f"# fourier: {json.dumps(trajectory.metadata())}\n")
+        handle.write(",".join(columns) + "\n")
+        np.savetxt(handle, np.hstack([t[:, None], alpha, alpha_dot, alpha_ddot]), delimiter=",", fmt="%.12g")
+    return Path(path)
+
+
+def read_trajectory(path: str | Path, robot) -> FourierExcitation:
+    """The excitation of a file written by :func:`write_trajectory` (``delta-pin identify excite``).
+
+    Raises:
+        InvalidParameterError: no such file, no ``# fourier:`` header, or joints that are not the robot's.
+    """
+    import json
+
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidParameterError(f"trajectory {path}: no such file")
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    except UnicodeDecodeError:
+        raise InvalidParameterError(f"trajectory {path} is not a text file") from None
+    for number, line in enumerate(lines, 1):
+        if not line.startswith("#"):
+            break
+        if line.startswith("# fourier:"):
+            try:
+                data = json.loads(line.split(":", 1)[1])
+                trajectory = FourierExcitation.from_metadata(data)
+            except (ValueError, KeyError, TypeError) as error:
+                raise InvalidParameterError(
+                    f"trajectory {path}: line {number}: bad fourier header ({error})"
+                ) from None
+            if trajectory.alpha0.shape != (robot.dof,):
+                raise InvalidParameterError(
+                    f"trajectory {path}: it moves {trajectory.alpha0.size} joints, "
+                    f"robot {robot.name!r} has {robot.dof}"
+                )
+            return trajectory
+    raise InvalidParameterError(
+        f"trajectory {path}: no '# fourier:' header line (write it with delta-pin identify excite)"
+    )

@@ -1,0 +1,273 @@
+"""What ``delta-pin identify fit`` writes (every file atomically):
+
+* ``parameters.json`` -- the base parameters (name, combination of standard parameters, WLS value,
+  standard deviation, OLS value, the consistent estimate's value), the rank decision, the fit's
+  residual, condition number and timings, the friction per joint, for a Delta the paper's lumped
+  terms and the ``xacro_arguments`` of the identified robot, the physically consistent standard
+  parameters per body, and a validation on an unseen log where one was given;
+* ``xacro_arguments.json`` (a Delta) -- ``load_delta(**json.load(...))`` or
+  ``delta-pin urdf --set m_a=... ...`` builds the identified robot;
+* ``robot.urdf`` (a robot from a URDF) -- the robot's URDF with the physically consistent
+  inertials (``dp.load_robot`` reads it back);
+* ``report.md`` and the figures ``torque.png`` (measured vs predicted torque), ``residual.png``
+  (residual histogram per joint) and ``condition.png`` (singular values of the column-scaled base
+  regressor of the log).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from delta_pin.identification.log import IdentificationLog
+from delta_pin.identification.workflow import IdentificationResult
+from delta_pin.utils.atomic import atomic_open, write_text_atomically
+
+__all__ = ["identified_urdf", "parameters_record", "write_report"]
+
+
+def _float(x) -> float | None:
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def parameters_record(result: IdentificationResult, validation: dict | None = None) -> dict:
+    """``parameters.json``'s content (module docstring)."""
+    base = result.base
+    kept, dropped = base.gap
+    consistent = result.consistent
+    regressor = result.regressor
+    rows = []
+    for i, name in enumerate(result.names):
+        rows.append(
+            {
+                "name": name,
+                "combination": result.expressions[i],
+                "wls": _float(result.wls.beta[i]),
+                "std": _float(result.wls.std[i]),
+                "ols": _float(result.ols.beta[i]),
+                "consistent": None if consistent is None else _float(consistent.beta[i]),
+                "nominal": _float(base.values(result.theta_nominal)[i]),
+            }
+        )
+    record = {
+        "robot": regressor.robot.name,
+        "joints": list(regressor.robot.actuated_joints),
+        "columns": {
+            "kinds": [prefix for prefix, _ in regressor.columns.kinds()],
+            "stribeck_velocity": regressor.columns.stribeck_velocity,
+            "friction_arm": regressor.columns.friction_arm,
+            "sign_velocity_scale": regressor.columns.sign_velocity_scale,
+        },
+        "fixed_bodies": list(regressor.fixed_bodies),
+        "rank": {
+            "base_parameters": base.rank,
+            "standard_parameters": regressor.size,
+            "rtol": base.rtol,
+            "smallest_kept": kept,
+            "largest_dropped": dropped,
+            "absent": [base.names[k] for k in base.absent],
+        },
+        "base_parameters": rows,
+        "fit": {
+            "samples": result.samples,
+            "cutoff_hz": result.cutoff,
+            "condition": result.condition,
+            "residual_rms": result.residual_rms.tolist(),
+            "residual_relative": (result.residual_rms / result.tau_rms).tolist(),
+            "timings_s": result.timings,
+        },
+        "friction": {k: [_float(x) for x in v] for k, v in result.friction.items()},
+    }
+    if consistent is not None:
+        bodies = {}
+        from delta_pin.identification.regressor import INERTIAL_NAMES
+
+        for i, body in enumerate(regressor.body_names):
+            bodies[body] = dict(
+                zip(INERTIAL_NAMES, consistent.theta[10 * i : 10 * i + 10].tolist(), strict=True)
+            )
+        record["consistent"] = {
+            "bodies": bodies,
+            "distance_mahalanobis": consistent.distance_mahalanobis,
+            "distance_relative": consistent.distance_relative,
+            "min_pseudo_inertia_eigenvalue": consistent.min_eigenvalues.tolist(),
+            "success": consistent.success,
+            "message": consistent.message,
+        }
+    if result.lumped is not None:
+        record["lumped"] = dict(zip(result.lumped["names"], result.lumped["values"], strict=True))
+        record["lumped_span_residual"] = result.lumped["span_residual"]
+        record["xacro_arguments"] = result.xacro_arguments
+    if validation is not None:
+        record["validation"] = validation
+    return record
+
+
+def identified_urdf(result: IdentificationResult) -> str | None:
+    """The robot's URDF with every moving link's inertial replaced by the physically consistent
+    estimate (mass, COM, inertia about the COM in the link frame), or ``None`` where the robot has
+    no URDF text or a body gathers several links (fixed joints)."""
+    if result.consistent is None or not result.regressor.robot.urdf:
+        return None
+    from lxml import etree
+
+    regressor = result.regressor
+    try:
+        root = etree.fromstring(regressor.robot.urdf.encode())
+    except etree.XMLSyntaxError:
+        return None
+    links = {link.get("name"): link for link in root.iter("link")}
+    for i, body in enumerate(regressor.body_names):
+        link = links.get(body)
+        if link is None:
+            return None
+        m, hx, hy, hz, ixx, ixy, iyy, ixz, iyz, izz = result.consistent.theta[10 * i : 10 * i + 10]
+        c = np.array([hx, hy, hz]) / m
+        inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        # about the COM (parallel axis theorem): I_c = I_o - m (|c|^2 1 - c c^T)
+        inertia_c = inertia - m * (c @ c * np.eye(3) - np.outer(c, c))
+        for old in link.findall("inertial"):
+            link.remove(old)
+        inertial = etree.SubElement(link, "inertial")
+        etree.SubElement(inertial, "origin", xyz=" ".join(f"{x:.12g}" for x in c), rpy="0 0 0")
+        etree.SubElement(inertial, "mass", value=f"{m:.12g}")
+        etree.SubElement(inertial, "inertia", ixx=f"{inertia_c[0, 0]:.12g}", ixy=f"{inertia_c[0, 1]:.12g}",
+                         ixz=f"{inertia_c[0, 2]:.12g}", iyy=f"{inertia_c[1, 1]:.12g}",
+                         iyz=f"{inertia_c[1, 2]:.12g}", izz=f"{inertia_c[2, 2]:.12g}")  # fmt: skip
+    return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8").decode()
+
+
+def _figures(result: IdentificationResult, log: IdentificationLog, out: Path) -> list[Path]:
+    from matplotlib.figure import Figure
+
+    predicted, measured = result.predict(log)
+    t = log.t[: len(predicted)]
+    trim = (log.t >= log.t[0] + 0.05) & (log.t <= log.t[-1] - 0.05)
+    t = log.t[trim]
+    joints = result.regressor.robot.actuated_joints
+    written = []
+    fig = Figure(figsize=(9, 2.2 * len(joints)))
+    axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)[:, 0]
+    for j, ax in enumerate(axes):
+        ax.plot(t, measured[:, j], lw=0.8, label="measured (filtered)")
+        ax.plot(t, predicted[:, j], lw=0.8, ls="--", label="predicted (WLS)")
+        ax.set_ylabel(f"tau[{joints[j]}] [N m]")
+    axes[0].legend(loc="upper right")
+    axes[-1].set_xlabel("t [s]")
+    fig.tight_layout()
+    written.append(_save(fig, out / "torque.png"))
+    fig = Figure(figsize=(9, 3))
+    ax = fig.subplots()
+    for j in range(len(joints)):
+        ax.hist(measured[:, j] - predicted[:, j], bins=60, histtype="step", label=joints[j])
+    ax.set_xlabel("measured - predicted torque [N m]")
+    ax.set_ylabel("samples")
+    ax.legend()
+    fig.tight_layout()
+    written.append(_save(fig, out / "residual.png"))
+    fig = Figure(figsize=(9, 3))
+    ax = fig.subplots()
+    ax.semilogy(np.arange(1, len(result.singular_values) + 1), result.singular_values, "o-", ms=3)
+    ax.set_xlabel("singular value index")
+    ax.set_ylabel("sigma_i / sigma_1")
+    ax.set_title(f"column-scaled base regressor of the log: cond = {result.condition:.4g}")
+    fig.tight_layout()
+    written.append(_save(fig, out / "condition.png"))
+    return written
+
+
+def _save(fig, path: Path) -> Path:
+    with atomic_open(path, "wb") as handle:
+        fig.savefig(handle, format="png", dpi=110)
+    return path
+
+
+def write_report(
+    result: IdentificationResult, log: IdentificationLog, out: str | Path, validation: dict | None = None,
+    figures: bool = True,
+) -> list[Path]:  # fmt: skip
+    """Write the module docstring's files into the folder ``out``; returns their paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    record = parameters_record(result, validation)
+    written = [write_text_atomically(out / "parameters.json", json.dumps(record, indent=2) + "\n")]
+    if result.xacro_arguments is not None:
+        written.append(
+            write_text_atomically(
+                out / "xacro_arguments.json", json.dumps(result.xacro_arguments, indent=2) + "\n"
+            )
+        )
+    urdf = identified_urdf(result)
+    if urdf is not None:
+        written.append(write_text_atomically(out / "robot.urdf", urdf))
+    if figures:
+        written += _figures(result, log, out)
+    written.append(write_text_atomically(out / "report.md", _markdown(result, record, validation, figures)))
+    return written
+
+
+def _markdown(result: IdentificationResult, record: dict, validation: dict | None, figures: bool) -> str:
+    r = record["rank"]
+    lines = [
+        f"# Identification of {record['robot']}",
+        "",
+        f"{r['base_parameters']} base parameters of {r['standard_parameters']} standard ones "
+        "(pivoted QR, rank "
+        f"tolerance {r['rtol']:g} of |R_11|: smallest kept {r['smallest_kept']:.3g}, largest dropped "
+        f"{r['largest_dropped']:.3g}); bodies held at their file's (zero) inertia: "
+        f"{', '.join(record['fixed_bodies']) or 'none'}.",
+        "",
+        f"Fit: {result.samples} rows per joint after the parallel filter ({result.cutoff:g} Hz) "
+        "and decimation; "
+        f"cond of the column-scaled base regressor {result.condition:.4g}; residual RMS "
+        + ", ".join(f"{x:.3g}" for x in record["fit"]["residual_relative"])
+        + " of the torque's RMS per joint; "
+        + f"{result.timings.get('total', float('nan')):.2f} s.",
+        "",
+        "| base parameter | combination | WLS | std | OLS | consistent | nominal |",
+        "|---|---|---|---|---|---|---|",
+    ]
+
+    def fmt(x):
+        return "" if x is None else f"{x:.6g}"
+
+    for row in record["base_parameters"]:
+        lines.append(
+            f"| {row['name']} | {row['combination']} | {fmt(row['wls'])} | {fmt(row['std'])} "
+            f"| {fmt(row['ols'])} "
+            f"| {fmt(row['consistent'])} | {fmt(row['nominal'])} |"
+        )
+    if "consistent" in record:
+        c = record["consistent"]
+        lines += [
+            "",
+            f"Physically consistent estimate (log-Cholesky, every pseudo-inertia ⪰ 0: smallest eigenvalue "
+            f"{min(c['min_pseudo_inertia_eigenvalue'], default=0.0):.3g}): distance to WLS "
+            f"{c['distance_relative']:.3g} relative, {c['distance_mahalanobis']:.3g} in the WLS metric.",
+        ]
+    if "lumped" in record:
+        lines += ["", "The paper's lumped terms (eqs. 7-9) from the base parameters:", ""]
+        lines += [f"- {k} = {v:.6g}" for k, v in record["lumped"].items()]
+        lines += ["", "xacro arguments of the identified Delta: " + json.dumps(record["xacro_arguments"])]
+    if validation is not None:
+        lines += [
+            "",
+            "Validation on an unseen log: torque error RMS "
+            + ", ".join(f"{x:.3g}" for x in validation["rms_relative"])
+            + " (max "
+            + ", ".join(f"{x:.3g}" for x in validation["max_relative"])
+            + ") of the torque's RMS per joint.",
+        ]
+    if figures:
+        lines += [
+            "",
+            "![torque](torque.png)",
+            "",
+            "![residual](residual.png)",
+            "",
+            "![condition](condition.png)",
+        ]
+    return "\n".join(lines) + "\n"
