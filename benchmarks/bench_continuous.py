@@ -8,6 +8,8 @@ plant and law built, the run): design I on the projected nominal model along a j
 Stewart platform's legs), from the robot's home, so the run starts with a reaching phase.
 
 * the core's Radau IIA (the default, ``delta_pin/core/radau.hpp``) at rtol 1e-6, atol 1e-8;
+* on the five-bar, the same with the readable design I in Python called back from the core's loop
+  once per evaluation (what a user's own continuous-time law gets);
 * the Python route it replaced: the Python plant in active coordinates and the readable law under
   LSODA (``integrator="lsoda"``), the reference of the ratio;
 * accuracy: the largest joint difference from the core's Radau at rtol 1e-10, atol 1e-12 (a
@@ -54,9 +56,20 @@ def main() -> None:
         python = measure(
             f"{name}: the Python plant and law under LSODA", lambda run=run: run(integrator="lsoda"), 1
         )
-        print_table(
-            f"{args.t_end:g} s of {name} ({robot.dof} DOF), design I continuous", [core, python], python
-        )
+        cases = [core, python]
+        if name == "five_bar":  # a law in Python (the readable design I) called back per evaluation
+
+            def callback(robot=robot, path=path, nominal=nominal):
+                controller = dp.design1(nominal)
+                controller.sampled_core_law = lambda: None
+                return dp.simulate(
+                    robot, controller, path, t_end=args.t_end, mode="continuous", alpha0=robot.home
+                )  # fmt: skip
+
+            cases.insert(
+                1, measure(f"{name}: the core's Radau IIA, the law in Python", callback, args.repeats)
+            )
+        print_table(f"{args.t_end:g} s of {name} ({robot.dof} DOF), design I continuous", cases, python)
         default, tight = run(), run(rtol=1e-10, atol=1e-12)
         assert default.metadata["integrator"] == "radau" and tight.metadata["integrator"] == "radau"
         error = float(np.abs(default.alpha - tight.alpha).max())

@@ -54,7 +54,7 @@ namespace delta_pin
   } // namespace
 
   void run_continuous(
-    ClosedChainPlant & plant, ProjectedLaw & law, const HermiteReference & reference, const Indices & actuated_v,
+    ClosedChainPlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Indices & actuated_v,
     const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
     long samples,
     const RadauOptions & options, double max_joint_speed, ContinuousRun & run)
@@ -82,16 +82,22 @@ namespace delta_pin
       q_last = q;
       v = chain.velocity_map(q) * y.segment(n, n);
       reference.at(t, ref_a, ref_ad, ref_add);
-      law.warm_start(q);
       try
       {
-        law.evaluate(alpha, y.segment(n, n), ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);
+        law.evaluate(t, q, alpha, y.segment(n, n), ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);
       }
       catch (SimulationFailure & error)
       {
         if (std::isnan(error.time))
           error.time = t;
         throw;
+      }
+      if (tau.size() != n || z_dot.size() != nz)
+      {
+        std::ostringstream text;
+        text << "the controller returned a torque of " << tau.size() << " and a state rate of " << z_dot.size()
+             << " values, expected " << n << " and " << nz;
+        throw failure(text.str(), t);
       }
       if (!tau.allFinite())
         throw failure("the controller returned a non-finite torque " + joints(tau), t);
@@ -112,7 +118,8 @@ namespace delta_pin
     y << alpha0, alpha_dot0, z0;
     run.alpha.setZero(samples, n);
     run.alpha_dot.setZero(samples, n);
-    law.start_continuous(samples, nz);
+    run.tau.setZero(samples, n);
+    run.state.setZero(samples, nz);
     run.q.setZero(samples, plant.nq());
     run.v.setZero(samples, plant.nv());
     run.xyz.setZero(samples, 3);
@@ -134,6 +141,8 @@ namespace delta_pin
       complete(t, yk);
       run.alpha.row(k) = yk.head(n).transpose();
       run.alpha_dot.row(k) = yk.segment(n, n).transpose();
+      run.tau.row(k) = tau.transpose();
+      run.state.row(k) = yk.tail(nz).transpose();
       law.keep(k, tau, yk.tail(nz));
       run.q.row(k) = q.transpose();
       run.v.row(k) = v.transpose();
@@ -155,6 +164,11 @@ namespace delta_pin
           radau.advance_past(t);
         }
         catch (const SimulationFailure &)
+        {
+          run.counters = radau.counters;
+          throw;
+        }
+        catch (const CallbackError &)
         {
           run.counters = radau.counters;
           throw;

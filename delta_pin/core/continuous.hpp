@@ -26,10 +26,47 @@ namespace delta_pin
     void at(double t, Vector & a, Vector & a_dot, Vector & a_ddot) const;
   };
 
+  // The law of a continuous run: (tau, z_dot) at (t, alpha, alpha_dot) with the plant's assembly
+  // q there and the reference at t; keep(k, ...) follows the evaluation at the sample t_k (its
+  // torque and state, for the law's records).
+  class ContinuousLaw
+  {
+  public:
+    virtual ~ContinuousLaw() = default;
+    virtual void evaluate(
+      double t, const Vector & q, const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha,
+      const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot, const Vector & z, Vector & tau, Vector & z_dot) = 0;
+    virtual void keep(long k, const Vector & tau, const Vector & z) = 0;
+  };
+
+  // A compiled law of controller.hpp in the continuous run: its nominal assembly warm-started
+  // from the plant's, its records (torque, state, internals) at the samples.
+  class ProjectedContinuousLaw : public ContinuousLaw
+  {
+  public:
+    ProjectedContinuousLaw(ProjectedLaw & law, long samples, Eigen::Index states)
+    : law_(law)
+    {
+      law_.start_continuous(samples, states);
+    }
+    void evaluate(
+      double, const Vector & q, const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha,
+      const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot, const Vector & z, Vector & tau,
+      Vector & z_dot) override
+    {
+      law_.warm_start(q);
+      law_.evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, tau, z_dot);
+    }
+    void keep(long k, const Vector & tau, const Vector & z) override { law_.keep(k, tau, z); }
+
+  private:
+    ProjectedLaw & law_;
+  };
+
   // the records of a continuous run at the samples t = k dt
   struct ContinuousRun
   {
-    RowMatrix alpha, alpha_dot, q, v, xyz;  // the torque, the state, the internals: the law's records
+    RowMatrix alpha, alpha_dot, tau, state, q, v, xyz;  // the internals: the law's records (keep)
     Vector gap;
     RadauCounters counters;
     long samples = 0;  // the samples recorded (all of them, or up to a failure)
@@ -37,11 +74,13 @@ namespace delta_pin
   };
 
   // Integrate from (alpha0, alpha_dot0, z0) at t = 0 (the loops assembled from q_start) over
-  // `samples` - 1 periods dt and record the samples; torques act on the joints `actuated_v` (indices in v). A failure (the loops cannot
-  // be closed, a non-finite state or torque, |alpha_dot| above max_joint_speed, the step size
-  // collapsing) throws SimulationFailure with its time; `run` keeps the samples recorded before.
+  // `samples` - 1 periods dt and record the samples; torques act on the joints `actuated_v`
+  // (indices in v). A failure (the loops cannot be closed, a non-finite state or torque, a torque
+  // or state rate of the wrong size, |alpha_dot| above max_joint_speed, the step size collapsing)
+  // throws SimulationFailure with its time; a CallbackError of the law passes unchanged; `run`
+  // keeps the samples recorded before.
   void run_continuous(
-    ClosedChainPlant & plant, ProjectedLaw & law, const HermiteReference & reference, const Indices & actuated_v,
+    ClosedChainPlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Indices & actuated_v,
     const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
     long samples,
     const RadauOptions & options, double max_joint_speed, ContinuousRun & run);

@@ -16,4 +16,15 @@ namespace delta_pin
     }
     double time = std::nan("");
   };
+
+  // An error raised by a caller's callback inside a compiled loop (a Python controller): the
+  // loops let it pass unchanged, and the binding that called the loop re-raises the caller's own
+  // error.
+  struct CallbackError : std::runtime_error
+  {
+    CallbackError()
+    : std::runtime_error("the callback raised")
+    {
+    }
+  };
 } // namespace delta_pin

@@ -21,38 +21,64 @@ import math
 import numpy as np
 
 from delta_pin.compiled.core import core
+from delta_pin.control.base import Reference
 from delta_pin.errors import NativeUnavailableError, SimulationError
 from delta_pin.model.core_model import core_supports
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
-from delta_pin.sim.loop import LoopRecord
+from delta_pin.sim.loop import ControlLoop, LoopRecord
 
-__all__ = ["RADAU_FIRST_STEP", "RADAU_MAX_STEP", "continuous_core", "run_core_continuous"]
+__all__ = ["RADAU_FIRST_STEP", "RADAU_MAX_STEP", "PythonLaw", "continuous_core", "run_core_continuous"]
 
 RADAU_FIRST_STEP = 1e-5  # [s]: a run starts in the reaching phase, off the path
 RADAU_MAX_STEP = 1e-2  # [s]
 
 
+class PythonLaw:
+    """A controller's own :meth:`~delta_pin.control.base.Controller.evaluate` called from the
+    core's continuous loop once per evaluation (with the checks of the Python loop's
+    :class:`~delta_pin.sim.loop.ControlLoop`: a torque of the wrong shape or not finite is a
+    :class:`~delta_pin.errors.SimulationError` naming the controller and the time), and its
+    internals recorded at the samples."""
+
+    def __init__(self, controller, plant) -> None:
+        self.controller = controller
+        self._loop = ControlLoop(controller, plant)
+        self._last = None
+        self.internals: dict[str, list] = {}
+
+    def evaluate(self, t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z):
+        reference = Reference(ref_alpha, ref_alpha_dot, ref_alpha_ddot)
+        tau, z_dot, self._last = self._loop.control(t, None, reference, z, (alpha, alpha_dot))
+        return tau, z_dot
+
+    def keep(self, k, tau, z) -> None:
+        for name, value in self._last.internals.items():
+            self.internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+
+
 def continuous_core(plant, controller) -> tuple[object, object] | None:
-    """(the core's plant, the controller's compiled law) for a continuous run of ``plant`` (a
-    :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`) in the core, or ``None`` where
-    it does not apply: the controller has no compiled law (a user's Python law), the plant carries
-    an uncertainty profile or a payload profile (tabulated on a sampled grid in the core), idle
-    motions, passive joints or joint couplings (:func:`~delta_pin.model.core_model.core_supports`),
-    or the core is off (``DELTA_PIN_NATIVE=0``) or not importable."""
-    make_law = getattr(controller, "sampled_core_law", None)
-    if make_law is None or getattr(controller, "dt", None) is not None:  # discrete-time: sampled only
+    """(the core's plant, the law) for a continuous run of ``plant`` (a
+    :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`) in the core -- the controller's
+    compiled law (:meth:`Controller.sampled_core_law
+    <delta_pin.control.base.Controller.sampled_core_law>`) or, for any other continuous-time
+    controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
+    no compiled copy: an uncertainty profile or a payload profile (tabulated on a sampled grid in
+    the core), idle motions, passive joints or joint couplings
+    (:func:`~delta_pin.model.core_model.core_supports`), or the core off (``DELTA_PIN_NATIVE=0``)
+    or not importable."""
+    if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
         return None
     if plant.uncertainty is not None or plant.payload_mass is not None or not core_supports(plant.robot):
         return None
     from delta_pin.sim.compiled_plant import build_core_plant
 
     try:
-        law = make_law()
-        if law is None:
-            return None
-        return build_core_plant(plant), law
+        compiled_plant = build_core_plant(plant)
+        make_law = getattr(controller, "sampled_core_law", None)
+        law = make_law() if make_law is not None else None
     except NativeUnavailableError:
         return None
+    return compiled_plant, PythonLaw(controller, plant) if law is None else law
 
 
 def run_core_continuous(
@@ -78,6 +104,8 @@ def run_core_continuous(
     core_plant, law = compiled
     module = core()
     controller.reset()
+    if isinstance(law, PythonLaw):
+        law.internals = {}
     run = module.new_continuous_run()
     z0 = np.asarray(controller.initial_state(), dtype=float)
     arrays = (
@@ -101,12 +129,15 @@ def run_core_continuous(
     record = LoopRecord(
         alpha=np.array(run.alpha),
         alpha_dot=np.array(run.alpha_dot),
-        tau=np.array(law.tau),
+        tau=np.array(run.tau),
         xyz=np.array(run.xyz),
         closure_residual=np.array(run.gap),
     )
     record.q, record.v = np.array(run.q), np.array(run.v)
-    record.internals = controller.core_law_internals(law)
+    if isinstance(law, PythonLaw):
+        record.internals = {name: np.array(values) for name, values in law.internals.items()}
+    else:
+        record.internals = controller.core_law_internals(law)
     counters = {
         "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
         "jacobians": int(jacobians), "factorizations": int(factorizations),

@@ -129,22 +129,22 @@ def _closed_chain_integrator(
     integrator: str, plant, controller, compiled: bool | None = None
 ) -> tuple[str, tuple | None]:
     """(integrator, compiled plant and law) of a closed chain's continuous run: the core's Radau
-    IIA (:mod:`delta_pin.sim.continuous_core`) where the controller has a compiled law and the
-    plant a compiled copy (``"auto"`` or ``"radau"``), else LSODA (``"auto"``; ``"radau"`` or
-    ``compiled=True``: one line that says why not)."""
+    IIA (:mod:`delta_pin.sim.continuous_core`) where the plant has a compiled copy, with the
+    controller's compiled law or its own Python ``evaluate`` called per evaluation (``"auto"``
+    or ``"radau"``), else LSODA (``"auto"``; ``"radau"`` or ``compiled=True``: one line that says
+    why not)."""
     if integrator not in ("auto", "radau"):
         return integrator, None
     in_core = continuous_core(plant, controller) if isinstance(plant, ClosedChainPlant) else None
     if in_core is not None:
         return "radau", in_core
     if integrator == "radau" or compiled:
-        name = getattr(controller, "name", type(controller).__name__)
         asked = "integrator='radau'" if integrator == "radau" else "compiled=True"
         raise InvalidParameterError(
-            f"{asked}: a closed chain runs continuous in the compiled core with a controller that has a "
-            "compiled law (designs I/II, computed torque, PD, LQR) on a plant without an uncertainty or "
-            f"payload profile, idle motions or passive joints; controller {name!r} on plant "
-            f"{getattr(plant, 'name', plant)!r} takes integrator='lsoda' (compiled=None or False)"
+            f"{asked}: a closed chain runs continuous in the compiled core with a continuous-time "
+            "controller on a plant without an uncertainty or payload profile, idle motions, passive "
+            f"joints or joint couplings, the core on; plant {getattr(plant, 'name', plant)!r} here takes "
+            "integrator='lsoda' (compiled=None or False)"
         )
     return "lsoda", None
 

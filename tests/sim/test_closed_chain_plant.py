@@ -125,12 +125,11 @@ def test_every_controller_runs_on_a_closed_chain_robot(five_bar, controller):
 def test_compiled_loops_and_their_integrators_are_refused_by_name(five_bar):
     nominal = dp.ClosedChainNominalModel(five_bar)
 
-    def python_law(t, alpha, alpha_dot):  # no compiled law: the continuous run takes LSODA
-        return np.zeros(2)
-
+    payload = dp.ClosedChainPlant(five_bar, payload_mass=lambda t: 0.1, coordinates="active")
     with pytest.raises(InvalidParameterError, match="compiled=True: a closed chain runs continuous in the"):
         dp.simulate(
-            five_bar, python_law, None, t_end=0.1, alpha0=five_bar.home, mode="continuous", compiled=True
+            five_bar, dp.PDGravity(nominal), None, plant=payload, t_end=0.1, alpha0=five_bar.home,
+            mode="continuous", compiled=True,
         )  # fmt: skip
     for mode in ("sampled", "continuous"):
         run = dp.simulate(

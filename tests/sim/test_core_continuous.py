@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.errors import InvalidParameterError
+from delta_pin.errors import InvalidParameterError, SimulationError
 
 T_END = 0.4  # [s]: the reaching phase and a stretch of tracking; the LSODA reference costs ~seconds
 TOLERANCE = 1e-6  # [rad], the issue's bound (module docstring)
@@ -56,29 +56,75 @@ def test_core_radau_follows_the_tight_python_reference(name):
     np.testing.assert_allclose(core.xyz, reference.xyz, rtol=0, atol=1e-6)
 
 
-def test_a_python_law_takes_lsoda_and_radau_names_why_not():
-    """A controller without a compiled law (a user's callable) runs under LSODA by default; asking
-    for the core's Radau with it is refused in one line that names the controller and what works."""
-    robot, path = _case("five_bar")
+def _pd_gravity(robot):
     nominal = dp.ClosedChainNominalModel(robot)
-    ctc = dp.ComputedTorque(nominal)
+    home = robot.home
 
-    def law(t, alpha, alpha_dot):
-        return nominal.terms(alpha, np.zeros_like(alpha))[2]  # gravity compensation
+    def law(t, alpha, alpha_dot):  # a user's law in Python: PD about home with gravity compensation
+        return nominal.terms(alpha, np.zeros_like(alpha))[2] - 20.0 * (alpha - home) - 2.0 * alpha_dot
 
-    run = dp.simulate(robot, law, None, t_end=0.02, mode="continuous", alpha0=robot.home)
-    assert run.metadata["integrator"] == "lsoda"
+    return law
+
+
+def test_a_python_law_runs_per_evaluation_in_the_core_loop():
+    """A user's Python law in continuous mode gets the core's plant and Radau (called back per
+    evaluation): within 1e-6 rad of the same law on the Python plant under LSODA at rtol 1e-10
+    (module docstring), the plant's q recorded at every sample."""
+    robot = dp.load_robot("five_bar")
+    law = _pd_gravity(robot)
+    options = {"t_end": 0.3, "mode": "continuous", "alpha0": robot.home + 0.05}
+    run = dp.simulate(robot, law, None, **options)
+    assert run.metadata["integrator"] == "radau" and run.metadata["core_plant"]
+    reference = dp.simulate(robot, law, None, integrator="lsoda", rtol=1e-10, atol=1e-12, **options)
+    assert reference.metadata["integrator"] == "lsoda" and not reference.metadata.get("core_plant")
+    assert np.abs(run.alpha - reference.alpha).max() < TOLERANCE
+    assert np.abs(run.alpha - run.alpha[0]).max() > 1e-2  # it moved (PD towards home)
+    np.testing.assert_allclose(run.tau, reference.tau, rtol=0, atol=1e-5 * np.abs(reference.tau).max())
+    assert run.q.shape == (len(run.t), robot.model.nq)
+
+
+def test_a_python_law_that_fails_inside_the_core_loop():
+    """What a Python law raises passes through the compiled loop unchanged; a non-finite torque or
+    one of the wrong shape stops the run in one line naming the controller and the time."""
+    robot = dp.load_robot("five_bar")
+    law = _pd_gravity(robot)
+    options = {"t_end": 0.2, "mode": "continuous", "alpha0": robot.home}
+
+    class BrokenLawError(RuntimeError):
+        pass
+
+    def raising(t, alpha, alpha_dot):
+        if t > 0.05:
+            raise BrokenLawError(f"the user's law broke at t = {t:.3f}")
+        return law(t, alpha, alpha_dot)
+
+    with pytest.raises(BrokenLawError, match=r"the user's law broke at t = 0\.05"):
+        dp.simulate(robot, raising, None, **options)
+
+    def nan_law(t, alpha, alpha_dot):
+        return law(t, alpha, alpha_dot) * (np.nan if t > 0.1 else 1.0)
+
+    with pytest.raises(SimulationError, match=r"returned a non-finite torque \[nan, nan\]") as info:
+        dp.simulate(robot, nan_law, None, **options)
+    assert 0.1 <= info.value.time <= 0.11 and "\n" not in str(info.value)
+
+    def wide_law(t, alpha, alpha_dot):
+        return np.zeros(3)
+
+    with pytest.raises(SimulationError, match=r"torque of shape \(3,\), expected \(2,\)"):
+        dp.simulate(robot, wide_law, None, **options)
+
+
+def test_radau_names_why_a_plant_has_no_core_loop():
+    """A plant the core does not hold (a payload profile here) takes LSODA by default; asking for
+    the core's Radau is refused in one line that says what works; compiled=False is the Python
+    route."""
+    robot, path = _case("five_bar")
+    ctc = dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
+    plant = dp.ClosedChainPlant(robot, payload_mass=lambda t: 0.1, coordinates="active")
+    options = {"t_end": 0.02, "mode": "continuous"}
+    assert dp.simulate(robot, ctc, path, plant=plant, **options).metadata["integrator"] == "lsoda"
     with pytest.raises(InvalidParameterError, match=r"integrator='radau'.*takes integrator='lsoda'") as info:
-        dp.simulate(robot, law, None, t_end=0.02, mode="continuous", alpha0=robot.home, integrator="radau")
+        dp.simulate(robot, ctc, path, plant=plant, integrator="radau", **options)
     assert "\n" not in str(info.value)
-    # a built-in law with a compiled one: radau on request, lsoda with compiled=False
-    assert (
-        dp.simulate(robot, ctc, path, t_end=0.02, mode="continuous", integrator="radau").metadata[
-            "integrator"
-        ]
-        == "radau"
-    )
-    assert (
-        dp.simulate(robot, ctc, path, t_end=0.02, mode="continuous", compiled=False).metadata["integrator"]
-        == "lsoda"
-    )
+    assert dp.simulate(robot, ctc, path, compiled=False, **options).metadata["integrator"] == "lsoda"
