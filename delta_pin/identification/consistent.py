@@ -17,9 +17,11 @@ offsets are free. ``scipy.optimize.least_squares`` (trust-region reflective) min
     | R_w (beta(theta(phi)) - beta_wls) |^2 + lambda | (theta(phi) - theta_prior) / s |^2,
 
 R_w the R factor of the whitened base regressor (so the first term is the WLS cost up to a
-constant: the fit to the log), theta_prior the nominal (CAD) parameters with scales s (their
-magnitudes, floored), and lambda = ``prior_weight`` small (1e-6): the log fixes the base
-parameters, the prior only the combinations the log cannot see. Bodies whose nominal mass is 0
+constant, in units of the noise's standard deviation: the fit to the log), theta_prior the nominal
+(CAD) parameters with scales s (their magnitudes, floored at 1e-3 of the largest), and lambda =
+``prior_weight`` = 1e-2: a parameter off its prior by its own scale costs what a tenth of a
+standard deviation of the data does, so the log fixes the base parameters and the prior only the
+combinations the log cannot see. Bodies whose nominal mass is 0
 (the Delta's massless slides and elbow links) stay at 0. The distance to the unconstrained WLS
 estimate is reported in the WLS metric (Mahalanobis, |R_w delta beta|) and relative, |delta beta| / |beta|.
 """
@@ -122,7 +124,7 @@ def consistent_estimate(
     beta_wls: np.ndarray,
     R_w: np.ndarray,
     theta_prior: np.ndarray,
-    prior_weight: float = 1e-6,
+    prior_weight: float = 1e-2,
 ) -> ConsistentEstimate:
     """Solve the module docstring's problem.
 
@@ -156,7 +158,7 @@ def consistent_estimate(
         return theta
 
     scale = np.maximum(np.abs(theta_prior), 1e-3 * np.abs(theta_prior).max())
-    prior = np.sqrt(prior_weight) * np.linalg.norm(R_w @ beta_wls) / np.sqrt(p)
+    prior = np.sqrt(prior_weight)  # the data rows are whitened: one unit is one standard deviation
     # the residual is linear in theta: r = A theta - c, so its Jacobian is A dtheta/dphi, the
     # latter block-diagonal (10 x 10 per body by central differences of the log-Cholesky map,
     # exact to ~1e-10 relative: a polynomial of exponentials; the identity on the joint columns)
@@ -187,12 +189,19 @@ def consistent_estimate(
         return A @ D
 
     del columns
-    # start: the prior's bodies, the WLS estimate's joint columns where they are base parameters
-    x0 = [parameters_to_log_cholesky(theta_prior[10 * k : 10 * k + 10]) for k in bodies]
-    joint0 = np.array(theta_prior[n_in:], dtype=float)
-    for i, k in enumerate(base.independent):
-        if k >= n_in:
-            joint0[k - n_in] = beta_wls[i]
+    # start: the prior moved by the smallest change (in the prior's scaled metric) that makes its
+    # base parameters the WLS ones, theta_0 = theta_p + D (B D)^+ (beta_wls - B theta_p), then each
+    # body's pseudo-inertia clipped to J ⪰ 0 (parameters_to_log_cholesky): near the data at once,
+    # which the trust region then only polishes
+    D = np.diag(scale)
+    start = theta_prior + D @ np.linalg.lstsq(B @ D, beta_wls - B @ theta_prior, rcond=None)[0]
+    x0 = []
+    for k in bodies:
+        body = start[10 * k : 10 * k + 10].copy()
+        if body[0] <= 0.0:  # a mass the correction made non-positive: the prior's body instead
+            body = theta_prior[10 * k : 10 * k + 10]
+        x0.append(parameters_to_log_cholesky(body))
+    joint0 = start[n_in:].copy()
     joint0 = np.where(np.isfinite(joint_lower), np.maximum(joint0, 1e-9), joint0)
     x0 = np.concatenate([*x0, joint0])
     # the logarithms bounded (a mass or a principal inertia within e^-30 .. e^10 of 1 kg, kg m^2):
@@ -202,7 +211,7 @@ def consistent_estimate(
     upper = np.concatenate([np.tile([5.0, 10.0, 10.0, 10.0, *free], len(bodies)), np.full(p - n_in, np.inf)])
     x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
     result = least_squares(residual, x0, jac=jacobian, bounds=(lower, upper), method="trf", x_scale="jac",
-                           max_nfev=150, ftol=1e-10, xtol=1e-10)  # fmt: skip
+                           max_nfev=100, ftol=1e-10, xtol=1e-10)  # fmt: skip
     theta = unpack(result.x)
     beta = base.values(theta)
     eigen = []

@@ -24,6 +24,11 @@
   covariance sigma^2 (W_b^T W_b)^-1 with sigma^2 = |r|^2 / (n dof - r).
 * **Weighted least squares**: each joint's rows weighted by 1 / sigma_j, sigma_j^2 its OLS
   residual variance (Gautier & Poignet 2001); covariance (W^T Sigma^-1 W)^-1.
+* **Essential parameters** (Pham & Gautier 1991), optional: a base parameter whose WLS estimate is
+  not significantly different from 0 (|beta_i| / sigma_i < ``t_min`` = 3) is set to 0 and the rest
+  re-fitted, the least significant first, until every one left is significant. What is dropped is
+  listed (its t value when dropped), never silent; a Delta's rods have zero products of inertia,
+  and fitting them only adds variance to the rest.
 * **Identifiability of the log.** Before the fit, W_b's columns are scaled to unit norm and
   factored by pivoted QR; a base parameter whose diagonal entry is below ``LOG_RANK_TOLERANCE``
   (1e-7) of the largest is not identifiable from this excitation, and the fit refuses, naming it
@@ -48,6 +53,8 @@ __all__ = [
     "Estimate",
     "FilteredStates",
     "check_identifiable",
+    "essential_fit",
+    "expand",
     "filtered_states",
     "least_squares_fit",
     "log_regressor",
@@ -245,3 +252,34 @@ def least_squares_fit(
 def base_names(base: BaseParameters) -> list[str]:
     """Short names of the base parameters (:meth:`BaseParameters.short_names`)."""
     return base.short_names()
+
+
+def essential_fit(
+    Y_base: np.ndarray, tau: np.ndarray, mask: np.ndarray, t_min: float = 3.0
+) -> tuple[np.ndarray, list[tuple[int, float]], Estimate, Estimate]:
+    """The essential parameters (module docstring): (the kept base parameters' indices, [(dropped
+    index, its |t| when dropped), ...] in dropping order, OLS and WLS on the kept ones)."""
+    kept = np.arange(Y_base.shape[2])
+    dropped: list[tuple[int, float]] = []
+    while True:
+        ols, wls = least_squares_fit(Y_base[:, :, kept], tau, mask)
+        t = np.abs(wls.beta) / wls.std
+        worst = int(np.argmin(t))
+        if t[worst] >= t_min or len(kept) == 1:
+            return kept, dropped, ols, wls
+        dropped.append((int(kept[worst]), float(t[worst])))
+        kept = np.delete(kept, worst)
+
+
+def expand(estimate: Estimate, kept: np.ndarray, size: int) -> Estimate:
+    """An estimate on the ``kept`` base parameters as one on all ``size`` of them (0, with zero
+    variance, where dropped)."""
+    beta = np.zeros(size)
+    beta[kept] = estimate.beta
+    covariance = np.zeros((size, size))
+    covariance[np.ix_(kept, kept)] = estimate.covariance
+    R = None
+    if estimate.R is not None:
+        R = np.zeros((len(kept), size))
+        R[:, kept] = estimate.R
+    return Estimate(beta, covariance, estimate.sigma, estimate.method, R)

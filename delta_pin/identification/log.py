@@ -152,7 +152,7 @@ def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> Identific
         bad = np.flatnonzero(~np.isfinite(column))
         if bad.size:
             raise InvalidParameterError(
-                f"log {path}: line {numbers[bad[0]]}, column {name!r} is {column[bad[0]]!r} (not finite)"
+                f"log {path}: line {numbers[bad[0]]}, column {name!r} is {float(column[bad[0]])} (not finite)"
             )
     t = data[:, index["t"]]
     step = np.diff(t)

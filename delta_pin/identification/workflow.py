@@ -25,6 +25,8 @@ from delta_pin.identification.consistent import ConsistentEstimate, consistent_e
 from delta_pin.identification.estimation import (
     Estimate,
     check_identifiable,
+    essential_fit,
+    expand,
     filtered_states,
     least_squares_fit,
     log_regressor,
@@ -96,8 +98,12 @@ def simulate_log(
 
     if friction is True:
         friction = Friction()
-    controller = ComputedTorque(ClosedChainNominalModel(robot if nominal is None else nominal),
-                                D=20.0, T_p=20.0, T_v=20.0)  # fmt: skip
+    model = ClosedChainNominalModel(robot if nominal is None else nominal)
+    # gains scaled by the smallest inertia at the start, so that any robot's loop is stable at
+    # 1 kHz (the damping's k T / m is 0.04 here, far below the sampled limit 2; docs/architecture.md
+    # section 6): error dynamics of ~20 rad/s
+    inertia = float(np.linalg.eigvalsh(model.terms(trajectory.alpha0, np.zeros(robot.dof))[0]).min())
+    controller = ComputedTorque(model, D=20.0, T_p=400.0 * inertia, T_v=20.0 * inertia)
     plant = ClosedChainPlant(robot, friction=friction or None, payload_mass=payload_mass or None)
     run = simulate(robot, controller, trajectory, plant=plant, t_end=trajectory.duration, dt=dt,
                    alpha0=trajectory.alpha0, alpha_dot0=np.zeros(robot.dof))  # fmt: skip
@@ -193,6 +199,7 @@ class IdentificationResult:
     timings: dict = field(default_factory=dict)
     lumped: dict | None = None
     xacro_arguments: dict | None = None
+    dropped: list = field(default_factory=list)
     friction: dict = field(default_factory=dict)
 
     @property
@@ -237,6 +244,7 @@ def identify(
     consistent: bool = True,
     prior_robot=None,
     refine_stribeck: bool = False,
+    essential: bool = True,
 ) -> IdentificationResult:
     """Identify ``robot``'s base parameters from a log (docs/identification.md).
 
@@ -250,6 +258,9 @@ def identify(
         consistent: also compute the physically consistent estimate.
         prior_robot: the robot whose parameters are the prior (default ``robot``).
         refine_stribeck: refine the Stribeck velocity v_s by a 1-D search (variable projection).
+        essential: set the base parameters not significantly different from 0 to 0 and re-fit the
+            rest (:func:`~delta_pin.identification.estimation.essential_fit`; listed in
+            ``result.dropped``); ``False`` fits every base parameter.
 
     Raises:
         InvalidParameterError: a bad log (one line: column, line), an excitation that leaves
@@ -287,7 +298,12 @@ def identify(
     Y_base = base.reduce(Y)
     W = Y_base.reshape(-1, base.rank)[mask.ravel()]
     check_identifiable(W, names)
-    ols, wls = least_squares_fit(Y_base, tau, mask)
+    dropped: list = []
+    ols_full, wls_full = least_squares_fit(Y_base, tau, mask)
+    ols, wls = ols_full, wls_full
+    if essential:
+        kept, dropped, ols, wls = essential_fit(Y_base, tau, mask)
+        ols, wls = expand(ols, kept, base.rank), expand(wls, kept, base.rank)
     norms = np.linalg.norm(W, axis=0)
     singular = np.linalg.svd(W / norms, compute_uv=False)
     timings["least_squares"] = time.perf_counter() - t0
@@ -296,7 +312,9 @@ def identify(
     if consistent:
         t0 = time.perf_counter()
 
-        estimate = consistent_estimate(regressor, base, wls.beta, wls.R, theta_nominal)
+        # on every base parameter's WLS estimate (the essential fit's zeros are a choice of model,
+        # the consistent estimate's bodies make their own)
+        estimate = consistent_estimate(regressor, base, wls_full.beta, wls_full.R, theta_nominal)
         timings["consistent"] = time.perf_counter() - t0
     residual = np.where(mask, tau - Y_base @ wls.beta, 0.0)
     kept = np.maximum(mask.sum(axis=0), 1)
@@ -316,6 +334,7 @@ def identify(
         singular_values=singular / singular[0],
         cutoff=cutoff,
         timings=timings,
+        dropped=[(names[k], t) for k, t in dropped],
     )
     result.friction = _friction_estimates(regressor, base, wls)
     if getattr(robot, "delta", None) is not None:
