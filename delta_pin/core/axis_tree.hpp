@@ -217,6 +217,17 @@ namespace dpn
       return (int)joints_.size();
     }
 
+    // the body of joint `joint` (1-based) given a new mass [kg], COM in the joint frame [m] and
+    // rotational inertia about the COM [kg m^2] (a payload added to it)
+    void set_body(int joint, double mass, const Vec3 & com, const Mat3 & com_inertia)
+    {
+      AxisJoint & body = joints_.at((size_t)(joint - 1));
+      body.mass = mass;
+      body.com = com;
+      body.com_inertia = com_inertia;
+      body.massless = mass == 0.0 && com_inertia.isZero(0.0);
+    }
+
     // ddq (nv) at (q, v) under joint torques tau (nv), the platform body's mass [kg] and
     // rotational inertia about its COM (9 numbers, row by row) set first. Returns false where M or
     // the Delassus matrix is not positive definite (a massless mechanism, dependent closures).

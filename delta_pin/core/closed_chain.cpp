@@ -143,6 +143,8 @@ namespace delta_pin
   , actuated_q_(actuated_q)
   , actuated_v_(actuated_v)
   , projection_tolerance_(projection_tolerance)
+  , baumgarte_kp_(baumgarte_kp)
+  , baumgarte_kd_(baumgarte_kd)
   {
     coefficient_rates_ = model_.nq != model_.nv;
     for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
@@ -160,8 +162,75 @@ namespace delta_pin
     data_ = Data(model_);
     initConstraintDynamics(model_, data_, constraint_models_, constraint_datas_);
     tau_ = Vector::Zero(model_.nv);
+    ddq_ = Vector::Zero(model_.nv);
     last_q_ = neutral(model_);
     friction_.normal_force = Vector::Zero(dof());
+    if (proximal_mu == 0.0)
+      use_axis_tree(true);
+  }
+
+  namespace
+  {
+    // RX, RY, RZ, PX, PY, PZ as axis_tree.hpp's type codes 0..5, -1 for any other joint
+    int axis_code(const pinocchio::JointModel & joint)
+    {
+      static const char * names[6] = {"JointModelRX", "JointModelRY", "JointModelRZ",
+                                      "JointModelPX", "JointModelPY", "JointModelPZ"};
+      const std::string name = joint.shortname();
+      for (int code = 0; code < 6; ++code)
+        if (name == names[code])
+          return code;
+      return -1;
+    }
+
+    void rotation_and_translation(const SE3 & placement, double * out)
+    {
+      typedef Eigen::Matrix<double, 3, 3, Eigen::RowMajor> RowMatrix3;
+      Eigen::Map<RowMatrix3> rotation(out);
+      Eigen::Map<Eigen::Vector3d> translation(out + 9);
+      rotation = placement.rotation();
+      translation = placement.translation();
+    }
+  } // namespace
+
+  void ClosedChainPlant::use_axis_tree(bool use)
+  {
+    axis_.reset();
+    if (!use || coefficient_rates_ || settings_.mu != 0.0)
+      return;
+    const int joints = model_.njoints - 1;
+    std::vector<int> parents, types, closure_joints;
+    std::vector<double> placements(12 * (size_t)joints), inertias(13 * (size_t)joints), anchors;
+    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
+    {
+      const int code = axis_code(model_.joints[j]);
+      if (code < 0)
+        return;  // a joint the axis stage does not hold
+      types.push_back(code);
+      parents.push_back((int)model_.parents[j]);
+      rotation_and_translation(model_.jointPlacements[j], &placements[12 * (j - 1)]);
+      const Inertia & inertia = model_.inertias[j];
+      double * row = &inertias[13 * (j - 1)];
+      row[0] = inertia.mass();
+      Eigen::Map<Eigen::Vector3d> com(row + 1);
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rotational(row + 4);
+      com = inertia.lever();
+      rotational = inertia.inertia().matrix();
+    }
+    for (const RigidConstraintModel & constraint : constraint_models_)
+    {
+      if (constraint.type != CONTACT_3D || constraint.reference_frame != LOCAL)
+        return;
+      closure_joints.push_back((int)constraint.joint1_id);
+      closure_joints.push_back((int)constraint.joint2_id);
+      anchors.resize(anchors.size() + 24);
+      rotation_and_translation(constraint.joint1_placement, &anchors[anchors.size() - 24]);
+      rotation_and_translation(constraint.joint2_placement, &anchors[anchors.size() - 12]);
+    }
+    const double gravity[3] = {model_.gravity.linear()[0], model_.gravity.linear()[1], model_.gravity.linear()[2]};
+    axis_.reset(new dpn::AxisTree(
+      joints, parents.data(), types.data(), placements.data(), inertias.data(), gravity,
+      (int)constraint_models_.size(), closure_joints.data(), anchors.data(), baumgarte_kp_, baumgarte_kd_, 0));
   }
 
   void ClosedChainPlant::set_springs(
@@ -203,6 +272,11 @@ namespace delta_pin
       model_.inertias[payload_joint_] =
         base_inertia_ + Inertia(mass, payload_point_, Symmetric3::Zero());
       mass_ = mass;
+      if (axis_)
+      {
+        const Inertia & body = model_.inertias[payload_joint_];
+        axis_->set_body((int)payload_joint_, body.mass(), body.lever(), body.inertia().matrix());
+      }
     }
   }
 
@@ -489,6 +563,12 @@ namespace delta_pin
         spring_k_[i] * (q[spring_q_[i]] - spring_ref_[i]) + spring_d_[i] * v[spring_v_[i]];
     for (Eigen::Index i = 0; i < damper_v_.size(); ++i)
       tau_[damper_v_[i]] -= damper_d_[i] * v[damper_v_[i]];
+    if (axis_)
+    {
+      if (axis_->dynamics(q.data(), v.data(), tau_.data(), 0.0, nullptr, ddq_.data()))
+        return ddq_;
+      axis_.reset();  // M or the Delassus matrix not positive definite: Pinocchio's from now on
+    }
     return constraintDynamics(
       model_, data_, q, v, tau_, constraint_models_, constraint_datas_, settings_);
   }

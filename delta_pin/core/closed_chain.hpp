@@ -16,12 +16,14 @@
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
 #include <pinocchio/multibody.hpp>
 
+#include "axis_tree.hpp"
 #include "control/friction.hpp"
 
 #include <Eigen/Dense>
 
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -158,6 +160,13 @@ namespace delta_pin
     double failure_time() const { return failure_time_; }
 
     ClosedChainModel & chain() { return chain_; }
+    // The stage that gives the accelerations: "axis_tree" (axis_tree.hpp, delta-pin's recursive
+    // algorithms, where the tree has only RX..PZ joints, the closures are LOCAL points with the
+    // exact KKT solution asked for, proximal mu = 0) or "constraint_dynamics" (Pinocchio's).
+    // use_axis_tree(false) keeps Pinocchio's; a step where the axis stage finds M or the Delassus
+    // matrix not positive definite falls back to Pinocchio's for good.
+    std::string stage() const { return axis_ ? "axis_tree" : "constraint_dynamics"; }
+    void use_axis_tree(bool use);
     // ddq at (q, v) under actuated torques tau at the payload table's row `stage`
     const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage);
     // dx/dt at x
@@ -206,6 +215,9 @@ namespace delta_pin
     pinocchio::Inertia base_inertia_ = pinocchio::Inertia::Zero();
     Vector payload_masses_;
     double mass_ = 0.0;
+    double baumgarte_kp_, baumgarte_kd_;
+    std::unique_ptr<dpn::AxisTree> axis_;
+    Vector ddq_;
     // scratch
     Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_;
   };
