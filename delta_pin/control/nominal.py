@@ -21,8 +21,8 @@ import pinocchio as pin
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
 from delta_pin.compiled.layouts import as_table
-from delta_pin.errors import InvalidParameterError
-from delta_pin.model.core_model import core_arguments, core_model
+from delta_pin.errors import InvalidParameterError, NativeUnavailableError
+from delta_pin.model.core_model import core_arguments, core_model, core_supports
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
@@ -84,6 +84,7 @@ class DeltaNominalModel(NominalModel):
     """
 
     dof = 3
+    delta_loops = True  # load_delta's runs on this model keep the Delta's own compiled loops
 
     def __init__(
         self,
@@ -108,8 +109,9 @@ class DeltaNominalModel(NominalModel):
         self.friction_model = friction or None
         self.friction_parameters = kernel_friction(None)
         self.normal_force = np.zeros(3)
+        self.stribeck = None
         if self.friction_model is not None:
-            stribeck = self.friction_model.stribeck_for(robot.params.friction)
+            stribeck = self.stribeck = self.friction_model.stribeck_for(robot.params.friction)
             self.friction_parameters = kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
             self.normal_force = np.full(3, float(self.friction_model.normal_force))
         self._friction_table = as_table(self.friction_parameters)
@@ -119,6 +121,21 @@ class DeltaNominalModel(NominalModel):
         if not ok:
             raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
         return M, C, G
+
+    def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
+        """The compiled law ``kind`` on this analytic model (eqs. 7-10 in the core,
+        ``core/control/delta_analytic.hpp``; F̄ and, with ``friction_compensation``, the nominal
+        friction), for the closed chain of the Delta's URDF, where the core takes it."""
+        chain = self.robot.pinocchio
+        law = _core_law(
+            chain, kind, name, gains, self._disturbance, self.stribeck if friction_compensation else None,
+            self.friction_model, self.normal_force,
+        )  # fmt: skip
+        if law is not None:
+            p = self.robot.params
+            arm_gravity = 0.5 * (p.m_a + p.m_b) * p.g * p.l_a  # eq. 9 (corrected)
+            law.use_delta_model(p.R, p.r, p.l_a, p.l_b, p.arm_equivalent_inertia, arm_gravity, p.g, self.m_eq)
+        return law
 
     def kernel_fields(self, friction_compensation: bool = True) -> dict:
         """The nominal model as a compiled law's record reads it: ``disturbance``, ``friction``
@@ -263,24 +280,10 @@ class ClosedChainNominalModel(NominalModel):
         ``friction_compensation``, the nominal friction), where the core takes the robot."""
         if self._core is None:
             return None
-        from delta_pin.compiled.core import core
-
-        law = getattr(core(), kind)(
-            *core_arguments(self.robot), int(self.robot.end_effector), self.robot.reference_configuration,
-            np.asarray(self._disturbance, dtype=float), name, *gains,
-        )  # fmt: skip
-        if friction_compensation and self.stribeck is not None:
-            s = self.stribeck
-            law.set_friction(
-                s.r_a,
-                s.v_s,
-                s.mu_s,
-                s.mu_d,
-                s.mu_v,
-                self.friction_model.sign_velocity_scale,
-                self.normal_force,
-            )
-        return law
+        stribeck = self.stribeck if friction_compensation else None
+        return _core_law(
+            self.robot, kind, name, gains, self._disturbance, stribeck, self.friction_model, self.normal_force
+        )
 
     def disturbance(self):
         return self._disturbance
@@ -300,3 +303,25 @@ class ClosedChainNominalModel(NominalModel):
             "nominal_disturbance": self._disturbance.tolist(),
             "nominal_normal_force": None if self.friction_model is None else self.friction_model.normal_force,
         }
+
+
+def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
+    """The compiled law ``kind`` of ``delta_pin/core/controller.hpp`` for the closed chain
+    ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
+    compensates, or ``None``), or ``None`` where the core does not take the robot."""
+    if not core_supports(robot):
+        return None
+    from delta_pin.compiled.core import core
+
+    try:
+        module = core()
+    except NativeUnavailableError:
+        return None
+    law = getattr(module, kind)(
+        *core_arguments(robot), int(robot.end_effector), robot.reference_configuration,
+        np.asarray(disturbance, dtype=float), name, *gains,
+    )  # fmt: skip
+    if stribeck is not None:
+        s = stribeck
+        law.set_friction(s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, friction.sign_velocity_scale, normal_force)
+    return law

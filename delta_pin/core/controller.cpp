@@ -60,8 +60,28 @@ namespace delta_pin
     compute(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
   }
 
+  void ProjectedLaw::use_delta_model(const DeltaGeometry & geometry)
+  {
+    if (nominal_.dof() != 3)
+      throw std::invalid_argument("the Delta's analytic model needs three actuated joints");
+    geometry_ = geometry;
+    delta_model_ = true;
+  }
+
   void ProjectedLaw::terms(const Vector & alpha, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G)
   {
+    if (delta_model_)
+    {
+      Vector3 xyz, G3;
+      Matrix3 J, J_dot, M3, C3;
+      if (!delta_kinematics(geometry_, alpha, alpha_dot, xyz, J, J_dot))
+        throw SimulationFailure("the nominal model's forward kinematics has no solution at alpha=" + joints(alpha));
+      delta_dynamics(geometry_, alpha, J, J_dot, M3, C3, G3);
+      M = M3;
+      C = C3;
+      G = G3;
+      return;
+    }
     Vector q;
     if (!nominal_.configuration(alpha, q_, q))
       throw SimulationFailure("the nominal model's loops do not close at alpha=" + joints(alpha));

@@ -5,6 +5,7 @@
 
 #include "closed_chain.hpp"
 #include "control/adaptive_robust_law.hpp"
+#include "control/delta_analytic.hpp"
 #include "control/digital_robust_law.hpp"
 #include "control/lqr_law.hpp"
 #include "control/time_delay_control.hpp"
@@ -61,6 +62,9 @@ namespace delta_pin
 
     // the nominal friction compensated (eq. 23's M̄_f; not called: none)
     void set_friction(const FrictionSpec & friction);
+    // the Delta's analytic model (eqs. 7-10, control/delta_analytic.hpp) as the nominal M, C, G
+    // instead of the projection (DeltaNominalModel); three actuated joints
+    void use_delta_model(const DeltaGeometry & geometry);
     // the reference per sample (rows: alpha^d, alpha_dot^d, alpha_ddot^d), the sample period
     // [s], the initial state and the number of samples to record
     void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
@@ -129,6 +133,8 @@ namespace delta_pin
     int delay_ = 0;
     long head_ = 0;
     ClosedChainModel nominal_;
+    bool delta_model_ = false;
+    DeltaGeometry geometry_;
     Vector q_;  // the nominal model's last assembly (warm start)
     Vector disturbance_;
     FrictionSpec friction_;

@@ -262,6 +262,26 @@ NB_MODULE(_core, m)
          double sign_scale, const Eigen::VectorXd & normal_force)
       { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); },
       "The nominal friction the law compensates (eq. 12).")
+    .def(
+      "use_delta_model",
+      [](delta_pin::ProjectedLaw & self, double R, double r, double l_a, double l_b, double arm_inertia,
+         double arm_gravity, double g, double m_eq)
+      {
+        delta_pin::DeltaGeometry geometry;
+        geometry.R = R;
+        geometry.r = r;
+        geometry.l_a = l_a;
+        geometry.l_b = l_b;
+        geometry.arm_inertia = arm_inertia;
+        geometry.arm_gravity = arm_gravity;
+        geometry.g = g;
+        geometry.m_eq = m_eq;
+        self.use_delta_model(geometry);
+      },
+      nb::arg("R"), nb::arg("r"), nb::arg("l_a"), nb::arg("l_b"), nb::arg("arm_inertia"), nb::arg("arm_gravity"),
+      nb::arg("g"), nb::arg("m_eq"),
+      "The Delta's analytic M, C, G (eqs. 7-10; lengths [m], the arm's inertia [kg m^2] and gravity torque "
+      "[N m], g [m/s^2], m_eq [kg]) as the nominal model instead of the projection (DeltaNominalModel).")
     .def("start", &delta_pin::ProjectedLaw::start,
          "The reference table, the period [s], the initial state, the samples to record, the speed limit.")
     .def(

@@ -154,10 +154,11 @@ def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", de
     ``load_delta``: ``carries_own_delta``) runs on the Delta's own plants and compiled loops:
     unless it is given a Pinocchio plant that those loops do not take (``delta_tree`` false: a
     payload point, say), a path of a named frame, or, in sampled mode on the Pinocchio plant, a
-    controller whose law the compiled core holds for the closed chain
-    (``sampled_core_law``: designs I/II on the projected nominal model) where the run needs
-    nothing only the Delta's plants model (``delta_only``: an uncertainty profile, a sensor, a
-    delay or a torque limit)."""
+    controller whose law the compiled core holds for the closed chain (``sampled_core_law``)
+    where the run needs nothing only the Delta's plants model (``delta_only``: an uncertainty
+    profile, a sensor, a delay or a torque limit) and its nominal model does not keep the
+    Delta's own loops (``delta_loops``: the analytic model, whose runs keep the paper's route
+    until those loops are in the core)."""
     given = isinstance(plant, ClosedChainPlant)
     if not carries_own_delta(robot) or (given and not plant.delta_tree):
         return False
@@ -166,7 +167,8 @@ def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", de
     delta_only = delta_only or (given and plant.uncertainty is not None)
     if mode == "sampled" and (given or plant == "pinocchio") and not delta_only and controller is not None:
         law = getattr(controller, "sampled_core_law", None)
-        if law is not None and law() is not None:
+        own_loops = getattr(getattr(controller, "nominal", None), "delta_loops", False)
+        if law is not None and not own_loops and law() is not None:
             return False  # the closed chain's compiled plant and law
     return True
 
