@@ -39,7 +39,7 @@ from common import machine_info
 import delta_pin as dp
 from delta_pin.identification.base import base_parameters
 from delta_pin.identification.excitation import ExcitationLimits, FourierExcitation, optimize_excitation
-from delta_pin.identification.regressor import ClosedChainRegressor
+from delta_pin.identification.regressor import ClosedChainRegressor, JointColumns
 from delta_pin.identification.workflow import (
     friction_truth,
     identify,
@@ -81,11 +81,12 @@ def excitation(robot, alpha0, limits, iterations, duration, seed, harmonics=8, p
     return trajectory, info
 
 
-def design1_error(nominal_robot, true_robot) -> float:
-    """max |r| [rad] over the last 5 s of design I on path I (continuous) on the true robot's plant."""
+def design1_error(nominal_robot, true_robot, rtol: float = 1e-6) -> float:
+    """max |r| [rad] over the last 5 s of design I on path I (continuous, Radau at ``rtol``, atol
+    rtol / 100) on the true robot's plant."""
     control = dp.design1(dp.DeltaNominalModel(nominal_robot, friction=dp.Friction()))
     run = dp.simulate(true_robot, control, dp.PathI(), plant="pinocchio", t_end=15.0, mode="continuous",
-                      friction=dp.Friction())  # fmt: skip
+                      friction=dp.Friction(), rtol=rtol, atol=rtol * 1e-2)  # fmt: skip
     return compute_metrics(run).max_joint_error_last_5s
 
 
@@ -146,11 +147,16 @@ def delta_case(args) -> dict:
         error_cad = design1_error(nominal, true)
         out["design1"] = {"identified": error_identified, "true": error_true, "cad": error_cad,
                           "ratio": error_identified / error_true}  # fmt: skip
+        # at the default tolerance both errors sit at Radau's resolution (~3e-8 rad, docs/architecture.md
+        # section 6); at rtol 1e-8 the runs resolve the identified model's remaining error
+        tight = {name: design1_error(robot, true, 1e-8) for name, robot in
+                 (("identified", identified), ("true", true), ("cad", nominal))}  # fmt: skip
+        out["design1_rtol_1e-8"] = {**tight, "ratio": tight["identified"] / tight["true"]}
     return out
 
 
 def other_case(name: str, duration: float, iterations: int, args) -> dict:
-    nominal = dp.load_robot(f"delta_pin/robots/{name}.urdf")
+    nominal = dp.load_robot(name)  # a shipped robot, by name
     true = perturbed_robot(nominal, 0.3, seed=3)
     trajectory, info = excitation(
         nominal, None, None, iterations, duration, 0, harmonics=6, period=duration / 2
@@ -163,9 +169,12 @@ def other_case(name: str, duration: float, iterations: int, args) -> dict:
     simulate_s = time.perf_counter() - start
     unseen, _ = simulate_log(true, unseen_trajectory, nominal=nominal, friction=None, seed=2)
     start = time.perf_counter()
-    result = identify(nominal, log)
+    # the files carry no friction and their plants have none: no Coulomb column (its reversal
+    # rows would go, and the Stewart's legs move at a few cm/s)
+    columns = JointColumns(coulomb=False)
+    result = identify(nominal, log, columns=columns)
     fit_s = time.perf_counter() - start
-    theta_true = ClosedChainRegressor(true).parameters(true)
+    theta_true = ClosedChainRegressor(true, columns).parameters(true)
     return {
         "excitation": info,
         "simulate_s": simulate_s,
@@ -186,10 +195,21 @@ def main() -> None:
     parser.add_argument("--excitation", default=None, help="a FourierExcitation's metadata JSON instead")
     parser.add_argument("--quick", action="store_true", help="skip design I and the other robots")
     parser.add_argument("--json", default=None, help="write the numbers here")
+    parser.add_argument(
+        "--previous", default=None, help="take the Delta's numbers from this JSON (a run before)"
+    )
     args = parser.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
     print(machine_info())
-    numbers = {"delta": delta_case(args)}
+    numbers = {}
+    if args.previous:  # the Delta's numbers of an earlier run (its JSON)
+        with open(args.previous) as handle:
+            numbers["delta"] = json.load(handle)["delta"]
+    else:
+        numbers["delta"] = delta_case(args)
+    if args.json:
+        with open(args.json, "w") as handle:
+            json.dump(numbers, handle, indent=2, default=str)
     if not args.quick:
         numbers["five_bar"] = other_case("five_bar", 20.0, 10, args)
         numbers["stewart"] = other_case("stewart", 10.0, 3, args)
@@ -216,6 +236,11 @@ def main() -> None:
         g = d["design1"]
         row("design I identified vs true, path I, max |r| last 5 s", "within 10 %",
             f"{g['identified']:.4g} vs {g['true']:.4g} rad ({g['ratio'] - 1:+.1%}; CAD model {g['cad']:.4g})",
+            abs(g["ratio"] - 1) <= TARGETS["design"])  # fmt: skip
+    if "design1_rtol_1e-8" in d:
+        g = d["design1_rtol_1e-8"]
+        row("the same at rtol 1e-8", "within 10 %",
+            f"{g['identified']:.4g} vs {g['true']:.4g} rad (x{g['ratio']:.3g}; CAD model {g['cad']:.4g})",
             abs(g["ratio"] - 1) <= TARGETS["design"])  # fmt: skip
     fit = float(np.median(d["fit_s"]))
     row("fit of 20 s at 1 kHz (WLS, essential)", "<= 2 s",

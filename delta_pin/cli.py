@@ -714,7 +714,7 @@ def _identify_excite(args: argparse.Namespace) -> int:
                               jacobian_condition=args.jacobian_condition)  # fmt: skip
     trajectory, info = optimize_excitation(
         regressor, base, theta, harmonics=args.harmonics, period=args.period, duration=args.duration,
-        limits=limits, max_iterations=args.iterations, seed=args.seed,
+        limits=limits, max_iterations=args.iterations, seed=args.seed, alpha0=robot.home + args.center,
     )  # fmt: skip
     met = check_excitation(regressor, trajectory, theta, limits=limits, rate=args.rate)
     write_trajectory(args.out, trajectory, robot, args.rate)
@@ -817,6 +817,9 @@ def _add_identify_command(add) -> None:
     )
     excite.add_argument(
         "--jacobian-condition", type=float, default=100.0, help="largest cond J_p along the path"
+    )
+    excite.add_argument(
+        "--center", type=float, default=0.0, help="alpha0 = home + CENTER on every joint [rad or m]"
     )
     excite.add_argument("--seed", type=int, default=0, help="seed of the optimiser's start")
     excite.set_defaults(func=_identify_excite)

@@ -168,6 +168,13 @@ def check_identifiable(W_base: np.ndarray, names: list[str], rtol: float = LOG_R
     Raises:
         InvalidParameterError: how many base parameters are not identifiable and which.
     """
+    if W_base.shape[0] < W_base.shape[1]:
+        raise InvalidParameterError(
+            f"rank-deficient excitation: {W_base.shape[0]} rows are left for {W_base.shape[1]} base "
+            "parameters "
+            "(joint rows near a velocity reversal are dropped: the joints barely move); excite every joint "
+            "faster and longer (delta-pin identify excite)"
+        )
     norms = np.linalg.norm(W_base, axis=0)
     zero = [names[k] for k in np.flatnonzero(norms == 0.0)]
     scaled = W_base / np.where(norms > 0.0, norms, 1.0)

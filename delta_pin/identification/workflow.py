@@ -293,9 +293,15 @@ def identify(
     # the filtered rows are band-limited to the cut-off: keep one per Nyquist interval, so that
     # their noise is (nearly) independent and the covariance formula holds (estimation docstring)
     step = decimation(data.sample_rate, cutoff)
-    mask = reversal_mask(states.alpha_dot, data.sample_rate, cutoff)[::step]
+    if regressor.columns.coulomb or regressor.columns.stribeck_velocity is not None:
+        speed = 10.0 * regressor.columns.sign_velocity_scale  # tanh = 1 - 4e-9 beyond
+        mask = reversal_mask(states.alpha_dot, data.sample_rate, cutoff, speed)[::step]
+    else:  # no smooth sign: nothing to drop
+        mask = np.ones(states.alpha_dot.shape, bool)[::step]
     Y, tau = Y[::step], tau[::step]
     Y_base = base.reduce(Y)
+    # what the excitation cannot see at all, named; then what the rows kept cannot
+    check_identifiable(Y_base.reshape(-1, base.rank), names)
     W = Y_base.reshape(-1, base.rank)[mask.ravel()]
     check_identifiable(W, names)
     dropped: list = []
