@@ -258,25 +258,47 @@ namespace delta_pin
   void ClosedChainPlant::set_payload(
     JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double /*step*/)
   {
+    set_truth(joint, point, Vector(), masses, RowMatrix(), RowMatrix());
+  }
+
+  void ClosedChainPlant::set_truth(
+    JointIndex joint, const Eigen::Vector3d & point, const Vector & body_masses, const Vector & point_masses,
+    const RowMatrix & normal_forces, const RowMatrix & disturbances)
+  {
+    if (joint == 0 || joint >= (JointIndex)model_.njoints)
+      throw std::invalid_argument("the truth's body is not a joint of the model");
+    if ((normal_forces.rows() && normal_forces.cols() != dof()) || (disturbances.rows() && disturbances.cols() != dof()))
+      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint");
+    if (payload_joint_ != 0)
+      model_.inertias[payload_joint_] = base_inertia_;  // the body of the last call restored
     payload_joint_ = joint;
     payload_point_ = point;
     base_inertia_ = model_.inertias[joint];
-    payload_masses_ = masses;
+    body_masses_ = body_masses;
+    payload_masses_ = point_masses;
+    normal_forces_ = normal_forces;
+    disturbances_ = disturbances;
     mass_ = 0.0;
+    body_mass_ = base_inertia_.mass();
   }
 
-  void ClosedChainPlant::set_payload_mass(double mass)
+  void ClosedChainPlant::set_body(long stage)
   {
-    if (mass != mass_)
+    auto row = [stage](Eigen::Index size) { return std::min<Eigen::Index>(stage, size - 1); };
+    const double body = body_masses_.size() ? body_masses_[row(body_masses_.size())] : base_inertia_.mass();
+    const double mass = payload_masses_.size() ? payload_masses_[row(payload_masses_.size())] : 0.0;
+    if (mass == mass_ && body == body_mass_)
+      return;
+    // PinocchioPlant._set_mass: the body's COM kept, its rotational inertia scaled with its mass
+    const Eigen::Matrix3d rotational = base_inertia_.inertia().matrix() * (body / base_inertia_.mass());
+    const Inertia scaled(body, base_inertia_.lever(), Symmetric3(rotational));
+    model_.inertias[payload_joint_] = scaled + Inertia(mass, payload_point_, Symmetric3::Zero());
+    mass_ = mass;
+    body_mass_ = body;
+    if (axis_)
     {
-      model_.inertias[payload_joint_] =
-        base_inertia_ + Inertia(mass, payload_point_, Symmetric3::Zero());
-      mass_ = mass;
-      if (axis_)
-      {
-        const Inertia & body = model_.inertias[payload_joint_];
-        axis_->set_body((int)payload_joint_, body.mass(), body.lever(), body.inertia().matrix());
-      }
+      const Inertia & inertia = model_.inertias[payload_joint_];
+      axis_->set_body((int)payload_joint_, inertia.mass(), inertia.lever(), inertia.inertia().matrix());
     }
   }
 
@@ -548,15 +570,22 @@ namespace delta_pin
     check_size(q, model_.nq, "q");
     check_size(v, model_.nv, "v");
     check_size(tau, actuated_v_.size(), "tau");
-    if (payload_masses_.size())
-      set_payload_mass(payload_masses_[std::min<Eigen::Index>(stage, payload_masses_.size() - 1)]);
+    if (payload_joint_ != 0)
+      set_body(stage);
+    const Eigen::Index normal_row = std::min<Eigen::Index>(stage, normal_forces_.rows() - 1);
+    const Eigen::Index disturbance_row = std::min<Eigen::Index>(stage, disturbances_.rows() - 1);
     tau_.setZero();
     for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
     {
-      double torque = tau[i];
+      // tau - (F(t) + M_f(alpha_dot, F_n(t))), ClosedChainPlant.accelerations' arithmetic
+      const double disturbance = disturbances_.rows() ? disturbances_(disturbance_row, i) : 0.0;
+      double resisting = disturbance;
       if (friction_.enabled)
-        torque -= friction_.torque(v[actuated_v_[i]], friction_.normal_force[i]);
-      tau_[actuated_v_[i]] = torque;
+      {
+        const double normal = normal_forces_.rows() ? normal_forces_(normal_row, i) : friction_.normal_force[i];
+        resisting += friction_.torque(v[actuated_v_[i]], normal);
+      }
+      tau_[actuated_v_[i]] = tau[i] - resisting;
     }
     for (Eigen::Index i = 0; i < spring_v_.size(); ++i)
       tau_[spring_v_[i]] -=

@@ -151,6 +151,14 @@ namespace delta_pin
     void set_friction(const FrictionSpec & friction);
     // a payload point mass at `point` in the frame of joint `joint`: masses [kg] at t = i step
     void set_payload(pinocchio::JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double step);
+    // The time-varying truth (delta_pin/sim/truth.py), one row per stage time like the payload:
+    // the body of joint `joint` with the mass body_masses[i] [kg] (its COM kept, its rotational
+    // inertia about the COM scaled from the model's with the mass; empty: the model's body) plus
+    // a point mass point_masses[i] [kg] at `point` (empty: none), the friction's normal forces [N]
+    // and the joint disturbance [N m] on the actuated joints (no rows: the friction's own, none).
+    void set_truth(
+      pinocchio::JointIndex joint, const Eigen::Vector3d & point, const Vector & body_masses,
+      const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances);
 
     int nq() const { return model_.nq; }
     int nv() const { return model_.nv; }
@@ -190,7 +198,7 @@ namespace delta_pin
       Eigen::Ref<Vector> gap_out);
 
   private:
-    void set_payload_mass(double mass);
+    void set_body(long stage);
     void configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const;
     void finish(Vector & x);
 
@@ -213,8 +221,9 @@ namespace delta_pin
     pinocchio::JointIndex payload_joint_ = 0;
     Eigen::Vector3d payload_point_ = Eigen::Vector3d::Zero();
     pinocchio::Inertia base_inertia_ = pinocchio::Inertia::Zero();
-    Vector payload_masses_;
-    double mass_ = 0.0;
+    Vector payload_masses_, body_masses_;
+    RowMatrix normal_forces_, disturbances_;
+    double mass_ = 0.0, body_mass_ = -1.0;
     double baumgarte_kp_, baumgarte_kd_;
     std::unique_ptr<dpn::AxisTree> axis_;
     Vector ddq_;

@@ -210,6 +210,10 @@ NB_MODULE(_core, m)
          const Eigen::VectorXd & normal_force)
       { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
     .def("set_payload", &ClosedChainPlant::set_payload)
+    .def("set_truth", &ClosedChainPlant::set_truth, nb::arg("joint"), nb::arg("point"), nb::arg("body_masses"),
+         nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
+         "The time-varying truth at the stage times: the joint's body mass [kg] (COM kept, rotational inertia "
+         "scaled), a point mass [kg] at `point`, the friction's normal forces [N], the disturbance [N m].")
     .def_prop_ro("stage", &ClosedChainPlant::stage, "'axis_tree' or 'constraint_dynamics': what gives ddq")
     .def("use_axis_tree", &ClosedChainPlant::use_axis_tree, nb::arg("use"),
          "The axis-tree stage where it applies (True), or Pinocchio's constraintDynamics (False).")

@@ -48,8 +48,8 @@ def _payload_masses(plant, step: float, count: int) -> np.ndarray:
 
 
 def build_core_plant(plant, step: float | None = None, count: int = 0):
-    """The core's plant for a Python ``ClosedChainPlant`` in full coordinates (the caller checks
-    that it applies), with the payload tabulated at t = i step, i < count [s].
+    """The core's plant for a Python ``ClosedChainPlant`` (the caller checks that it applies),
+    with the payload and the uncertainty profile's truth tabulated at t = i step, i < count [s].
 
     Raises:
         NativeUnavailableError: the core cannot be imported here, or rejects the model (a joint
@@ -88,11 +88,18 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         compiled.set_friction(
             s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale, plant._normal_force
         )
-    if plant.payload_mass is not None:
+    if plant.payload_mass is not None or plant.uncertainty is not None:
         if step is None or count <= 0:
-            raise ValueError("a payload needs the stage step and count to be tabulated")
-        masses = _payload_masses(plant, step, count)
-        compiled.set_payload(int(plant._payload_joint), plant._payload_point, masses, step)
+            raise ValueError(
+                "a payload or an uncertainty profile needs the stage step and count to be tabulated"
+            )
+        points = _payload_masses(plant, step, count) if plant.payload_mass is not None else np.zeros(0)
+        body, normal, disturbance = np.zeros(0), np.zeros((0, plant.dof)), np.zeros((0, plant.dof))
+        if plant.uncertainty is not None:  # m_o(t), F_n(t), F(t) at the stage times (sim/truth.py)
+            body, normal, disturbance = (
+                np.ascontiguousarray(a, dtype=float) for a in plant.truth_table(step, count)
+            )
+        compiled.set_truth(int(plant._payload_joint), plant._payload_point, body, points, normal, disturbance)
     return compiled
 
 

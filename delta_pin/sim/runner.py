@@ -288,7 +288,9 @@ def simulate(
     delta_only = uncertainty is not None or sensor is not None or delay != 0 or torque_limit is not None
     if _runs_as_delta(robot, plant, trajectory, controller, mode, delta_only):
         robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
-    core = None  # the compiled core's plant for a closed-chain robot's sampled loop: where it applies
+    # the compiled core's plant in the Python loop's sampled mode: where it applies, not with
+    # compiled=False (the Python plant's RK4: the reference)
+    core = False if compiled is False else None
     in_core = None  # the core's plant and law for a closed chain's continuous run: where they apply
     if isinstance(robot, ClosedChainRobot):
         core, plant = _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
