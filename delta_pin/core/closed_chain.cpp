@@ -255,12 +255,6 @@ namespace delta_pin
       friction_.normal_force = Vector::Zero(dof());
   }
 
-  void ClosedChainPlant::set_payload(
-    JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double /*step*/)
-  {
-    set_truth(joint, point, Vector(), masses, RowMatrix(), RowMatrix());
-  }
-
   void ClosedChainPlant::set_truth(
     JointIndex joint, const Eigen::Vector3d & point, const Vector & body_masses, const Vector & point_masses,
     const RowMatrix & normal_forces, const RowMatrix & disturbances)

@@ -149,9 +149,7 @@ namespace delta_pin
       const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref,
       const Vector & d, const Indices & damper_v, const Vector & damper_d);
     void set_friction(const FrictionSpec & friction);
-    // a payload point mass at `point` in the frame of joint `joint`: masses [kg] at t = i step
-    void set_payload(pinocchio::JointIndex joint, const Eigen::Vector3d & point, const Vector & masses, double step);
-    // The time-varying truth (delta_pin/sim/truth.py), one row per stage time like the payload:
+    // The time-varying truth (delta_pin/sim/truth.py), one row per RK4 stage time (row i at t = i h/2):
     // the body of joint `joint` with the mass body_masses[i] [kg] (its COM kept, its rotational
     // inertia about the COM scaled from the model's with the mass; empty: the model's body) plus
     // a point mass point_masses[i] [kg] at `point` (empty: none), the friction's normal forces [N]

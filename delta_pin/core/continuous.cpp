@@ -32,27 +32,6 @@ namespace delta_pin
     a_ddot = hermite(alpha_ddot, alpha_dddot);
   }
 
-  namespace
-  {
-    std::string joints(const Vector & x)
-    {
-      std::ostringstream out;
-      out.precision(6);
-      out << "[";
-      for (Eigen::Index i = 0; i < x.size(); ++i)
-        out << (i ? ", " : "") << x[i];
-      out << "]";
-      return out.str();
-    }
-
-    SimulationFailure failure(const std::string & message, double t)
-    {
-      SimulationFailure error(message);
-      error.time = t;
-      return error;
-    }
-  } // namespace
-
   void run_continuous(
     ClosedChainPlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Indices & actuated_v,
     const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
@@ -69,7 +48,7 @@ namespace delta_pin
     {
       Vector q;
       if (!chain.configuration(alpha0, q_start, q))
-        throw failure("cannot close the loops at alpha0=" + joints(alpha0), 0.0);
+        throw failure_at("cannot close the loops at alpha0=" + joint_values(alpha0), 0.0);
       q_last = q;
     }
     Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(plant.nq()), v, ddq;
@@ -78,7 +57,7 @@ namespace delta_pin
     {
       const Vector alpha = y.head(n);
       if (!chain.configuration(alpha, q_last, q))
-        throw failure("cannot close the loops at alpha=" + joints(alpha), t);
+        throw failure_at("cannot close the loops at alpha=" + joint_values(alpha), t);
       q_last = q;
       v = chain.velocity_map(q) * y.segment(n, n);
       reference.at(t, ref_a, ref_ad, ref_add);
@@ -97,15 +76,15 @@ namespace delta_pin
         std::ostringstream text;
         text << "the controller returned a torque of " << tau.size() << " and a state rate of " << z_dot.size()
              << " values, expected " << n << " and " << nz;
-        throw failure(text.str(), t);
+        throw failure_at(text.str(), t);
       }
       if (!tau.allFinite())
-        throw failure("the controller returned a non-finite torque " + joints(tau), t);
+        throw failure_at("the controller returned a non-finite torque " + joint_values(tau), t);
     };
     auto rhs = [&](double t, const Vector & y, Vector & dy)
     {
       if (!y.allFinite())
-        throw failure("the state became non-finite (alpha=" + joints(y.head(n)) + ")", t);
+        throw failure_at("the state became non-finite (alpha=" + joint_values(y.head(n)) + ")", t);
       complete(t, y);
       ddq = plant.accelerations(q, v, tau, 0);
       dy.resize(y.size());
@@ -128,16 +107,7 @@ namespace delta_pin
     auto record = [&](long k, const Vector & yk)
     {
       const double t = (double)k * dt;
-      const double speed = yk.segment(n, n).cwiseAbs().maxCoeff();
-      if (!yk.allFinite())
-        throw failure("the state became non-finite (alpha=" + joints(yk.head(n)) + ")", t);
-      if (speed > max_joint_speed)
-      {
-        std::ostringstream text;
-        text.precision(3);
-        text << "the run diverged: |alpha_dot| = " << speed << " rad/s > " << max_joint_speed << " rad/s";
-        throw failure(text.str(), t);
-      }
+      check_sample(yk.allFinite(), yk.head(n), yk.segment(n, n), max_joint_speed, t);
       complete(t, yk);
       run.alpha.row(k) = yk.head(n).transpose();
       run.alpha_dot.row(k) = yk.segment(n, n).transpose();
@@ -176,7 +146,7 @@ namespace delta_pin
         catch (const std::exception & error)  // the step size collapsed, a non-finite derivative
         {
           run.counters = radau.counters;
-          throw failure(std::string("radau: ") + error.what(), radau.t());
+          throw failure_at(std::string("radau: ") + error.what(), radau.t());
         }
         record(k, radau.at(t));
       }

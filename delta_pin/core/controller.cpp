@@ -11,21 +11,6 @@
 
 namespace delta_pin
 {
-  namespace
-  {
-    std::string joints(const Vector & values)
-    {
-      std::ostringstream text;
-      text.precision(17);
-      text << "[";
-      for (Eigen::Index i = 0; i < values.size(); ++i)
-        text << (i ? ", " : "") << values[i];
-      text << "]";
-      return text.str();
-    }
-
-  } // namespace
-
   ProjectedLaw::ProjectedLaw(
     const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
     const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
@@ -75,7 +60,7 @@ namespace delta_pin
       Vector3 xyz, G3;
       Matrix3 J, J_dot, M3, C3;
       if (!delta_kinematics(geometry_, alpha, alpha_dot, xyz, J, J_dot))
-        throw SimulationFailure("the nominal model's forward kinematics has no solution at alpha=" + joints(alpha));
+        throw SimulationFailure("the nominal model's forward kinematics has no solution at alpha=" + joint_values(alpha));
       delta_dynamics(geometry_, alpha, J, J_dot, M3, C3, G3);
       M = M3;
       C = C3;
@@ -84,7 +69,7 @@ namespace delta_pin
     }
     Vector q;
     if (!nominal_.configuration(alpha, q_, q))
-      throw SimulationFailure("the nominal model's loops do not close at alpha=" + joints(alpha));
+      throw SimulationFailure("the nominal model's loops do not close at alpha=" + joint_values(alpha));
     q_ = q;
     Vector C_alpha_dot;
     nominal_.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
@@ -193,22 +178,7 @@ namespace delta_pin
         z_ = z_dot_;  // Controller.advance: the discrete-time law's next state
       else
         z_ += dt_ * z_dot_;  // Controller.advance: explicit Euler once per sample
-      if (!(x.allFinite() && z_.allFinite()))
-      {
-        SimulationFailure failure("the state became non-finite (alpha=" + joints(alpha) + ")");
-        failure.time = t;
-        throw failure;
-      }
-      const double speed = alpha_dot.cwiseAbs().maxCoeff();
-      if (!(speed <= max_joint_speed_))
-      {
-        std::ostringstream text;
-        text.precision(3);
-        text << "the run diverged: |alpha_dot| = " << speed << " rad/s > " << max_joint_speed_ << " rad/s";
-        SimulationFailure failure(text.str());
-        failure.time = t;
-        throw failure;
-      }
+      check_sample(x.allFinite() && z_.allFinite(), alpha, alpha_dot, max_joint_speed_, t);
     }
     Vector measured = alpha, rate = alpha_dot;
     if (sensor_)  // Encoder.read
@@ -235,11 +205,7 @@ namespace delta_pin
       throw;
     }
     if (!torque.allFinite())
-    {
-      SimulationFailure failure("controller '" + name_ + "' returned a non-finite torque " + joints(torque));
-      failure.time = t;
-      throw failure;
-    }
+      throw failure_at("controller '" + name_ + "' returned a non-finite torque " + joint_values(torque), t);
     if (drive_)  // Drive.apply
     {
       tau_command.row(k) = torque.transpose();

@@ -209,7 +209,6 @@ NB_MODULE(_core, m)
       [](ClosedChainPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
          const Eigen::VectorXd & normal_force)
       { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
-    .def("set_payload", &ClosedChainPlant::set_payload)
     .def("set_truth", &ClosedChainPlant::set_truth, nb::arg("joint"), nb::arg("point"), nb::arg("body_masses"),
          nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
          "The time-varying truth at the stage times: the joint's body mass [kg] (COM kept, rotational inertia "

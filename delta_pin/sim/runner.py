@@ -297,7 +297,8 @@ def simulate(
         compiled = False  # the Delta's compiled loops
         friction = uncertainty = None  # now the plant's
         if mode == "continuous" and core is not False:
-            integrator, in_core = _closed_chain_integrator(integrator, plant, as_controller(controller), core)
+            controller = as_controller(controller)  # one wrapper: the core's law calls the run's controller
+            integrator, in_core = _closed_chain_integrator(integrator, plant, controller, core)
     integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
