@@ -12,11 +12,13 @@ them from the robot's dimensions, so one set serves every geometry:
 (``meshes/base.stl``); ``load_delta(visuals="mesh")`` compiles the same robot with
 ``package://delta_pin/urdf/meshes/...`` paths instead.
 
-Run from the repository root: ``python scripts/make_delta_meshes.py``.
+Run from the repository root: ``python scripts/make_delta_meshes.py`` (``--out FOLDER`` writes
+``FOLDER/meshes/*`` and ``FOLDER/delta_mesh.urdf`` there instead, to compare with the shipped ones).
 """
 
 from __future__ import annotations
 
+import argparse
 import re
 from pathlib import Path
 
@@ -31,9 +33,9 @@ def _number_ids(data: bytes) -> bytes:
     return re.sub(rb"\b[0-9a-f]{32}\b", lambda m: ids.setdefault(m[0], b"id%d" % len(ids)), data)
 
 
-def main() -> None:
-    meshes = URDF_DIR / "meshes"
-    meshes.mkdir(exist_ok=True)
+def main(out: Path = URDF_DIR) -> None:
+    meshes = out / "meshes"
+    meshes.mkdir(parents=True, exist_ok=True)
     shapes = {
         "base.stl": trimesh.creation.cylinder(radius=1.0, height=1.0, sections=24),
         "upper_arm.obj": trimesh.creation.box(extents=(1.0, 1.0, 1.0)),
@@ -50,19 +52,18 @@ def main() -> None:
             data = re.sub(rb"<(created|modified)>[^<]*<", rb"<\1>2000-01-01T00:00:00<", data)
             data = _number_ids(data)
         path.write_bytes(data if isinstance(data, bytes) else data.encode())
-        print(
-            f"wrote {path.relative_to(URDF_DIR.parents[1])}: {path.stat().st_size} bytes, "
-            f"{len(mesh.faces)} faces"
-        )
+        print(f"wrote {path}: {path.stat().st_size} bytes, {len(mesh.faces)} faces")
 
     from delta_pin.model.description import compile_urdf
 
-    urdf = URDF_DIR / "delta_mesh.urdf"
+    urdf = out / "delta_mesh.urdf"
     # xacrodoc writes a relative filename as file://meshes/...: keep the plain relative form
     text = compile_urdf(visuals="mesh", mesh_uri="meshes").replace('"file://meshes/', '"meshes/')
     urdf.write_text(text, encoding="utf-8")
-    print(f"wrote {urdf.relative_to(URDF_DIR.parents[1])}")
+    print(f"wrote {urdf}")
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=URDF_DIR, help="folder (default: delta_pin/urdf)")
+    main(parser.parse_args().out)
