@@ -106,46 +106,34 @@ def constraint_dynamics_function(plant: PinocchioPlant):
     return derivative
 
 
-def native_stage_calls(plant: PinocchioPlant, x0: np.ndarray, calls: int, repeats: int) -> list[Timing]:
-    """Seconds per evaluation of each native stage called from compiled code (numba, as the
-    compiled loops call it), ``calls`` evaluations per repeat at x0 with a small velocity that
-    changes each call; empty where the native library is unavailable."""
-    from delta_pin.compiled import native
-    from delta_pin.compiled.jit import njit
-    from delta_pin.compiled.native.calls import call_tree_dynamics
+def core_stage_calls(plant: PinocchioPlant, x0: np.ndarray, calls: int, repeats: int) -> list[Timing]:
+    """Seconds per evaluation of the two stages of the compiled core's plant
+    (``ClosedChainPlant.accelerations``: delta-pin's axis-tree algorithms and Pinocchio's
+    ``constraintDynamics``), ``calls`` evaluations per repeat at x0 with a small velocity that
+    changes each call, each call from Python (about 1 us of nanobind's dispatch included); empty
+    where the core is unavailable."""
+    from delta_pin.errors import NativeUnavailableError
+    from delta_pin.sim.compiled_plant import build_core_plant
 
-    if native.load() is None:
+    try:
+        compiled = build_core_plant(plant)
+    except NativeUnavailableError:
         return []
-
-    @njit
-    def evaluations(address, handle, q, v, tau, mass, rotational, ddq, n):
-        failed = 0
-        for i in range(n):
-            v[0] = 1e-3 * (i % 1000)
-            failed += call_tree_dynamics(address, handle, q, v, tau, mass, rotational, ddq)
-        return failed
-
-    tree = plant.native_tree()
     nq = plant.nq
     q, v = x0[:nq].copy(), x0[nq:].copy()
-    tau, ddq = np.zeros(nq), np.empty(nq)
-    mass = plant.nominal_platform_mass
-    rotational = np.ascontiguousarray(plant.rotational_inertia(mass))
+    tau = np.zeros(plant.dof)
     rows = []
-    for stage, address in (
-        ("constraint_dynamics", tree.address_dynamics),
-        ("axis_tree", tree.address_dynamics_axis),
-    ):
+    for stage in ("constraint_dynamics", "axis_tree"):
+        compiled.use_axis_tree(stage == "axis_tree")
+        assert compiled.stage == stage, compiled.stage
 
-        def run(address=address):
-            assert evaluations(address, tree.handle, q, v, tau, mass, rotational, ddq, calls) == 0
+        def run(counter=[0]):  # noqa: B006 - the call count, kept across calls
+            counter[0] += 1
+            v[0] = 1e-3 * (counter[0] % 1000)
+            compiled.accelerations(q, v, tau, 0)
 
-        rows.append(
-            Timing(
-                f"native stage {stage}, from compiled code (one evaluation)",
-                per_call(run, 1, repeats, per=calls),
-            )
-        )
+        timing = per_call(run, calls, repeats)
+        rows.append(Timing(f"core stage {stage} (one evaluation, from Python)", timing))
     return rows
 
 
@@ -263,15 +251,6 @@ def main() -> int:
         controller="design1", plant="pinocchio", mode="sampled", sampling_aware=True, t_end=args.t_end
     )
 
-    def run_with_stage(stage: str, t_end: float = args.t_end):
-        from delta_pin.sim import batch
-
-        default, batch.NATIVE_STAGE = batch.NATIVE_STAGE, stage
-        try:
-            return run_spec(spec.with_(t_end=t_end), robot)
-        finally:
-            batch.NATIVE_STAGE = default
-
     loops = [
         measure(
             "mujoco.rollout (C++, zero torque)",
@@ -280,18 +259,11 @@ def main() -> int:
             f"{args.t_end:g} s, RK4 1 ms",
         ),
         measure(
-            "delta-pin compiled sampled loop, design I (native stage axis_tree, the default)",
+            "delta-pin compiled core, sampled design I (the core's plant and law)",
             lambda: run_spec(spec, robot),
             args.repeats,
             f"{args.t_end:g} s, RK4 1 ms, controller and friction included",
             warmup=lambda: run_spec(spec.with_(t_end=0.2), robot),
-        ),
-        measure(
-            "the same, native stage constraintDynamics (sim.batch.NATIVE_STAGE = 'constraint_dynamics')",
-            lambda: run_with_stage("constraint_dynamics"),
-            args.repeats,
-            f"{args.t_end:g} s, RK4 1 ms",
-            warmup=lambda: run_with_stage("constraint_dynamics", 0.2),
         ),
     ]
     print_table(f"{args.t_end:g} s of the Delta in a compiled loop", loops, reference=loops[0])
@@ -301,16 +273,6 @@ def main() -> int:
         1.0,
         unit="x",
     )
-    report_target(
-        "the same with Pinocchio's constraintDynamics as the stage / mujoco.rollout",
-        loops[2].median / loops[0].median,
-        None,
-        unit="x",
-    )
-    print(
-        f"axis_tree stage / constraintDynamics stage, the whole run: {loops[1].median / loops[2].median:.2f}"
-    )
-
     sim.set_state(q0, v0)
     qpos0, data = sim.data.qpos.copy(), sim.data
 
@@ -347,7 +309,7 @@ def main() -> int:
             per_call(lambda: plant.derivative(0.0, x0, tau), args.calls, args.repeats),
         ),
     ]
-    calls += native_stage_calls(plant, x0, args.calls, args.repeats)
+    calls += core_stage_calls(plant, x0, args.calls, args.repeats)
     print_table("one call", calls, reference=calls[0])
     report_target("pin.constraintDynamics per call (reference, about 10 us)", calls[1].median, None)
     for timing in calls[3:]:

@@ -10,7 +10,7 @@ integrator of ``delta_pin.sim.runner`` with the controller inside.
 
 Second table: design I on the Pinocchio plant as ``delta_pin.studies.experiments.RunSpec`` runs it
 (Section V conditions), sampled at 1 kHz with the sampling-aware gain cap (target: 15 s in at most
-1 s, closure residual <= 1e-9 m; the compiled loop of ``delta_pin.compiled.tree_loop``) and continuous
+1 s, closure residual <= 1e-9 m; the compiled core's plant and law) and continuous
 with the paper's gains: the default, the compiled Radau IIA (issue 14: at most 1.0 s, within 1e-6
 rad of a tight reference), and the fixed-step BDF2 (at most 1.3 s). Each target row has its
 reference in the same table: the Python loop (``compiled=False``) and LSODA (timed once: ~20 s).

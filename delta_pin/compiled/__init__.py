@@ -6,9 +6,7 @@ delta-pin objects, so this package imports nothing from the layers above it
 (docs/architecture.md sections 2 and 8). Its entry points:
 
 * :func:`delta_pin.compiled.closed_loop.run_closed_loop` -- one run of design I or II on the
-  analytic plant or on Pinocchio's tree in active coordinates: BDF2, or sampled RK4;
-* :func:`delta_pin.compiled.tree_loop.run_tree_sampled` -- one sampled run on Pinocchio's tree
-  in full coordinates (resumable around projections);
+  analytic plant (BDF2, or sampled RK4) or on Pinocchio's tree in active coordinates (BDF2);
 * :func:`delta_pin.compiled.adaptive_robust.adaptive_robust_kernel` -- one controller step;
 * :func:`delta_pin.compiled.lqr.lqr_law_into` -- the LQR baseline's law in those closed loops;
 * :mod:`delta_pin.compiled.delta_kernels` -- the analytic model at one state;

@@ -1,5 +1,6 @@
 """Compiled digital loop: a law on a digital drive (the discrete-time laws, or designs I/II with
-their state advanced once per sample), on either plant, sampled RK4.
+their state advanced once per sample), on the Delta's analytic plant, sampled RK4 (on the
+Pinocchio plant the compiled core runs these laws with its drive).
 
 The arithmetic of :func:`delta_pin.sim.loop.run_python_loop` in sampled mode with an encoder, a
 computation delay and a torque limit (:mod:`delta_pin.sim.drive`), for the laws of
@@ -11,12 +12,9 @@ for bit (tests/sim/test_compiled_loops.py). At sample k:
    the difference of the readings (zero at the first sample) or the true one;
 2. the law's step gives the command and the law's next state;
 3. the drive: the command of sample k - d acts (zero before), clipped at the torque limit;
-4. ``substeps`` RK4 steps of the plant under that torque (the analytic plant, or the Pinocchio
-   tree in full coordinates with the stop-and-resume protocol of
-   :mod:`delta_pin.compiled.tree_loop` for projections); then the law's state advances.
+4. ``substeps`` RK4 steps of the analytic plant under that torque; then the law's state advances.
 
-The loop's whole state is one :func:`~delta_pin.compiled.layouts.digital_loop_state` record, so a
-run can stop (a projection, a failure) and resume.
+The loop's whole state is one :func:`~delta_pin.compiled.layouts.digital_loop_state` record.
 """
 
 from __future__ import annotations
@@ -29,23 +27,11 @@ from delta_pin.compiled.delta_kernels import delta_kinematics_into
 from delta_pin.compiled.digital_laws import digital_law_step
 from delta_pin.compiled.jit import njit
 from delta_pin.compiled.layouts import ADAPTIVE_ROBUST
-from delta_pin.compiled.native.calls import call_closure_gap
 from delta_pin.compiled.rk4 import all_finite, within_limits
-from delta_pin.compiled.tree_loop import _held_step
 
-__all__ = [
-    "DIVERGED",
-    "EXPLODED",
-    "NONFINITE_TORQUE",
-    "NO_FK",
-    "OK",
-    "PINOCCHIO_FAILED",
-    "PROJECT",
-    "run_digital_analytic",
-    "run_digital_tree",
-]
+__all__ = ["DIVERGED", "NONFINITE_TORQUE", "NO_FK", "OK", "run_digital_analytic"]
 
-OK, NO_FK, DIVERGED, PROJECT, EXPLODED, PINOCCHIO_FAILED, NONFINITE_TORQUE = 0, 1, 3, 4, 5, 6, 7
+OK, NO_FK, DIVERGED, NONFINITE_TORQUE = 0, 1, 3, 7
 
 
 @njit(cache=True)
@@ -198,83 +184,3 @@ def run_digital_analytic(
             return DIVERGED, (k + 1) * dt
     state.x[:] = x
     return OK, 0.0
-
-
-@njit(cache=True)
-def run_digital_tree(
-    law, design, cos_phi, sin_phi, drive, noise, tree, active, platform, truth, rotational, friction,
-    reference, timing, limits, state, out, info_out, design_info_out, counters,
-):  # fmt: skip
-    """Run (or resume) one run on the Pinocchio tree in full coordinates: the arguments of
-    :func:`run_digital_analytic` less the plant, plus those of
-    :func:`~delta_pin.compiled.tree_loop.run_tree_sampled` (``tree``, ``active``, ``platform``,
-    ``rotational``, ``friction``, ``limits``). ``state.substep`` j > 0 resumes sample
-    ``state.sample`` after sub-step j - 1 with the held torque.
-
-    Returns:
-        (status, time [s]): ``OK``; ``PROJECT`` (the state after the sub-step ending at ``time``
-        needs projection: ``state`` holds it); ``NO_FK``, ``NONFINITE_TORQUE``, ``DIVERGED``,
-        ``EXPLODED`` (gap above the failure tolerance), ``PINOCCHIO_FAILED``.
-    """
-    nx = state.x.shape[0]
-    nv = nx // 2  # nq == nv: 1-DOF joints only
-    nq = nx - nv
-    dt, substeps, steps = timing.step, timing.substeps, timing.samples
-    h = dt / substeps
-    x = state.x.copy()
-    k, j0, gap = state.sample, state.substep, state.gap
-    torques = np.zeros(nv)
-    stages = np.empty((7, nx))
-    ddq = np.empty(nv)
-    alpha, alpha_dot = np.empty(3), np.empty(3)
-    status, when = OK, 0.0
-    if k == 0 and j0 == 0:
-        gap = call_closure_gap(tree.closure_gap, tree.handle, x[:nq])
-    while True:
-        if j0 == 0:  # a new sample: the law's step, recorded with the tree's platform position
-            for i in range(3):
-                alpha[i] = x[active[i]]
-                alpha_dot[i] = x[nq + active[i]]
-            status = _control(
-                law, design, cos_phi, sin_phi, drive, noise, reference, k, alpha, alpha_dot, state, dt,
-                out[k], info_out[k], design_info_out[k],
-            )  # fmt: skip
-            if status != OK:
-                when = k * dt
-                break
-            for i in range(3):
-                out[k].xyz[i] = x[platform[i]]
-            out[k].closure_gap = gap
-            if k == steps:
-                break
-        for j in range(j0, substeps):
-            x, failed = _held_step(
-                tree, x, state.tau, active, truth, rotational, friction, 2 * (k * substeps + j), h, torques,
-                stages, ddq,
-            )  # fmt: skip
-            counters[0] += 4
-            when = (k * substeps + j + 1) * h
-            if failed:
-                status = PINOCCHIO_FAILED
-                break
-            gap = call_closure_gap(tree.closure_gap, tree.handle, x[:nq])
-            if not gap <= limits.failure_tolerance:
-                status = EXPLODED
-                break
-            if gap > limits.projection_tolerance:
-                status, j0 = PROJECT, j + 1
-                break
-        if status != OK:
-            break
-        j0 = 0
-        state.z[:] = state.z_next
-        when = (k + 1) * dt
-        for i in range(3):
-            alpha_dot[i] = x[nq + active[i]]
-        if not within_limits(x, state.z, alpha_dot, timing.max_speed):
-            status = DIVERGED
-            break
-        k += 1
-    state.sample, state.substep, state.gap = k, j0, gap
-    state.x[:] = x
-    return status, when

@@ -28,7 +28,6 @@ __all__ = [
     "INFO",
     "LAW_ADAPTIVE_ROBUST",
     "LAW_LQR",
-    "NATIVE_TREE",
     "OBSERVER_MAX",
     "PLANT",
     "REFERENCE",
@@ -36,14 +35,12 @@ __all__ = [
     "STEP_CONTROL",
     "TDC",
     "TIMING",
-    "TREE_LOOP_LIMITS",
     "TRUTH",
     "WORKSPACE",
     "as_table",
     "digital_loop_state",
     "record",
     "records",
-    "tree_loop_state",
 ]
 
 F8, B1, I8 = np.float64, np.bool_, np.int64
@@ -251,15 +248,6 @@ STEP_CONTROL = np.dtype(
     ]
 )
 
-#: Pinocchio's tree in the native library, for the sampled tree loop.
-NATIVE_TREE = np.dtype(
-    [
-        ("dynamics", I8),  # address of dpn_dynamics
-        ("closure_gap", I8),  # address of dpn_closure_gap
-        ("handle", I8),  # the tree
-    ]
-)
-
 #: Scratch space of one closed-loop evaluation (kinematics, controller, plant).
 WORKSPACE = np.dtype(
     [
@@ -283,29 +271,6 @@ WORKSPACE = np.dtype(
         ("reference", REFERENCE),  # the reference inside a split step (interpolated)
     ]
 )
-
-#: Limits of the sampled tree loop.
-TREE_LOOP_LIMITS = np.dtype(
-    [
-        ("projection_tolerance", F8),  # closure gap [m] above which the state is projected
-        ("failure_tolerance", F8),  # closure gap [m] that aborts the run
-    ]
-)
-
-
-def tree_loop_state(nx: int) -> np.dtype:
-    """The resumable state of the sampled tree loop for a tree state of nx = nq + nv numbers."""
-    return np.dtype(
-        [
-            ("sample", I8),  # k: the sample being computed
-            ("substep", I8),  # j > 0: resume sample k after sub-step j - 1 with the held torque
-            ("gap", F8),  # closure gap of x [m]
-            ("x", F8, (nx,)),  # [q, v] of the tree
-            ("rho_hat", F8, (3,)),
-            ("tau", F8, (3,)),  # the held torque [N m]
-            ("rho_dot", F8, (3,)),
-        ]
-    )
 
 
 def digital_loop_state(nx: int, nz: int, delay: int) -> np.dtype:

@@ -1,9 +1,8 @@
 """Kernels of the Pinocchio plant in full coordinates x = [q, v]: the active-joint torques of
 eq. 13 and the RK4 stages of a step under a held torque.
 
-:class:`~delta_pin.sim.plants.PinocchioPlant` (its ``derivative`` and its fast sampled step) and
-the compiled loop of :mod:`delta_pin.compiled.tree_loop` both build their torques and stages
-here, so the two agree bit for bit. ``friction`` is a
+:class:`~delta_pin.sim.plants.PinocchioPlant` (its ``derivative`` and its fast sampled step)
+builds its torques and stages here. ``friction`` is a
 :data:`~delta_pin.compiled.layouts.FRICTION` record.
 """
 

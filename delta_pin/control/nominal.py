@@ -84,7 +84,6 @@ class DeltaNominalModel(NominalModel):
     """
 
     dof = 3
-    delta_loops = True  # load_delta's runs on this model keep the Delta's own compiled loops
 
     def __init__(
         self,

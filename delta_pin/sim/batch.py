@@ -1,20 +1,18 @@
-"""Designs I and II run compiled, on either plant: continuous mode (BDF2, Radau IIA) and sampled
-mode (zero-order hold, RK4) -- the entry from ``sim`` to :mod:`delta_pin.compiled`; so does the LQR
-baseline in continuous mode (its compiled law, :mod:`delta_pin.compiled.lqr`).
+"""Designs I and II run compiled on the Delta's analytic model, on either plant: continuous mode
+(BDF2, Radau IIA) and, on the analytic plant, sampled mode (zero-order hold, RK4) -- the entry
+from ``sim`` to :mod:`delta_pin.compiled`; so does the LQR baseline in continuous mode (its
+compiled law, :mod:`delta_pin.compiled.lqr`). Sampled runs on the Pinocchio plant take the
+compiled core's closed-chain plant instead (:func:`~delta_pin.sim.runner.simulate`).
 
 :func:`simulate_batch` runs many runs that share the robot, the path and the timing but differ in
 gains, uncertainty or initial state: the reference is tabulated once, then each run is one
-compiled call (:func:`~delta_pin.compiled.closed_loop.run_closed_loop`, or
-:func:`~delta_pin.compiled.tree_loop.run_tree_sampled` for sampled runs on the Pinocchio tree).
-A run's result is the same, bit for bit, as the run made alone (``simulate(...,
-integrator="bdf2")`` is a batch of one). In sampled mode the compiled loops do the arithmetic of
-:func:`~delta_pin.sim.loop.run_python_loop` (the same stages, truth and reference rows) and give
-its arrays (tests/sim/test_compiled_loops.py). On the Pinocchio plant in sampled mode the tree is
-integrated in full coordinates through Pinocchio's C++ (:mod:`delta_pin.compiled.native`); where
-the closure gap calls for a projection, the plant's own Python routine projects and the loop
-resumes, so projection has one implementation. In continuous mode on the Pinocchio plant, BDF2
-integrates the active coordinates and Pinocchio completes q(alpha) at every evaluation. The
-Pinocchio plant needs the native library.
+compiled call (:func:`~delta_pin.compiled.closed_loop.run_closed_loop`). A run's result is the
+same, bit for bit, as the run made alone (``simulate(..., integrator="bdf2")`` is a batch of
+one). In sampled mode the compiled loop does the arithmetic of
+:func:`~delta_pin.sim.loop.run_python_loop` (the same stages, truth and reference rows) and gives
+its arrays (tests/sim/test_compiled_loops.py). In continuous mode on the Pinocchio plant, BDF2
+and Radau integrate the active coordinates and Pinocchio (:mod:`delta_pin.compiled.native`)
+completes q(alpha) at every evaluation.
 
 Example:
     >>> robot = load_delta()
@@ -33,26 +31,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from delta_pin.compiled import closed_loop, radau, tree_loop
+from delta_pin.compiled import closed_loop, radau
 from delta_pin.compiled.layouts import (
     INFO,
-    NATIVE_TREE,
     PLANT,
     REFERENCE,
     SAMPLE,
     STEP_CONTROL,
     TIMING,
-    TREE_LOOP_LIMITS,
     WORKSPACE,
     record,
     records,
-    tree_loop_state,
 )
-from delta_pin.compiled.native import STAGES
 from delta_pin.control.adaptive_robust import AdaptiveRobustController
-from delta_pin.control.base import Reference
 from delta_pin.control.baselines import LQR
-from delta_pin.errors import DeltaPinError, InvalidParameterError, SimulationError
+from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
@@ -61,28 +54,12 @@ from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, jo
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
 from delta_pin.sim.continuous_core import RADAU_FIRST_STEP, RADAU_MAX_STEP
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
-from delta_pin.sim.loop import ControlLoop
 from delta_pin.sim.plants import AnalyticPlant, Plant, truth_records
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 
-__all__ = ["batchable", "native_available", "simulate_batch", "tree_loop_inputs"]
+__all__ = ["batchable", "native_available", "simulate_batch"]
 
-#: The native stage of the compiled loops on the tree in full coordinates (sampled mode, designs
-#: I/II and the digital loop), one of :data:`delta_pin.compiled.native.STAGES`:
-#:
-#: - ``"axis_tree"`` (the default), ``dpn_dynamics_axis``: delta-pin's own recursive algorithms for
-#:   trees of 1-DOF axis joints (``compiled/native/axis_tree.hpp``), equal to
-#:   ``pin.constraintDynamics`` to ~1e-13 relative at ~40 % of its cost;
-#: - ``"constraint_dynamics"``, ``dpn_dynamics``: Pinocchio's ``constraintDynamics``, the function
-#:   the Python loop calls, so the compiled runs are the Python loop's arrays bit for bit.
-#:
-#: The two give the same runs to ~1e-12 relative, except on a drive with quantising encoders: there
-#: a rounding difference can change which quantisation level a reading falls on, and a 15 s run's
-#: error then moves by up to a few per cent (an equally valid realisation of the same sampled
-#: system; docs/architecture.md, section 6). tests/sim/test_compiled_loops.py runs both against
-#: the Python loop.
-NATIVE_STAGE = "axis_tree"
 _RADAU_FAILURES = {closed_loop.NO_CONVERGENCE: "the step size fell below 1e-12 s"}
 _FAILURES = {
     closed_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",
@@ -101,13 +78,14 @@ def _delta_tree(plant) -> bool:
     return getattr(plant, "delta_tree", False)
 
 
-def _is_tree(plant, mode: str = "sampled") -> bool:
-    """Whether ``plant`` is the Pinocchio plant the compiled loops take in ``mode``: in full
-    coordinates in sampled mode; either representation in continuous mode (BDF2 integrates the
-    active coordinates and completes q(alpha) at every evaluation)."""
-    if plant == "pinocchio":
-        return True
-    return _delta_tree(plant) and (mode == "continuous" or plant.coordinates == "full")
+def _is_tree(plant, mode: str = "continuous") -> bool:
+    """Whether ``plant`` is the Pinocchio plant the compiled loops take: in continuous mode only,
+    in either representation (BDF2 and Radau integrate the active coordinates and complete
+    q(alpha) at every evaluation). Sampled runs on the Pinocchio plant take the compiled core
+    (:func:`~delta_pin.sim.runner.simulate`)."""
+    if mode != "continuous":
+        return False
+    return plant == "pinocchio" or _delta_tree(plant)
 
 
 def native_available() -> bool:
@@ -121,8 +99,8 @@ def native_available() -> bool:
 def batchable(controller, plant="analytic", mode: str = "continuous") -> bool:
     """Whether ``controller`` on ``plant`` can take a compiled path: design I or II with its
     compiled step (the Delta's analytic nominal model), or in continuous mode the LQR on that
-    model, on the analytic plant or on the Pinocchio plant (in sampled mode in full coordinates)
-    where the native library is available."""
+    model, on the analytic plant or, in continuous mode, on the Pinocchio plant where the native
+    library is available."""
     designs = isinstance(controller, AdaptiveRobustController) and controller.compiled
     lqr = isinstance(controller, LQR) and controller.compiled and mode == "continuous"
     if not (designs or lqr):
@@ -242,8 +220,7 @@ def simulate_batch(
         if radau:
             outcomes.append(_run_radau(controller, run_plant, truth, table, y0, timing, rtol, atol))
             continue
-        run = _run_on_tree if tree and sampled else _run_closed_loop
-        outcomes.append(run(controller, run_plant, truth, reference, y0, timing))
+        outcomes.append(_run_closed_loop(controller, run_plant, truth, reference, y0, timing))
     wall = (time.perf_counter() - wall) / count
 
     alpha_d, alpha_dot_d, _ = table.rows(per_sample)
@@ -282,9 +259,9 @@ def _check_controllers(controllers, plant, mode: str) -> list:
             raise InvalidParameterError(
                 f"controllers[{index}] ({getattr(controller, 'name', controller)!r}) on plant "
                 f"{getattr(plant, 'name', plant)!r} in {mode} mode: the compiled loops run designs "
-                "I/II with their compiled step on the analytic plant, or on the Pinocchio plant "
-                "with the native library (in sampled mode in full coordinates); use "
-                "integrator='lsoda' or simulate(..., compiled=False)"
+                "I/II with their compiled step on the analytic plant, or in continuous mode on the "
+                "Pinocchio plant with the native library (its sampled runs: simulate(), the compiled "
+                "core); use integrator='lsoda' or simulate(..., compiled=False)"
             )
     if len({_rho_size(c) for c in controllers}) > 1:
         raise InvalidParameterError(
@@ -385,79 +362,6 @@ def _run_radau(controller, plant: Plant, truth, table, y0, timing, rtol: float, 
             f"radau: {_RADAU_FAILURES.get(int(status), _FAILURES.get(int(status)))}", float(when)
         )
     return _Outcome(samples, info, counters, failure)
-
-
-def tree_loop_inputs(plant: ClosedChainPlant, truth) -> tuple:
-    """What a compiled loop on the tree reads besides the run's records: (the NATIVE_TREE record,
-    with the stage :data:`NATIVE_STAGE` names, the active and platform indices in q, the
-    platform's rotational inertia at each truth row, the TREE_LOOP_LIMITS record)."""
-    if NATIVE_STAGE not in STAGES:
-        raise InvalidParameterError(f"NATIVE_STAGE={NATIVE_STAGE!r} must be one of {', '.join(STAGES)}")
-    tree = plant.native_tree()
-    dynamics = tree.address_dynamics_axis if NATIVE_STAGE == "axis_tree" else tree.address_dynamics
-    native_tree = record(NATIVE_TREE, dynamics=dynamics, closure_gap=tree.address_gap, handle=tree.handle)
-    rotational = np.ascontiguousarray(plant.rotational_inertia(truth["platform_mass"][:, None, None]))
-    limits = record(
-        TREE_LOOP_LIMITS, projection_tolerance=plant.projection_tolerance,
-        failure_tolerance=plant.failure_tolerance,
-    )  # fmt: skip
-    active = plant.active.astype(np.int64)
-    platform = plant.platform_q_indices.astype(np.int64)
-    return native_tree, active, platform, rotational, limits
-
-
-def _run_on_tree(controller, plant: ClosedChainPlant, truth, reference, y0, timing) -> _Outcome:
-    """One sampled run on the Pinocchio tree in full coordinates
-    (:func:`~delta_pin.compiled.tree_loop.run_tree_sampled`), reading the truth on the half-step
-    grid (as :meth:`~delta_pin.sim.plants.Plant.precompute_truth` tabulates it for ``simulate``)
-    and the platform inertia at each of its masses. Where the loop stops for a projection, the
-    plant's own :meth:`~delta_pin.sim.plants.PinocchioPlant.finish_step_residual` projects the
-    state and the loop resumes; where it stops on a failure, the failing step is re-evaluated by
-    the Python loop's checks, so that the error is the one ``simulate`` raises."""
-    native_tree, active, platform, rotational, limits = tree_loop_inputs(plant, truth)
-    x0 = plant.initial_state(y0[:3], y0[3:6])
-    nr = len(y0) - 6
-    state = record(tree_loop_state(len(x0)), x=x0)
-    state["rho_hat"][:nr] = y0[6:]
-    samples, info = records(SAMPLE, timing["samples"] + 1), records(INFO, timing["samples"] + 1)
-    counters = np.zeros(2, dtype=np.int64)
-    plant_record, workspace = _plant_record(plant, controller), record(WORKSPACE)
-    while True:
-        status, when = tree_loop.run_tree_sampled(
-            controller.kernel_parameters, *chain_trigonometry(), plant_record, native_tree, active, platform,
-            truth, rotational, plant.friction_parameters, reference, timing, limits, state, workspace,
-            samples, info, counters,
-        )  # fmt: skip
-        if status == tree_loop.PROJECT:  # project with the plant's routine, then resume
-            try:
-                state["x"], state["gap"] = plant.finish_step_residual(state["x"].copy(), when)
-            except SimulationError as error:
-                return _Outcome(samples, info, counters, error)
-            continue
-        if status == tree_loop.OK:
-            return _Outcome(samples, info, counters, None)
-        row = reference[state["sample"]]
-        failure = _tree_failure(
-            status, when, ControlLoop(controller, plant), state["x"].copy(), state["rho_hat"][:nr].copy(),
-            Reference(row["alpha"], row["alpha_dot"], row["alpha_ddot"]),
-        )  # fmt: skip
-        return _Outcome(samples, info, counters, failure)
-
-
-def _tree_failure(status: int, when: float, loop: ControlLoop, x, rho, reference: Reference) -> Exception:
-    """The error the Python loop raises where the compiled tree loop stopped with ``status`` at
-    ``when`` [s] in state (x, rho): the same Python check is run on that state."""
-    try:
-        if status == tree_loop.NO_FK:
-            loop.control(when, x, reference, rho)
-        elif status == tree_loop.DIVERGED:
-            loop.check_state(when, x, rho)
-        elif status == tree_loop.EXPLODED:
-            loop.plant.finish_step_residual(x, when)
-    except DeltaPinError as error:
-        return error
-    reasons = {tree_loop.NO_FK: "the controller's kinematics failed", tree_loop.DIVERGED: "the run diverged"}
-    return SimulationError(f"rk4 on the tree: {reasons.get(status, 'Pinocchio failed')}", when)
 
 
 def _run_from_samples(outcome: _Outcome, nr: int, dt: float, alpha_d, alpha_dot_d, xyz_d, metadata) -> Run:

@@ -1,12 +1,12 @@
-"""The digital laws (TDC, digital-robust) on a digital drive, compiled: the entry from ``sim`` to
-:mod:`delta_pin.compiled.digital_loop`.
+"""The digital laws (TDC, digital-robust) on a digital drive, compiled on the Delta's analytic
+plant: the entry from ``sim`` to :mod:`delta_pin.compiled.digital_loop`.
 
 ``simulate(..., mode="sampled")`` sends a run here when its controller is a digital law with its
-compiled step (the Delta's analytic nominal model) and the plant is the analytic one or the
-Pinocchio tree with the native library: the same arrays as the Python loop, bit for bit
-(tests/sim/test_compiled_loops.py), at compiled speed. The encoder's noise is drawn here, from its
-seeded generator, in the order the Python encoder draws it; where the tree's closure gap calls for
-a projection, the plant's own Python routine projects and the loop resumes.
+compiled step (the Delta's analytic nominal model) on the analytic plant: the same arrays as the
+Python loop, bit for bit (tests/sim/test_compiled_loops.py), at compiled speed. The encoder's
+noise is drawn here, from its seeded generator, in the order the Python encoder draws it. On the
+Pinocchio plant the same laws run in the compiled core with its drive
+(:func:`~delta_pin.sim.loop.run_python_loop`).
 """
 
 from __future__ import annotations
@@ -41,8 +41,7 @@ from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.kinematics import chain_trigonometry
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_substeps, check_timing, joint_vector
-from delta_pin.sim.batch import _delta_tree, native_available, tree_loop_inputs
-from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
+from delta_pin.sim.closed_chain_plant import make_plant
 from delta_pin.sim.drive import Encoder, check_delay, check_torque_limit
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
 from delta_pin.sim.plants import AnalyticPlant, Plant, truth_records
@@ -55,24 +54,18 @@ _FAILURES = {
     digital_loop.NO_FK: "the state left the workspace (no forward kinematics, or the loops do not close)",
     digital_loop.NONFINITE_TORQUE: "the controller returned a non-finite torque",
     digital_loop.DIVERGED: "the run diverged (|alpha_dot| > 1000 rad/s or a non-finite state)",
-    digital_loop.EXPLODED: "the loop-closure gap exceeded the failure tolerance",
-    digital_loop.PINOCCHIO_FAILED: "Pinocchio's constrained dynamics failed",
 }
 
 
 def digital_compilable(controller, plant, drive_effects: bool = True) -> bool:
     """Whether the compiled digital loop runs ``controller`` on ``plant``: TDC or digital-robust
     with its compiled step, or designs I/II with theirs on a drive (``drive_effects``: without
-    one, their own compiled loops run them), on the analytic plant, or on the Pinocchio plant in
-    full coordinates where the native library is available."""
+    one, their own compiled loops run them), on the analytic plant."""
     digital = isinstance(controller, TimeDelayControl | DigitalRobustController)
     design = isinstance(controller, AdaptiveRobustController) and drive_effects
     if not ((digital or design) and controller.compiled):
         return False
-    if plant == "analytic" or isinstance(plant, AnalyticPlant):
-        return True
-    tree = plant == "pinocchio" or (_delta_tree(plant) and plant.coordinates == "full")
-    return tree and native_available()
+    return plant == "analytic" or isinstance(plant, AnalyticPlant)
 
 
 def _drive_record(sensor: Encoder | None, delay: int, torque_limit) -> np.record:
@@ -100,7 +93,7 @@ def simulate_digital(
     controller: TimeDelayControl | DigitalRobustController,
     trajectory=None,
     *,
-    plant: str | Plant = "pinocchio",
+    plant: str | Plant = "analytic",
     t_end: float,
     dt: float = 1e-3,
     substeps: int = 1,
@@ -122,7 +115,6 @@ def simulate_digital(
     steps = check_timing(dt, t_end)
     check_substeps(substeps)
     drive = _drive_record(sensor, delay, torque_limit)
-    tree = not (plant == "analytic" or isinstance(plant, AnalyticPlant))
     run_plant = plant if isinstance(plant, Plant) else make_plant(plant, robot, friction, uncertainty)
     h = dt / substeps
     table, sample_xyz, start = tabulate_reference(robot, trajectory, alpha0, 3, steps, dt, 1)
@@ -146,23 +138,15 @@ def simulate_digital(
         law, design = controller.kernel_parameters, record(CONTROLLER)
     design_info = records(INFO, steps + 1)
     wall = time.perf_counter()
-    if tree:
-        failure = _run_on_tree(
-            law, design, drive, noise, run_plant, truth, reference, timing, state, out, info, design_info,
-            counters,
-        )  # fmt: skip
-    else:
-        plant_record = record(
-            PLANT, geometry=kernel_geometry(robot.params), forearm_mass=1.5 * robot.params.m_b,
-            friction=run_plant.friction_parameters,
-        )  # fmt: skip
-        status, when = digital_loop.run_digital_analytic(
-            law, design, *chain_trigonometry(), drive, noise, plant_record, truth, reference, timing, state,
-            record(WORKSPACE), out, info, design_info, counters,
-        )  # fmt: skip
-        failure = (
-            None if status == digital_loop.OK else SimulationError(f"rk4: {_FAILURES[int(status)]}", when)
-        )
+    plant_record = record(
+        PLANT, geometry=kernel_geometry(robot.params), forearm_mass=1.5 * robot.params.m_b,
+        friction=run_plant.friction_parameters,
+    )  # fmt: skip
+    status, when = digital_loop.run_digital_analytic(
+        law, design, *chain_trigonometry(), drive, noise, plant_record, truth, reference, timing, state,
+        record(WORKSPACE), out, info, design_info, counters,
+    )  # fmt: skip
+    failure = None if status == digital_loop.OK else SimulationError(f"rk4: {_FAILURES[int(status)]}", when)
     wall = time.perf_counter() - wall
     if failure is not None:
         raise failure
@@ -171,8 +155,6 @@ def simulate_digital(
         integrator="rk4", alpha0=alpha0.tolist(), alpha_dot0=alpha_dot0.tolist(), wall_time=wall,
         rhs_evaluations=int(counters[0]), compiled=True,
     )  # fmt: skip
-    if getattr(run_plant, "projections", 0):
-        metadata["closure_projections"] = run_plant.projections
     if sensor is not None or drive["delay"] > 0 or drive["has_limit"]:
         metadata.update(
             sensor=None if sensor is None else sensor.metadata(),
@@ -219,25 +201,3 @@ def _internals(law, out, info, design_info, nz: int) -> dict[str, np.ndarray]:
         internals = {"lumped_estimate": info["lumped_estimate"].copy()}
     internals["tau_command"] = out["tau_command"].copy()
     return internals
-
-
-def _run_on_tree(
-    law, design, drive, noise, plant: ClosedChainPlant, truth, reference, timing, state, out, info,
-    design_info, counters,
-):  # fmt: skip
-    """The tree loop with projections by the plant's own routine; returns the failure or ``None``."""
-    tree, active, platform, rotational, limits = tree_loop_inputs(plant, truth)
-    while True:
-        status, when = digital_loop.run_digital_tree(
-            law, design, *chain_trigonometry(), drive, noise, tree, active, platform, truth, rotational,
-            plant.friction_parameters, reference, timing, limits, state, out, info, design_info, counters,
-        )  # fmt: skip
-        if status == digital_loop.PROJECT:  # project with the plant's routine, then resume
-            try:
-                state["x"], state["gap"] = plant.finish_step_residual(state["x"].copy(), when)
-            except SimulationError as error:
-                return error
-            continue
-        if status == digital_loop.OK:
-            return None
-        return SimulationError(f"rk4 on the tree: {_FAILURES[int(status)]}", when)

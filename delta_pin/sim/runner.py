@@ -27,7 +27,7 @@ from delta_pin.choices import INTEGRATOR_CHOICES
 from delta_pin.control.base import as_controller
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.closed_chain import ClosedChainRobot
-from delta_pin.model.delta_robot import analytic_delta, carries_own_delta
+from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
@@ -149,28 +149,22 @@ def _closed_chain_integrator(
     return "lsoda", None
 
 
-def _runs_as_delta(robot, plant, trajectory, controller=None, mode="sampled", delta_only=False) -> bool:
-    """Whether a closed-chain robot that carries the analytic Delta of its own URDF (the robot of
-    ``load_delta``: ``carries_own_delta``) runs on the Delta's own plants and compiled loops:
-    unless it is given a Pinocchio plant that those loops do not take (``delta_tree`` false: a
-    payload point, say), a path of a named frame, or, in sampled mode on the Pinocchio plant, a
-    controller whose law the compiled core holds for the closed chain (``sampled_core_law``)
-    where the run needs nothing only the Delta's plants model (``delta_only``: an uncertainty
-    profile, a sensor, a delay or a torque limit) and its nominal model does not keep the
-    Delta's own loops (``delta_loops``: the analytic model, whose runs keep the paper's route
-    until those loops are in the core)."""
-    given = isinstance(plant, ClosedChainPlant)
-    if not carries_own_delta(robot) or (given and not plant.delta_tree):
-        return False
-    if isinstance(trajectory, FramePath):  # a path of a named frame: the closed-chain path
-        return False
-    delta_only = delta_only or (given and plant.uncertainty is not None)
-    if mode == "sampled" and (given or plant == "pinocchio") and not delta_only and controller is not None:
-        law = getattr(controller, "sampled_core_law", None)
-        own_loops = getattr(getattr(controller, "nominal", None), "delta_loops", False)
-        if law is not None and not own_loops and law() is not None:
-            return False  # the closed chain's compiled plant and law
-    return True
+def _engine_robot(robot, plant, trajectory, mode: str, integrator: str, uncertainty):
+    """The robot a run goes on: for a Delta with the analytic model of its own URDF (the robot of
+    ``load_delta``, or that analytic :class:`~delta_pin.model.robot.Delta` itself) the analytic
+    model -- the Delta's own plants and compiled loops -- with the analytic plant, and on the
+    Pinocchio plant only where the core does not hold the run yet (the fixed-step BDF2, or a
+    continuous run with an uncertainty profile); else the closed chain of its URDF: its plant in
+    the compiled core, a controller's compiled law there (the Delta's analytic nominal model
+    included) or its own Python law called back. Any other robot runs as it is."""
+    delta = analytic_delta(robot)
+    if not isinstance(delta, Delta):
+        return robot
+    chain = delta.pinocchio if robot is delta else robot
+    if isinstance(plant, ClosedChainPlant) or isinstance(trajectory, FramePath):
+        return chain
+    own_loops = integrator == "bdf2" or (mode == "continuous" and uncertainty is not None)
+    return chain if plant == "pinocchio" and not own_loops else delta
 
 
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool, delay: int = 0) -> None:
@@ -285,9 +279,8 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
-    delta_only = uncertainty is not None or sensor is not None or delay != 0 or torque_limit is not None
-    if _runs_as_delta(robot, plant, trajectory, controller, mode, delta_only):
-        robot = analytic_delta(robot)  # the Delta's plants, compiled loops and metadata
+    described = analytic_delta(robot)  # a Delta's run is described as the Delta's (its metadata)
+    robot = _engine_robot(robot, plant, trajectory, mode, integrator, uncertainty)
     # the compiled core's plant in the Python loop's sampled mode: where it applies, not with
     # compiled=False (the Python plant's RK4: the reference)
     core = False if compiled is False else None
@@ -353,7 +346,7 @@ def simulate(
     wall = time.perf_counter() - wall
 
     metadata = run_metadata(
-        robot, controller, trajectory, plant, mode=mode, dt=dt, t_end=steps * dt, substeps=substeps,
+        described, controller, trajectory, plant, mode=mode, dt=dt, t_end=steps * dt, substeps=substeps,
         integrator=integrator, **({"rtol": rtol, "atol": atol} if integrator in ("lsoda", "radau") else {}),
         alpha0=alpha0.tolist(), alpha_dot0=alpha_dot0.tolist(), wall_time=wall,
     )  # fmt: skip
@@ -361,6 +354,8 @@ def simulate(
         metadata["closure_projections"] = plant.projections
     if getattr(plant, "stepped_in_core", False) or in_core is not None:
         metadata["core_plant"] = True  # the plant stepped in the compiled core
+        # the core counts its projections but does not keep the largest gap it projected back
+        metadata.pop("closure_gap_projected_max", None)
     metadata.update(counters)
     if drive is not None:
         metadata.update(sensor=None if sensor is None else sensor.metadata(), **drive.metadata())

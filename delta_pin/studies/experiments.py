@@ -318,14 +318,14 @@ def run_spec(
 def batch_group(spec: RunSpec) -> tuple | None:
     """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
     when ``spec`` cannot be batched: designs I/II in continuous mode with ``integrator="bdf2"`` or
-    in sampled mode (RK4), on the analytic plant or, where the native library of
+    in sampled mode (RK4) on the analytic plant, or in continuous mode, where the native library of
     :mod:`delta_pin.compiled.native` is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (spec.controller in ("design1", "design2") and (continuous or sampled)) or spec.drive_effects:
         return None  # designs I/II with a drive, and the digital laws, run one by one (compiled)
-    if spec.plant == "pinocchio" and not native_available():
-        return None
+    if spec.plant == "pinocchio" and (sampled or not native_available()):
+        return None  # sampled on the Pinocchio plant: the compiled core, one run each
     vector_rho = bool(spec.gains.get("vector_rho"))
     return (spec.plant, spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
 

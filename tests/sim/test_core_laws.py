@@ -276,8 +276,7 @@ def test_a_recognised_delta_with_the_analytic_nominal_model_runs_in_the_core_as_
     """Design I (sampling-aware) on the analytic nominal model of a Delta written in MJCF (a
     recognised Delta: robot.delta), sampled at 1 kHz: the default run takes the core's plant and
     law, and equals the Python loop (compiled=False) within 1e-10 (rad, N m, internals) over 0.5 s
-    of path I (one RK4 arithmetic; the law's arithmetic equal to ~1e-16, above). load_delta's own
-    robot keeps the Delta's loops with this model (DeltaNominalModel.delta_loops)."""
+    of path I (one RK4 arithmetic; the law's arithmetic equal to ~1e-16, above)."""
     robot = dp.load_robot("delta_mjcf")
     controllers = [dp.design1(dp.DeltaNominalModel(robot), sampling_period=DT) for _ in range(2)]
     options = {"t_end": 0.5, "mode": "sampled"}

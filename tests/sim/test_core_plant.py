@@ -230,8 +230,9 @@ def test_a_compiled_law_that_diverges_stops_at_the_sample_with_its_time():
 def test_the_delta_from_either_loader_takes_the_core_with_a_projected_nominal_model(tmp_path):
     """load_delta's robot and the same URDF through load_robot: with designs I/II on the projected
     nominal model both take the compiled closed-chain plant and law (one engine; the same run
-    within 1e-7 rad: the two robots' closure frames are built by different loaders), while the
-    Delta's own analytic nominal model keeps the Delta's plants (the paper's numbers)."""
+    within 1e-7 rad: the two robots' closure frames are built by different loaders), and so do
+    the Delta's own analytic nominal model and the paper's uncertainty profile on the Pinocchio
+    plant; the run is described as the Delta's (its parameters in the metadata)."""
     delta = dp.load_delta()
     urdf = tmp_path / "delta.urdf"
     urdf.write_text(delta.delta.description.urdf)
@@ -242,15 +243,14 @@ def test_the_delta_from_either_loader_takes_the_core_with_a_projected_nominal_mo
         runs.append(dp.simulate(robot, controller, dp.PathI(), t_end=0.3, mode="sampled"))
         assert runs[-1].metadata["plant"] == "pinocchio" and runs[-1].metadata["core_plant"]
     assert np.abs(runs[0].alpha - runs[1].alpha).max() < 1e-7
-    analytic = dp.simulate(
-        delta, dp.design1(dp.DeltaNominalModel(delta)), dp.PathI(), t_end=0.01, mode="sampled"
-    )
-    assert analytic.metadata["plant"] == "pinocchio" and "core_plant" not in analytic.metadata
-    uncertain = dp.simulate(
-        delta, dp.design1(dp.ClosedChainNominalModel(delta)), dp.PathI(), t_end=0.01, mode="sampled",
-        uncertainty=dp.PaperUncertainty(),
-    )  # fmt: skip
-    assert uncertain.metadata["plant"] == "pinocchio"  # the Delta's truth: its own plant
+    for nominal in (dp.DeltaNominalModel(delta), dp.ClosedChainNominalModel(delta)):
+        run = dp.simulate(
+            delta, dp.design1(nominal, sampling_period=1e-3), dp.PathI(), t_end=0.01, mode="sampled",
+            uncertainty=dp.PaperUncertainty(), friction=True,
+        )  # fmt: skip
+        assert run.metadata["plant"] == "pinocchio" and run.metadata["core_plant"]
+        assert run.metadata["robot"]["m_o"] == delta.params.m_o  # the Delta's description
+        assert run.metadata["uncertainty"]["kind"] != "none"
 
 
 @pytest.mark.parametrize("kind", ["ctc", "pd"])

@@ -120,28 +120,26 @@ def test_time_varying_platform_mass_reaches_the_pinocchio_model(robot):
 
 
 # --------------------------------------------------------------------- closure drift and projection
-def test_a_rough_torque_drifts_the_loops_and_the_plant_projects_them_back(robot, monkeypatch):
+def test_a_rough_torque_drifts_the_loops_and_the_plant_projects_them_back(robot):
     """TDC on 11-bit encoders with one sample of delay: its torque jumps by tens of N m from sample
     to sample, and one 1 ms RK4 step drifts the loops by up to 1.7e-6 m (measured). That is a
     projection, not an explosion: before issue 15 the run stopped at t = 1.323 s ("the loop-closure
     gap exploded to 1.060e-06 m"); now every such step is projected back and the run completes,
-    the Python loop and the compiled loop alike: bit for bit with the compiled loop's native stage
-    set to Pinocchio's constraintDynamics (the default stage is compared with the Python loop in
-    tests/sim/test_compiled_loops.py)."""
+    in the compiled core and in the Python loop alike (the same runs to PINOCCHIO_RTOL on 17-bit
+    encoders: tests/sim/test_compiled_loops.py; on 11 bits a last-digit difference can move a
+    reading by one level, so the two are equally valid runs, not the same one)."""
     from delta_pin.studies.experiments import RunSpec, run_spec
-
-    monkeypatch.setattr("delta_pin.sim.batch.NATIVE_STAGE", "constraint_dynamics")
 
     spec = RunSpec(controller="tdc", mode="sampled", t_end=3.0, encoder_bits=11, delay=1)
     runs = [run_spec(spec, robot, compiled=compiled) for compiled in (None, False)]
+    assert runs[0].metadata["core_plant"] and not runs[1].metadata.get("core_plant")
+    # the Python plant keeps the largest gap it projected back (the core does not)
+    assert runs[1].metadata["closure_gap_projected_max"] > 1e-6  # the old failure tolerance [m]
     for run in runs:
         assert run.t[-1] == pytest.approx(3.0)
-        assert run.metadata["closure_gap_projected_max"] > 1e-6  # the old failure tolerance [m]
         assert run.metadata["closure_projections"] > 1000  # of 3000 samples
         assert run.closure_residual.max() <= 1e-10  # the projection tolerance [m]
         assert np.abs(run.error).max() < 0.1  # [rad] bounded: the loop holds
-    assert runs[0].metadata["closure_projections"] == runs[1].metadata["closure_projections"]
-    np.testing.assert_array_equal(runs[0].alpha, runs[1].alpha)
 
 
 def test_a_state_whose_loops_cannot_be_reassembled_stops_the_run_with_time_and_gap(robot):

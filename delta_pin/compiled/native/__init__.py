@@ -1,13 +1,14 @@
 """The constrained tree dynamics in the compiled core, for the compiled simulation loops.
 
 ``pin.constraintDynamics`` costs ~7.6 us per call from Python, a third of it in the binding. The
-compiled loops of :mod:`delta_pin.compiled.closed_loop` and :mod:`delta_pin.compiled.tree_loop`
-call C++ directly instead, through the C entry points of ``delta_pin/core/tree_dynamics.cpp`` in
-the compiled core (:mod:`delta_pin.compiled.core`), with two evaluations of the constrained tree
-(:data:`STAGES`): the same explicitly instantiated ``constraintDynamics`` of
-``libpinocchio_default`` that the Python binding calls, so the accelerations agree bit for bit;
-and ``axis_tree.hpp``, delta-pin's own recursive algorithms for trees of 1-DOF axis joints, equal
-to it to ~1e-13 relative at ~40 % of its cost, the default (tests/sim/test_native.py).
+compiled loops of :mod:`delta_pin.compiled.closed_loop` (the Pinocchio plant in active
+coordinates, continuous mode) call C++ directly instead, through the C entry points of
+``delta_pin/core/tree_dynamics.cpp`` in the compiled core (:mod:`delta_pin.compiled.core`),
+with two evaluations of the constrained tree (:data:`STAGES`): the same explicitly instantiated
+``constraintDynamics`` of ``libpinocchio_default`` that the Python binding calls, so the
+accelerations agree bit for bit; and ``axis_tree.hpp``, delta-pin's own recursive algorithms for
+trees of 1-DOF axis joints, equal to it to ~1e-13 relative at ~40 % of its cost, the default
+(tests/sim/test_native.py).
 
 The core is compiled when the package is installed (scikit-build-core, ``CMakeLists.txt``);
 nothing is compiled at run time. Where it cannot be imported (built against another Pinocchio, a

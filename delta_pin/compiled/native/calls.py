@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["call_active_dynamics", "call_closure_gap", "call_tree_dynamics"]
+__all__ = ["call_active_dynamics"]
 
 _DOUBLE = ir.DoubleType()
 _VOID_P = ir.IntType(8).as_pointer()
@@ -39,13 +39,6 @@ def _codegen(returns: str, arguments: str):
 
 
 @intrinsic
-def call_tree_dynamics(typingctx, address, handle, q, v, tau, mass, rotational, ddq):
-    """``dpn_dynamics(handle, q, v, tau, mass, rotational, ddq)``: 0 where it succeeds."""
-    signature = types.int32(address, handle, q, v, tau, mass, rotational, ddq)
-    return signature, _codegen("i", "pppdpp")
-
-
-@intrinsic
 def call_active_dynamics(
     typingctx, address, handle, alpha, alpha_dot, torque, mass, rotational, out, xyz, gap
 ):
@@ -53,9 +46,3 @@ def call_active_dynamics(
     gap)``: 0 where it succeeds, 2 where the loops do not close."""
     signature = types.int32(address, handle, alpha, alpha_dot, torque, mass, rotational, out, xyz, gap)
     return signature, _codegen("i", "pppdpppp")
-
-
-@intrinsic
-def call_closure_gap(typingctx, address, handle, q):
-    """``dpn_closure_gap(handle, q)``: the largest closure gap [m]."""
-    return types.float64(address, handle, q), _codegen("d", "p")
