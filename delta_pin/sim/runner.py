@@ -149,15 +149,15 @@ def _closed_chain_integrator(
     return "lsoda", None
 
 
-def _engine_robot(robot, plant, trajectory, mode: str, integrator: str, uncertainty):
+def _engine_robot(robot, delta, plant, trajectory, mode: str, integrator: str, uncertainty):
     """The robot a run goes on: for a Delta with the analytic model of its own URDF (the robot of
     ``load_delta``, or that analytic :class:`~delta_pin.model.robot.Delta` itself) the analytic
     model -- the Delta's own plants and compiled loops -- with the analytic plant, and on the
     Pinocchio plant only where the core does not hold the run yet (the fixed-step BDF2, or a
     continuous run with an uncertainty profile); else the closed chain of its URDF: its plant in
     the compiled core, a controller's compiled law there (the Delta's analytic nominal model
-    included) or its own Python law called back. Any other robot runs as it is."""
-    delta = analytic_delta(robot)
+    included) or its own Python law called back. Any other robot runs as it is. ``delta``: the
+    robot's :func:`~delta_pin.model.delta_robot.analytic_delta`."""
     if not isinstance(delta, Delta):
         return robot
     chain = delta.pinocchio if robot is delta else robot
@@ -256,8 +256,9 @@ def simulate(
             (:func:`~delta_pin.sim.batch.simulate_batch`, the same arithmetic, ~10x faster) where
             it applies -- designs I/II with their compiled step (without a sensor, delay or torque
             limit), and the digital laws TDC and digital-robust with theirs (with or without them,
-            :func:`~delta_pin.sim.digital_batch.simulate_digital`), on the analytic plant or on the
-            Pinocchio plant in full coordinates with the native library. ``None`` (the default):
+            :func:`~delta_pin.sim.digital_batch.simulate_digital`), on the analytic plant; on the
+            Pinocchio plant the compiled core's plant, with a controller's compiled law or its
+            Python law called back once per sample. ``None`` (the default):
             where it applies; ``False``: never (the Python loop, the reference the compiled loops
             are tested against); ``True``: required (an error where it does not apply).
         sensor: sampled mode: an :class:`~delta_pin.sim.drive.Encoder` whose readings the
@@ -280,7 +281,7 @@ def simulate(
     check_mode(mode)
     check_substeps(substeps)
     described = analytic_delta(robot)  # a Delta's run is described as the Delta's (its metadata)
-    robot = _engine_robot(robot, plant, trajectory, mode, integrator, uncertainty)
+    robot = _engine_robot(robot, described, plant, trajectory, mode, integrator, uncertainty)
     # the compiled core's plant in the Python loop's sampled mode: where it applies, not with
     # compiled=False (the Python plant's RK4: the reference)
     core = False if compiled is False else None
