@@ -21,8 +21,6 @@ __all__ = [
     "DIGITAL_INFO",
     "DIGITAL_LAW",
     "DIGITAL_ROBUST",
-    "DIGITAL_SAMPLE",
-    "DRIVE",
     "FRICTION",
     "GEOMETRY",
     "INFO",
@@ -38,7 +36,6 @@ __all__ = [
     "TRUTH",
     "WORKSPACE",
     "as_table",
-    "digital_loop_state",
     "record",
     "records",
 ]
@@ -157,30 +154,6 @@ DIGITAL_INFO = np.dtype(
     ]
 )
 
-#: The digital drive of delta_pin.sim.drive: encoder, computation delay, torque limit.
-DRIVE = np.dtype(
-    [
-        ("resolution", F8),  # encoder count q [rad]; 0: the controller sees the true state
-        ("exact_velocity", B1),  # the true velocity (else the difference of the readings)
-        ("delay", I8),  # samples
-        ("has_limit", B1),
-        ("torque_limit", F8, (3,)),  # [N m]
-    ]
-)
-
-#: One recorded sample of a compiled digital run.
-DIGITAL_SAMPLE = np.dtype(
-    [
-        ("alpha", F8, (3,)),
-        ("alpha_dot", F8, (3,)),
-        ("tau", F8, (3,)),  # the torque that acted [N m]
-        ("tau_command", F8, (3,)),  # the law's output [N m]
-        ("rho_hat", F8, (3,)),  # designs I/II: their bound estimate at the sample (1 or 3 entries)
-        ("xyz", F8, (3,)),
-        ("closure_gap", F8),  # [m]; 0 on the analytic plant
-    ]
-)
-
 #: A plant for the closed loops: the analytic model, or Pinocchio's tree in active coordinates.
 PLANT = np.dtype(
     [
@@ -271,26 +244,6 @@ WORKSPACE = np.dtype(
         ("reference", REFERENCE),  # the reference inside a split step (interpolated)
     ]
 )
-
-
-def digital_loop_state(nx: int, nz: int, delay: int) -> np.dtype:
-    """The resumable state of the compiled digital loop: plant state of nx numbers, law state of
-    nz, a drive of ``delay`` samples."""
-    return np.dtype(
-        [
-            ("sample", I8),  # k: the sample being computed
-            ("substep", I8),  # j > 0: resume sample k after sub-step j - 1 with the held torque
-            ("gap", F8),  # closure gap of x [m]
-            ("x", F8, (nx,)),  # the plant state
-            ("z", F8, (nz,)),  # the law's state at sample k
-            ("z_next", F8, (nz,)),  # its state at sample k + 1, held while sample k is integrated
-            ("tau", F8, (3,)),  # the torque acting over sample k [N m]
-            ("pending", F8, (max(delay, 1), 3)),  # commands not yet acting, a ring buffer
-            ("head", I8),  # the oldest of them
-            ("previous_reading", F8, (3,)),  # the encoder's last angles [rad]
-            ("hits", I8),  # samples at which the torque limit bound
-        ]
-    )
 
 
 def record(dtype: np.dtype, **values) -> np.record:

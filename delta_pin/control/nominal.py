@@ -133,7 +133,18 @@ class DeltaNominalModel(NominalModel):
         if law is not None:
             p = self.robot.params
             arm_gravity = 0.5 * (p.m_a + p.m_b) * p.g * p.l_a  # eq. 9 (corrected)
-            law.use_delta_model(p.R, p.r, p.l_a, p.l_b, p.arm_equivalent_inertia, arm_gravity, p.g, self.m_eq)
+            law.use_delta_model(
+                p.R,
+                p.r,
+                p.l_a,
+                p.l_b,
+                p.arm_equivalent_inertia,
+                arm_gravity,
+                p.g,
+                self.m_eq,
+                self._cos,
+                self._sin,
+            )
         return law
 
     def kernel_fields(self, friction_compensation: bool = True) -> dict:

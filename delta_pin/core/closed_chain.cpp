@@ -140,12 +140,12 @@ namespace delta_pin
   : chain_(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector)
   , model_(chain_.model())
   , settings_(proximal_accuracy, proximal_mu, proximal_iterations)
-  , actuated_q_(actuated_q)
-  , actuated_v_(actuated_v)
   , projection_tolerance_(projection_tolerance)
   , baumgarte_kp_(baumgarte_kp)
   , baumgarte_kd_(baumgarte_kd)
   {
+    actuated_q_ = actuated_q;
+    actuated_v_ = actuated_v;
     coefficient_rates_ = model_.nq != model_.nv;
     for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
       rate_kinds_.push_back(coefficient_rates_ ? rate_kind(model_, j) : AXIS);
@@ -256,31 +256,37 @@ namespace delta_pin
   }
 
   void ClosedChainPlant::set_truth(
-    JointIndex joint, const Eigen::Vector3d & point, const Vector & body_masses, const Vector & point_masses,
-    const RowMatrix & normal_forces, const RowMatrix & disturbances)
+    JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
+    const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances)
   {
     if (joint == 0 || joint >= (JointIndex)model_.njoints)
       throw std::invalid_argument("the truth's body is not a joint of the model");
-    if ((normal_forces.rows() && normal_forces.cols() != dof()) || (disturbances.rows() && disturbances.cols() != dof()))
-      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint");
     if (payload_joint_ != 0)
       model_.inertias[payload_joint_] = base_inertia_;  // the body of the last call restored
     payload_joint_ = joint;
     payload_point_ = point;
     base_inertia_ = model_.inertias[joint];
-    body_masses_ = body_masses;
-    payload_masses_ = point_masses;
-    normal_forces_ = normal_forces;
-    disturbances_ = disturbances;
     mass_ = 0.0;
     body_mass_ = base_inertia_.mass();
+    set_truth_table(TruthTable{step, body_masses, point_masses, normal_forces, disturbances});
   }
 
-  void ClosedChainPlant::set_body(long stage)
+  void ClosedChainPlant::set_truth_table(const TruthTable & truth)
   {
-    auto row = [stage](Eigen::Index size) { return std::min<Eigen::Index>(stage, size - 1); };
-    const double body = body_masses_.size() ? body_masses_[row(body_masses_.size())] : base_inertia_.mass();
-    const double mass = payload_masses_.size() ? payload_masses_[row(payload_masses_.size())] : 0.0;
+    if ((truth.normal_forces.rows() && truth.normal_forces.cols() != dof())
+        || (truth.disturbances.rows() && truth.disturbances.cols() != dof()))
+      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint");
+    if ((truth.body_masses.size() || truth.point_masses.size()) && payload_joint_ == 0)
+      throw std::invalid_argument("a table of masses needs the payload's joint (set_truth)");
+    if (!(truth.step >= 0.0))
+      throw std::invalid_argument("the truth table's step must be >= 0 s");
+    truth_ = truth;
+  }
+
+  void ClosedChainPlant::set_body(double u)
+  {
+    const double body = TruthTable::value(truth_.body_masses, u, base_inertia_.mass());
+    const double mass = TruthTable::value(truth_.point_masses, u, 0.0);
     if (mass == mass_ && body == body_mass_)
       return;
     // PinocchioPlant._set_mass: the body's COM kept, its rotational inertia scaled with its mass
@@ -559,24 +565,21 @@ namespace delta_pin
     return -1;
   }
 
-  const Vector & ClosedChainPlant::accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage)
+  const Vector & ClosedChainPlant::accelerations(const Vector & q, const Vector & v, const Vector & tau, double u)
   {
     check_size(q, model_.nq, "q");
     check_size(v, model_.nv, "v");
     check_size(tau, actuated_v_.size(), "tau");
     if (payload_joint_ != 0)
-      set_body(stage);
-    const Eigen::Index normal_row = std::min<Eigen::Index>(stage, normal_forces_.rows() - 1);
-    const Eigen::Index disturbance_row = std::min<Eigen::Index>(stage, disturbances_.rows() - 1);
+      set_body(u);
     tau_.setZero();
     for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
     {
       // tau - (F(t) + M_f(alpha_dot, F_n(t))), ClosedChainPlant.accelerations' arithmetic
-      const double disturbance = disturbances_.rows() ? disturbances_(disturbance_row, i) : 0.0;
-      double resisting = disturbance;
+      double resisting = TruthTable::value(truth_.disturbances, u, i, 0.0);
       if (friction_.enabled)
       {
-        const double normal = normal_forces_.rows() ? normal_forces_(normal_row, i) : friction_.normal_force[i];
+        const double normal = TruthTable::value(truth_.normal_forces, u, i, friction_.normal_force[i]);
         resisting += friction_.torque(v[actuated_v_[i]], normal);
       }
       tau_[actuated_v_[i]] = tau[i] - resisting;
@@ -690,59 +693,21 @@ namespace delta_pin
     return chain_.closure_gap(q);
   }
 
-  long ClosedChainPlant::run_sampled(
-    Vector x, long steps, int substeps, double dt,
-    SampledController & controller,
-    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
-    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
-    Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,
-    Eigen::Ref<Vector> gap_out)
+  bool ClosedChainPlant::complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v)
   {
-    const int nq = model_.nq, nv = model_.nv;
-    if (x.size() != nq + nv || q_out.rows() < steps + 1 || q_out.cols() != nq || v_out.cols() != nv)
-      throw std::invalid_argument("run_sampled: the state or the record arrays have the wrong shape");
-    const double h = dt / substeps;
-    double gap = chain_.closure_gap(x.head(nq));
-    Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size());
-    for (long k = 0; k <= steps; ++k)
-    {
-      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
-        alpha[i] = x[actuated_q_[i]];
-      for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
-        alpha_dot[i] = x[nq + actuated_v_[i]];
-      Vector tau;
-      try
-      {
-        tau = controller.control(k, x, alpha, alpha_dot);
-      }
-      catch (SimulationFailure & failure)
-      {
-        if (std::isnan(failure.time))
-          failure.time = k * dt;
-        failure_time_ = failure.time;
-        throw;
-      }
-      if (tau.size() != dof())
-        throw std::invalid_argument("run_sampled: the control returned a torque of the wrong size");
-      q_out.row(k) = x.head(nq).transpose();
-      v_out.row(k) = x.tail(nv).transpose();
-      xyz_out.row(k) = chain_.end_effector_position(x.head(nq)).transpose();
-      gap_out[k] = gap;
-      if (k == steps)
-        break;
-      for (int j = 0; j < substeps; ++j)
-      {
-        try
-        {
-          gap = step(x, tau, 2 * (k * (long)substeps + j), h);
-        }
-        catch (SimulationFailure & failure)
-        {
-          failure_time_ = failure.time = k * dt + (j + 1) * h;
-          throw;
-        }
-      }
-    }
-    return steps + 1;
+    const Vector guess = q.size() == model_.nq ? q : neutral(model_);
+    if (!chain_.configuration(alpha, guess, q))
+      return false;
+    v = chain_.velocity_map(q) * alpha_dot;
+    return true;
+  }
+
+  void ClosedChainPlant::active_accelerations(
+    double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot)
+  {
+    const Vector & ddq = accelerations(q, v, tau, truth_.position(t));
+    alpha_ddot.resize(actuated_v_.size());
+    for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+      alpha_ddot[i] = ddq[actuated_v_[i]];
   }
 } // namespace delta_pin

@@ -18,6 +18,7 @@
 
 #include "axis_tree.hpp"
 #include "control/friction.hpp"
+#include "plant.hpp"
 
 #include <Eigen/Dense>
 
@@ -29,12 +30,6 @@
 
 namespace delta_pin
 {
-  class SampledController;
-  typedef Eigen::VectorXd Vector;
-  typedef Eigen::MatrixXd Matrix;
-  typedef Eigen::VectorXi Indices;
-  typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
-
   // One loop closure: its two frames in the model and its equations (3: a point, 6: a weld).
   struct ClosureFrames
   {
@@ -125,7 +120,7 @@ namespace delta_pin
     Matrix jacobian_, frame_jacobian1_, frame_jacobian2_;
   };
 
-  class ClosedChainPlant
+  class ClosedChainPlant : public CorePlant
   {
   public:
     // model_text: pinocchio::Model::saveToString() of the robot's model (closure frames included).
@@ -149,21 +144,20 @@ namespace delta_pin
       const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref,
       const Vector & d, const Indices & damper_v, const Vector & damper_d);
     void set_friction(const FrictionSpec & friction);
-    // The time-varying truth (delta_pin/sim/truth.py), one row per RK4 stage time (row i at t = i h/2):
-    // the body of joint `joint` with the mass body_masses[i] [kg] (its COM kept, its rotational
-    // inertia about the COM scaled from the model's with the mass; empty: the model's body) plus
-    // a point mass point_masses[i] [kg] at `point` (empty: none), the friction's normal forces [N]
-    // and the joint disturbance [N m] on the actuated joints (no rows: the friction's own, none).
+    // The time-varying truth (TruthTable, plant.hpp) at t = i step [s]: the body of joint `joint`
+    // with the mass body_masses[i] [kg] (its COM kept, its rotational inertia about the COM
+    // scaled from the model's with the mass; empty: the model's body) plus a point mass
+    // point_masses[i] [kg] at `point` (empty: none), the friction's normal forces [N] and the
+    // joint disturbance [N m] on the actuated joints (no rows: the friction's own, none). The
+    // sampled loop reads row i at its stage i (step = h / 2).
     void set_truth(
-      pinocchio::JointIndex joint, const Eigen::Vector3d & point, const Vector & body_masses,
+      pinocchio::JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
       const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances);
+    void set_truth_table(const TruthTable & truth) override;
 
-    int nq() const { return model_.nq; }
-    int nv() const { return model_.nv; }
-    int dof() const { return (int)actuated_v_.size(); }
-    long projections() const { return projections_; }
-    // the simulated time [s] of the last SimulationFailure of run_sampled (NaN before one)
-    double failure_time() const { return failure_time_; }
+    int nq() const override { return model_.nq; }
+    int nv() const override { return model_.nv; }
+    bool has_configuration() const override { return true; }
 
     ClosedChainModel & chain() { return chain_; }
     // The stage that gives the accelerations: "axis_tree" (axis_tree.hpp, delta-pin's recursive
@@ -173,30 +167,22 @@ namespace delta_pin
     // matrix not positive definite falls back to Pinocchio's for good.
     std::string stage() const { return axis_ ? "axis_tree" : "constraint_dynamics"; }
     void use_axis_tree(bool use);
-    // ddq at (q, v) under actuated torques tau at the payload table's row `stage`
-    const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, long stage);
+    // ddq at (q, v) under actuated torques tau with the truth at the table's row position u
+    // (a stage of the sampled loop, or t / step)
+    const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, double u);
     // dx/dt at x
     void derivative(const Vector & x, const Vector & tau, long stage, Vector & dx);
-    // one RK4 step of length h under held tau from the table row `stage` (rows stage, stage+1,
-    // stage+1, stage+2 for t, t+h/2, t+h/2, t+h), then renormalisation, the gap, a projection
-    // where it exceeds the tolerance; returns the closure gap of the result
-    double step(Vector & x, const Vector & tau, long stage, double h);
-
-    // The sampled loop: the controller gives the torque held over sample k (controller.hpp: a
-    // C++ law, or the Python side's sensor, controller and drive); the plant takes `substeps`
-    // RK4 steps of dt / substeps.
-    // Records (steps + 1 rows) x's q and v, the end effector and the closure gap. Returns the
-    // number of samples recorded (steps + 1, or the sample at which the state became non-finite).
-    long run_sampled(
-      Vector x, long steps, int substeps, double dt,
-      SampledController & controller,
-      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> q_out,
-      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> v_out,
-      Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> xyz_out,
-      Eigen::Ref<Vector> gap_out);
+    // one RK4 step (CorePlant::step), then renormalisation, the gap, a projection where it
+    // exceeds the tolerance
+    double step(Vector & x, const Vector & tau, long stage, double h) override;
+    Eigen::Vector3d end_effector_position(const Vector & q) override { return chain_.end_effector_position(q); }
+    double closure_gap(const Vector & q) override { return chain_.closure_gap(q); }
+    // q(alpha) by Newton from q's own value, v = S alpha_dot
+    bool complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v) override;
+    void active_accelerations(double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot) override;
 
   private:
-    void set_body(long stage);
+    void set_body(double u);
     void configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const;
     void finish(Vector & x);
 
@@ -206,12 +192,9 @@ namespace delta_pin
     std::vector<pinocchio::RigidConstraintModel> constraint_models_;
     std::vector<pinocchio::RigidConstraintData> constraint_datas_;
     pinocchio::ProximalSettings settings_;
-    Indices actuated_q_, actuated_v_;
     std::vector<int> rate_kinds_;  // per joint: 0 axis, 1 ball, 2 free, 3 unit complex, 4 planar
     bool coefficient_rates_;
     double projection_tolerance_;
-    long projections_ = 0;
-    double failure_time_ = std::numeric_limits<double>::quiet_NaN();
     // springs, dampers, friction, payload
     Indices spring_q_, spring_v_, damper_v_;
     Vector spring_k_, spring_ref_, spring_d_, damper_d_;
@@ -219,8 +202,7 @@ namespace delta_pin
     pinocchio::JointIndex payload_joint_ = 0;
     Eigen::Vector3d payload_point_ = Eigen::Vector3d::Zero();
     pinocchio::Inertia base_inertia_ = pinocchio::Inertia::Zero();
-    Vector payload_masses_, body_masses_;
-    RowMatrix normal_forces_, disturbances_;
+    TruthTable truth_;
     double mass_ = 0.0, body_mass_ = -1.0;
     double baumgarte_kp_, baumgarte_kd_;
     std::unique_ptr<dpn::AxisTree> axis_;

@@ -33,33 +33,27 @@ namespace delta_pin
   }
 
   void run_continuous(
-    ClosedChainPlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Indices & actuated_v,
-    const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
-    long samples,
+    CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start,
+    const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples,
     const RadauOptions & options, double max_joint_speed, ContinuousRun & run)
   {
-    ClosedChainModel & chain = plant.chain();
     const int n = (int)alpha0.size(), nz = (int)z0.size();
-    if (actuated_v.size() != n || alpha_dot0.size() != n)
-      throw std::invalid_argument("alpha0, alpha_dot0 and the actuated joints need one value per actuated joint");
+    if (plant.dof() != n || alpha_dot0.size() != n)
+      throw std::invalid_argument("alpha0 and alpha_dot0 need one value per actuated joint");
     if (!(dt > 0.0) || samples < 1)
       throw std::invalid_argument("run_continuous needs dt > 0 and at least one sample");
-    Vector q_last = Vector::Zero(plant.nq());
-    {
-      Vector q;
-      if (!chain.configuration(alpha0, q_start, q))
-        throw failure_at("cannot close the loops at alpha0=" + joint_values(alpha0), 0.0);
-      q_last = q;
-    }
-    Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(plant.nq()), v, ddq;
-    // (q, v, tau, z_dot) at (t, y): the completion, the law and the plant's dynamics
+    Vector q_last = q_start, v;
+    if (!plant.complete(alpha0, alpha_dot0, q_last, v))
+      throw failure_at("cannot close the loops at alpha0=" + joint_values(alpha0), 0.0);
+    Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(plant.nq()), alpha_ddot(n);
+    // (q, v, tau, z_dot) at (t, y): the completion, the law
     auto complete = [&](double t, const Vector & y)
     {
       const Vector alpha = y.head(n);
-      if (!chain.configuration(alpha, q_last, q))
+      q = q_last;  // the warm start
+      if (!plant.complete(alpha, y.segment(n, n), q, v))
         throw failure_at("cannot close the loops at alpha=" + joint_values(alpha), t);
       q_last = q;
-      v = chain.velocity_map(q) * y.segment(n, n);
       reference.at(t, ref_a, ref_ad, ref_add);
       try
       {
@@ -86,11 +80,19 @@ namespace delta_pin
       if (!y.allFinite())
         throw failure_at("the state became non-finite (alpha=" + joint_values(y.head(n)) + ")", t);
       complete(t, y);
-      ddq = plant.accelerations(q, v, tau, 0);
+      try
+      {
+        plant.active_accelerations(t, q, v, tau, alpha_ddot);
+      }
+      catch (SimulationFailure & error)
+      {
+        if (std::isnan(error.time))
+          error.time = t;
+        throw;
+      }
       dy.resize(y.size());
       dy.head(n) = y.segment(n, n);
-      for (int i = 0; i < n; ++i)
-        dy[n + i] = ddq[actuated_v[i]];
+      dy.segment(n, n) = alpha_ddot;
       dy.tail(nz) = z_dot;
     };
     Vector y(2 * n + nz);
@@ -116,8 +118,8 @@ namespace delta_pin
       law.keep(k, tau, yk.tail(nz));
       run.q.row(k) = q.transpose();
       run.v.row(k) = v.transpose();
-      run.xyz.row(k) = chain.end_effector_position(q).transpose();
-      run.gap[k] = chain.closure_gap(q);
+      run.xyz.row(k) = plant.end_effector_position(q).transpose();
+      run.gap[k] = plant.closure_gap(q);
       run.samples = k + 1;
     };
     try

@@ -1,16 +1,17 @@
-// The continuous mode of the compiled core: a closed-chain plant and a compiled law integrated as
-// one ODE by Radau IIA with error control (radau.hpp), in active coordinates
+// The continuous mode of the compiled core: a plant (plant.hpp) and a law integrated as one ODE
+// by Radau IIA with error control (radau.hpp), in active coordinates
 //
-//     y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau), z_dot],
+//     y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), v(alpha_dot), tau, t), z_dot],
 //
-// where every evaluation assembles q(alpha) by Newton (warm-started) and v = S alpha_dot, the law
-// gives (tau, z_dot) at the reference of that time (eqs. 23-26, 30-33 for designs I/II), and the
-// plant's constrained dynamics (constraintDynamics on the tree) give alpha_ddot: the loops are
-// closed by construction, as delta_pin.sim.closed_chain_plant's active coordinates for LSODA.
+// where every evaluation completes (q, v) from the actuated joints (for a closed chain q(alpha)
+// by Newton, warm-started, and v = S alpha_dot: the loops closed by construction, as
+// delta_pin.sim.closed_chain_plant's active coordinates for LSODA; for the reduced Delta q =
+// alpha), the law gives (tau, z_dot) at the reference of that time (eqs. 23-26, 30-33 for designs
+// I/II), and the plant's dynamics give alpha_ddot with its truth interpolated at t.
 #pragma once
 
-#include "closed_chain.hpp"
 #include "controller.hpp"
+#include "plant.hpp"
 #include "radau.hpp"
 
 #include <cmath>
@@ -73,15 +74,13 @@ namespace delta_pin
     double failure_time = std::nan("");  // [s] the time of the SimulationFailure that stopped it
   };
 
-  // Integrate from (alpha0, alpha_dot0, z0) at t = 0 (the loops assembled from q_start) over
-  // `samples` - 1 periods dt and record the samples; torques act on the joints `actuated_v`
-  // (indices in v). A failure (the loops cannot be closed, a non-finite state or torque, a torque
+  // Integrate from (alpha0, alpha_dot0, z0) at t = 0 (a closed chain's loops assembled from
+  // q_start) over `samples` - 1 periods dt and record the samples. A failure (the loops cannot be closed, a non-finite state or torque, a torque
   // or state rate of the wrong size, |alpha_dot| above max_joint_speed, the step size collapsing)
   // throws SimulationFailure with its time; a CallbackError of the law passes unchanged; `run`
   // keeps the samples recorded before.
   void run_continuous(
-    ClosedChainPlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Indices & actuated_v,
-    const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
+    CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
     long samples,
     const RadauOptions & options, double max_joint_speed, ContinuousRun & run);
 } // namespace delta_pin

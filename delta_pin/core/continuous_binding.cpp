@@ -96,8 +96,8 @@ void bind_continuous(nb::module_ & m)
     }, "(steps, rejected steps, evaluations, Jacobians, factorisations) of Radau IIA");
   m.def(
     "run_continuous",
-    [](ClosedChainPlant & plant, nb::object law, double step, const RowMatrix & alpha, const RowMatrix & alpha_dot,
-       const RowMatrix & alpha_ddot, const RowMatrix & alpha_dddot, const Indices & actuated_v, const Vector & q_start,
+    [](CorePlant & plant, nb::object law, double step, const RowMatrix & alpha, const RowMatrix & alpha_dot,
+       const RowMatrix & alpha_ddot, const RowMatrix & alpha_dddot, const Vector & q_start,
        const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples, double rtol,
        double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run)
     {
@@ -113,7 +113,7 @@ void bind_continuous(nb::module_ & m)
         ProjectedContinuousLaw adapter(*compiled, samples, z0.size());
         nb::gil_scoped_release release;  // nothing in the loop touches Python
         run_continuous(
-          plant, adapter, reference, actuated_v, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
+          plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
           max_joint_speed, run);
         return;
       }
@@ -123,7 +123,7 @@ void bind_continuous(nb::module_ & m)
       {
         nb::gil_scoped_release release;
         run_continuous(
-          plant, adapter, reference, actuated_v, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
+          plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
           max_joint_speed, run);
       }
       catch (const CallbackError &)
@@ -132,10 +132,10 @@ void bind_continuous(nb::module_ & m)
       }
     },
     nb::arg("plant"), nb::arg("law"), nb::arg("step"), nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"),
-    nb::arg("alpha_dddot"), nb::arg("actuated_v"), nb::arg("q_start"), nb::arg("alpha0"), nb::arg("alpha_dot0"),
+    nb::arg("alpha_dddot"), nb::arg("q_start"), nb::arg("alpha0"), nb::arg("alpha_dot0"),
     nb::arg("z0"), nb::arg("dt"), nb::arg("samples"), nb::arg("rtol"), nb::arg("atol"), nb::arg("first_step"),
     nb::arg("max_step"), nb::arg("max_joint_speed"), nb::arg("run"),
-    "Continuous mode: the plant and a law integrated by Radau IIA (continuous.hpp); the law is a compiled "
+    "Continuous mode: a plant (ClosedChainPlant, AnalyticDeltaPlant) and a law integrated by Radau IIA (continuous.hpp); the law is a compiled "
     "ProjectedLaw, or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, "
     "z) -> (tau, z_dot) and keep(k, tau, z) called from the loop (what it raises passes through "
     "unchanged). The records go to `run` (kept up to a SimulationFailure).");

@@ -1,5 +1,5 @@
 // The controllers of the compiled core: one interface for the sampled loop
-// (ClosedChainPlant::run_sampled), which every law implements -- a C++ law, or a Python
+// (CorePlant::run_sampled, plant.hpp), which every law implements -- a C++ law, or a Python
 // callable behind an adapter (delta_pin/core/module.cpp).
 #pragma once
 

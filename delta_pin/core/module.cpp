@@ -1,14 +1,16 @@
 // delta_pin.compiled._core: the Python face of delta-pin's compiled core (nanobind).
 //
-// ClosedChainPlant (closed_chain.hpp) is the constrained plant of any fully actuated closed-chain
-// robot with its sampled loop, which calls back into Python once per sample for the torque
-// (delta_pin/sim/compiled_plant.py builds it from a ClosedChainRobot).
+// The plants (plant.hpp) -- ClosedChainPlant (closed_chain.hpp), the constrained plant of any
+// fully actuated closed-chain robot, and AnalyticDeltaPlant (analytic_plant.hpp), the paper's
+// reduced Delta -- share the sampled loop, which runs a compiled law or calls back into Python
+// once per sample for the torque (delta_pin/sim/compiled_plant.py builds them).
 //
 // The constrained tree dynamics of tree_dynamics.cpp keep their C entry points, which the numba
 // loops call through plain function addresses (delta_pin/compiled/native/calls.py); `symbols()`
 // hands those addresses to Python. Nothing here is compiled at run time: scikit-build-core builds
 // this module when the package is installed (CMakeLists.txt).
 
+#include "analytic_plant.hpp"
 #include "closed_chain.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
@@ -72,6 +74,29 @@ namespace
     friction.sign_scale = sign_scale;
     friction.normal_force = normal_force;
     return friction;
+  }
+
+  // the Delta's constants (lengths [m], the arm's inertia [kg m^2] and gravity torque [N m], g
+  // [m/s^2], m_eq [kg]) and its chain azimuths (cos, sin: 3 each)
+  delta_pin::DeltaGeometry delta_geometry(
+    double R, double r, double l_a, double l_b, double arm_inertia, double arm_gravity, double g, double m_eq,
+    const Eigen::Vector3d & cos_phi, const Eigen::Vector3d & sin_phi)
+  {
+    delta_pin::DeltaGeometry geometry;
+    for (int i = 0; i < 3; ++i)
+    {
+      geometry.cos_phi[i] = cos_phi[i];
+      geometry.sin_phi[i] = sin_phi[i];
+    }
+    geometry.R = R;
+    geometry.r = r;
+    geometry.l_a = l_a;
+    geometry.l_b = l_b;
+    geometry.arm_inertia = arm_inertia;
+    geometry.arm_gravity = arm_gravity;
+    geometry.g = g;
+    geometry.m_eq = m_eq;
+    return geometry;
   }
 
   std::vector<delta_pin::ClosureFrames> frames_of(const std::vector<std::tuple<size_t, size_t, int>> & closures)
@@ -180,7 +205,55 @@ NB_MODULE(_core, m)
 
   nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
   bind_continuous(m);
-  nb::class_<ClosedChainPlant>(m, "ClosedChainPlant")
+  using delta_pin::AnalyticDeltaPlant;
+  using delta_pin::CorePlant;
+  nb::class_<CorePlant>(m, "CorePlant", "A plant of the core's loops (plant.hpp).")
+    .def_prop_ro("nq", &CorePlant::nq)
+    .def_prop_ro("nv", &CorePlant::nv)
+    .def_prop_ro("dof", &CorePlant::dof)
+    .def_prop_ro("actuated_q", &CorePlant::actuated_q, "The actuated joints' entries in q.")
+    .def_prop_ro("actuated_v", &CorePlant::actuated_v, "The actuated joints' entries in v.")
+    .def_prop_ro("has_configuration", &CorePlant::has_configuration,
+                 "Whether x's q and v are a multibody configuration (a run records them).")
+    .def_prop_ro("projections", &CorePlant::projections)
+    .def_prop_ro("failure_time", &CorePlant::failure_time)
+    .def("closure_gap", &CorePlant::closure_gap)
+    .def("end_effector_position", &CorePlant::end_effector_position)
+    .def(
+      "step",
+      [](CorePlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, long stage, double h)
+      {
+        Eigen::VectorXd y = x;
+        const double gap = self.step(y, tau, stage, h);
+        return std::make_tuple(y, gap);
+      },
+      "One RK4 step of length h [s] under tau from the truth's row `stage`: (x, closure gap).")
+    .def(
+      "run_sampled",
+      [](CorePlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
+         delta_pin::ProjectedLaw & controller, Table q, Table v, Table xyz, Column gap)
+      {
+        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
+        nb::gil_scoped_release release;  // nothing in the loop touches Python
+        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
+      },
+      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("controller"),
+      nb::arg("q").noconvert(), nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
+      "The sampled loop with a compiled law (its records stay in the controller).")
+    .def(
+      "run_sampled",
+      [](CorePlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
+         const std::function<Eigen::VectorXd(long, const Eigen::VectorXd &)> & control, Table q, Table v, Table xyz,
+         Column gap)
+      {
+        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
+        delta_pin::FunctionController controller(control);
+        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
+      },
+      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
+      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
+      "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
+  nb::class_<ClosedChainPlant, CorePlant>(m, "ClosedChainPlant")
     .def(
       "__init__",
       [](
@@ -209,55 +282,55 @@ NB_MODULE(_core, m)
       [](ClosedChainPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
          const Eigen::VectorXd & normal_force)
       { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
-    .def("set_truth", &ClosedChainPlant::set_truth, nb::arg("joint"), nb::arg("point"), nb::arg("body_masses"),
-         nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
-         "The time-varying truth at the stage times: the joint's body mass [kg] (COM kept, rotational inertia "
+    .def("set_truth", &ClosedChainPlant::set_truth, nb::arg("joint"), nb::arg("point"), nb::arg("step"),
+         nb::arg("body_masses"), nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
+         "The time-varying truth at t = i step [s]: the joint's body mass [kg] (COM kept, rotational inertia "
          "scaled), a point mass [kg] at `point`, the friction's normal forces [N], the disturbance [N m].")
     .def_prop_ro("stage", &ClosedChainPlant::stage, "'axis_tree' or 'constraint_dynamics': what gives ddq")
     .def("use_axis_tree", &ClosedChainPlant::use_axis_tree, nb::arg("use"),
          "The axis-tree stage where it applies (True), or Pinocchio's constraintDynamics (False).")
-    .def_prop_ro("nq", &ClosedChainPlant::nq)
-    .def_prop_ro("nv", &ClosedChainPlant::nv)
-    .def_prop_ro("dof", &ClosedChainPlant::dof)
-    .def_prop_ro("projections", &ClosedChainPlant::projections)
-    .def_prop_ro("failure_time", &ClosedChainPlant::failure_time)
-    .def("closure_gap", [](ClosedChainPlant & self, const Eigen::VectorXd & q) { return self.chain().closure_gap(q); })
     .def(
       "accelerations",
       [](ClosedChainPlant & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v, const Eigen::VectorXd & tau,
-         long stage) { return Eigen::VectorXd(self.accelerations(q, v, tau, stage)); })
+         double row) { return Eigen::VectorXd(self.accelerations(q, v, tau, row)); },
+      nb::arg("q"), nb::arg("v"), nb::arg("tau"), nb::arg("row"),
+      "ddq at (q, v) under the actuated torques, the truth at the table's row position `row`.");
+  nb::class_<AnalyticDeltaPlant, CorePlant>(m, "AnalyticDeltaPlant")
     .def(
-      "step",
-      [](ClosedChainPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, long stage, double h)
+      "__init__",
+      [](AnalyticDeltaPlant * self, double R, double r, double l_a, double l_b, double arm_inertia, double arm_gravity,
+         double g, const Eigen::Vector3d & cos_phi, const Eigen::Vector3d & sin_phi, double arm_mass_share,
+         double platform_mass)
       {
-        Eigen::VectorXd y = x;
-        const double gap = self.step(y, tau, stage, h);
-        return std::make_tuple(y, gap);
-      })
-    .def(
-      "run_sampled",
-      [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
-         delta_pin::ProjectedLaw & controller, Table q, Table v, Table xyz, Column gap)
-      {
-        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
-        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
+        new (self) AnalyticDeltaPlant(
+          delta_geometry(R, r, l_a, l_b, arm_inertia, arm_gravity, g, 0.0, cos_phi, sin_phi), arm_mass_share,
+          platform_mass);
       },
-      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("controller"),
-      nb::arg("q").noconvert(), nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
-      "The sampled loop with a compiled law (its records stay in the controller).")
+      nb::arg("R"), nb::arg("r"), nb::arg("l_a"), nb::arg("l_b"), nb::arg("arm_inertia"), nb::arg("arm_gravity"),
+      nb::arg("g"), nb::arg("cos_phi"), nb::arg("sin_phi"), nb::arg("arm_mass_share"), nb::arg("platform_mass"),
+      "The paper's reduced Delta (eq. 13; lengths [m], the arm's inertia [kg m^2] and gravity torque [N m], "
+      "g [m/s^2], the chain azimuths' cos and sin, 3/2 m_b and the nominal m_o [kg]).")
     .def(
-      "run_sampled",
-      [](ClosedChainPlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
-         const std::function<Eigen::VectorXd(long, const Eigen::VectorXd &)> & control, Table q, Table v, Table xyz,
-         Column gap)
+      "set_friction",
+      [](AnalyticDeltaPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
+         double sign_scale, const Eigen::VectorXd & normal_force)
+      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
+    .def(
+      "set_truth",
+      [](AnalyticDeltaPlant & self, double step, const Eigen::VectorXd & platform_masses,
+         const RowMatrix & normal_forces, const RowMatrix & disturbances)
+      { self.set_truth_table(delta_pin::TruthTable{step, platform_masses, Eigen::VectorXd(), normal_forces, disturbances}); },
+      nb::arg("step"), nb::arg("platform_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
+      "The time-varying truth at t = i step [s]: m_o [kg], F_n [N], F [N m] (empty: nominal).")
+    .def(
+      "derivative",
+      [](AnalyticDeltaPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
       {
-        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
-        delta_pin::FunctionController controller(control);
-        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
+        Eigen::VectorXd dx;
+        self.derivative(x, tau, row, dx);
+        return dx;
       },
-      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
-      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
-      "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
+      nb::arg("x"), nb::arg("tau"), nb::arg("row"), "dx/dt at x under tau, the truth at the row position `row`.");
   nb::class_<delta_pin::ProjectedLaw>(m, "ProjectedLaw")
     .def(
       "set_friction",
@@ -268,23 +341,12 @@ NB_MODULE(_core, m)
     .def(
       "use_delta_model",
       [](delta_pin::ProjectedLaw & self, double R, double r, double l_a, double l_b, double arm_inertia,
-         double arm_gravity, double g, double m_eq)
-      {
-        delta_pin::DeltaGeometry geometry;
-        geometry.R = R;
-        geometry.r = r;
-        geometry.l_a = l_a;
-        geometry.l_b = l_b;
-        geometry.arm_inertia = arm_inertia;
-        geometry.arm_gravity = arm_gravity;
-        geometry.g = g;
-        geometry.m_eq = m_eq;
-        self.use_delta_model(geometry);
-      },
+         double arm_gravity, double g, double m_eq, const Eigen::Vector3d & cos_phi, const Eigen::Vector3d & sin_phi)
+      { self.use_delta_model(delta_geometry(R, r, l_a, l_b, arm_inertia, arm_gravity, g, m_eq, cos_phi, sin_phi)); },
       nb::arg("R"), nb::arg("r"), nb::arg("l_a"), nb::arg("l_b"), nb::arg("arm_inertia"), nb::arg("arm_gravity"),
-      nb::arg("g"), nb::arg("m_eq"),
+      nb::arg("g"), nb::arg("m_eq"), nb::arg("cos_phi"), nb::arg("sin_phi"),
       "The Delta's analytic M, C, G (eqs. 7-10; lengths [m], the arm's inertia [kg m^2] and gravity torque "
-      "[N m], g [m/s^2], m_eq [kg]) as the nominal model instead of the projection (DeltaNominalModel).")
+      "[N m], g [m/s^2], m_eq [kg], the chain azimuths' cos and sin) as the nominal model instead of the projection (DeltaNominalModel).")
     .def("start", &delta_pin::ProjectedLaw::start,
          "The reference table, the period [s], the initial state, the samples to record, the speed limit.")
     .def(

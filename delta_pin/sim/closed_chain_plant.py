@@ -252,14 +252,6 @@ class ClosedChainPlant(Plant):
         at an array of times: the payload body's mass, the normal forces and the disturbance."""
         return self._truth.evaluate(t)
 
-    def truth_table(self, step: float, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(m_o (count,) [kg], F_n (count, dof) [N], F (count, dof) [N m]) at t = k step [s]: the
-        table of :meth:`precompute_truth` where it was made on that grid, else tabulated now."""
-        truth = self._truth
-        if truth.table is None or truth.step != step or len(truth.table[0]) < count:
-            self.precompute_truth(step, count)
-        return tuple(np.asarray(column)[:count] for column in truth.table)
-
     def precompute_truth(self, step: float, count: int) -> None:
         """Tabulate the truth at t = k step, k < count [s] (one vectorised call): the stage times
         of the integrator then read the table (and the payload body's rotational inertia at each
@@ -529,21 +521,26 @@ class ClosedChainPlant(Plant):
             [model.idx_qs[model.getJointId(name)] for name in self.robot.delta.description.platform_joints]
         )
 
-    def sampled_core(self, step: float, count: int):
+    def core_plant(self, step: float = 0.0, count: int = 0):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where it does not apply: active coordinates, idle motions, passive joints or
-        joint couplings (:func:`~delta_pin.model.core_model.core_supports`), a joint without a
-        configuration rate there, or the core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
-        if self.coordinates != "full" or not core_supports(self.robot):
+        ``None`` where it does not apply: idle motions, passive joints or joint couplings
+        (:func:`~delta_pin.model.core_model.core_supports`), a joint without a configuration rate
+        there, or the core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
+        if not core_supports(self.robot):
             return None
         from delta_pin.sim.compiled_plant import build_core_plant
 
         try:
-            core = build_core_plant(self, step / 2.0, count)
+            core = build_core_plant(self, step, count)
         except NativeUnavailableError:
             return None
         self.stepped_in_core = True  # the run's metadata says so ("core_plant")
         return core
+
+    def sampled_core(self, step: float, count: int):
+        """:meth:`core_plant` for the sampled loop, in full coordinates only (the core's sampled
+        loop integrates x = [q, v])."""
+        return super().sampled_core(step, count) if self.coordinates == "full" else None
 
     def metadata(self):
         return {

@@ -1,15 +1,19 @@
-"""A :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant` in the compiled core, and the
-sampled loop that runs it with any controller (docs/architecture.md section 7).
+"""The plants in the compiled core, and the sampled loop that runs them with any controller
+(docs/architecture.md section 7).
 
-The core's plant (``delta_pin/core/closed_chain.cpp``) is built from the very numbers of the
-Python plant -- the robot's Pinocchio model (its text archive, closure frames included), the
-closures with the plant's Baumgarte gains and proximal settings, the springs, dampers, friction
-and the payload tabulated at the RK4 stage times -- and integrates x = [q, v] with the same RK4
-steps, renormalisation and projections. The controller stays in Python: the loop calls back once
-per sample for the torque (sensor, controller, drive), so a user's own law gets the compiled plant.
+A :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`'s copy
+(``delta_pin/core/closed_chain.cpp``) is built from the very numbers of the Python plant -- the
+robot's Pinocchio model (its text archive, closure frames included), the closures with the
+plant's Baumgarte gains and proximal settings, the springs, dampers, friction and the payload --
+and integrates x = [q, v] with the same RK4 steps, renormalisation and projections. An
+:class:`~delta_pin.sim.plants.AnalyticPlant`'s (``delta_pin/core/analytic_plant.cpp``) takes the
+Delta's constants and friction and integrates the paper's reduced ODE. Either reads its
+time-varying truth (the uncertainty profile, the payload) from a table of the integrator's times
+(:func:`set_core_truth`). The controller runs in the core (its compiled law) or stays in Python:
+the loop then calls back once per sample for the torque (sensor, controller, drive), so a user's
+own law gets the compiled plant.
 
-:meth:`ClosedChainPlant.sampled_core <delta_pin.sim.closed_chain_plant.ClosedChainPlant.sampled_core>`
-says whether a plant has one (full coordinates, the actuated joints carrying the whole motion).
+:meth:`Plant.sampled_core <delta_pin.sim.plants.Plant.sampled_core>` says whether a plant has one.
 """
 
 from __future__ import annotations
@@ -23,15 +27,26 @@ import pinocchio as pin
 from delta_pin.compiled.core import core
 from delta_pin.errors import NativeUnavailableError, SimulationError
 from delta_pin.model.core_model import core_arguments
+from delta_pin.model.kinematics import chain_trigonometry
 
-__all__ = ["CompiledSampledRun", "build_core_plant", "run_core_sampled"]
+__all__ = [
+    "CompiledSampledRun",
+    "build_core_analytic_plant",
+    "build_core_plant",
+    "run_core_sampled",
+    "set_core_truth",
+]
 
 
 class CompiledSampledRun:
     """What the compiled sampled loop records (steps + 1 rows): q, v, end-effector xyz, closure gap."""
 
-    def __init__(self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray) -> None:
+    def __init__(self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray, compiled) -> None:
         self.q, self.v, self.xyz, self.gap = q, v, xyz, gap
+        self.alpha = q[:, np.asarray(compiled.actuated_q)]  # the actuated joints (rad)
+        self.alpha_dot = v[:, np.asarray(compiled.actuated_v)]  # (rad/s)
+        if not compiled.has_configuration:  # the reduced Delta: q, v are alpha, alpha_dot
+            self.q = self.v = None
 
 
 def _payload_masses(plant, step: float, count: int) -> np.ndarray:
@@ -49,7 +64,8 @@ def _payload_masses(plant, step: float, count: int) -> np.ndarray:
 
 def build_core_plant(plant, step: float | None = None, count: int = 0):
     """The core's plant for a Python ``ClosedChainPlant`` (the caller checks that it applies),
-    with the payload and the uncertainty profile's truth tabulated at t = i step, i < count [s].
+    with the payload and the uncertainty profile's truth tabulated at t = i step, i < count [s]
+    (:func:`set_core_truth`; ``count=0``: the caller sets it later).
 
     Raises:
         NativeUnavailableError: the core cannot be imported here, or rejects the model (a joint
@@ -88,18 +104,58 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         compiled.set_friction(
             s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale, plant._normal_force
         )
-    if plant.payload_mass is not None or plant.uncertainty is not None:
-        if step is None or count <= 0:
-            raise ValueError(
-                "a payload or an uncertainty profile needs the stage step and count to be tabulated"
-            )
-        points = _payload_masses(plant, step, count) if plant.payload_mass is not None else np.zeros(0)
-        body, normal, disturbance = np.zeros(0), np.zeros((0, plant.dof)), np.zeros((0, plant.dof))
-        if plant.uncertainty is not None:  # m_o(t), F_n(t), F(t) at the stage times (sim/truth.py)
-            body, normal, disturbance = (
-                np.ascontiguousarray(a, dtype=float) for a in plant.truth_table(step, count)
-            )
-        compiled.set_truth(int(plant._payload_joint), plant._payload_point, body, points, normal, disturbance)
+    if step is not None and count > 0:
+        set_core_truth(compiled, plant, step, count)
+    return compiled
+
+
+def set_core_truth(compiled, plant, step: float, count: int) -> None:
+    """The plant's time-varying truth at t = i step, i < count [s] into its core copy: the
+    uncertainty profile's m_o(t), F_n(t), F(t) (:mod:`delta_pin.sim.truth`) and, for a closed
+    chain, its payload m(t); nothing where the plant has neither (its nominal truth).
+
+    Raises:
+        SimulationError: the payload m(t) is not a finite mass >= 0.
+    """
+    payload = getattr(plant, "payload_mass", None)
+    if payload is None and plant.uncertainty is None:
+        return
+    body, normal, disturbance = np.zeros(0), np.zeros((0, plant.dof)), np.zeros((0, plant.dof))
+    if plant.uncertainty is not None:  # m_o(t), F_n(t), F(t) at the table's times (sim/truth.py)
+        body, normal, disturbance = (
+            np.ascontiguousarray(a, dtype=float) for a in plant.truth_table(step, count)
+        )
+    if compiled.has_configuration:  # a multibody: the truth's body, and a point payload
+        points = _payload_masses(plant, step, count) if payload is not None else np.zeros(0)
+        compiled.set_truth(
+            int(plant._payload_joint), plant._payload_point, step, body, points, normal, disturbance
+        )
+    else:
+        compiled.set_truth(step, body, normal, disturbance)
+
+
+def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
+    """The core's reduced Delta (``delta_pin/core/analytic_plant.hpp``) for a Python
+    :class:`~delta_pin.sim.plants.AnalyticPlant`, with its truth tabulated at t = i step,
+    i < count [s] (:func:`set_core_truth`).
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    module = core()
+    p = plant.robot.params
+    compiled = module.AnalyticDeltaPlant(
+        p.R, p.r, p.l_a, p.l_b, p.arm_equivalent_inertia, 0.5 * (p.m_a + p.m_b) * p.g * p.l_a, p.g,
+        *chain_trigonometry(), 1.5 * p.m_b, p.m_o,
+    )  # fmt: skip
+    if plant.friction is not None:
+        s = plant.stribeck
+        compiled.set_friction(
+            s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale,
+            np.full(3, float(plant.friction.normal_force)),
+        )  # fmt: skip
+    if step is not None and count > 0:
+        set_core_truth(compiled, plant, step, count)
     return compiled
 
 
@@ -111,7 +167,8 @@ def run_core_sampled(
     dt: float,
     control: Callable[[int, np.ndarray], np.ndarray],
 ) -> CompiledSampledRun:
-    """Run the core's sampled loop from x: ``control(k, x)`` gives the torque held over sample k.
+    """Run the core's sampled loop of ``compiled`` (either plant) from x: ``control(k, x)`` (a
+    Python function, or a compiled law) gives the torque held over sample k.
 
     Raises:
         SimulationError: the loops cannot be closed again or the state is no longer finite (at
@@ -127,4 +184,4 @@ def run_core_sampled(
     except core().SimulationFailure as exc:
         time = compiled.failure_time
         raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
-    return CompiledSampledRun(q, v, xyz, gap)
+    return CompiledSampledRun(q, v, xyz, gap, compiled)

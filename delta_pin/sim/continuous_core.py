@@ -1,17 +1,21 @@
-"""The continuous mode of a closed-chain robot in the compiled core (docs/architecture.md section 7).
+"""The continuous mode in the compiled core (docs/architecture.md section 7), for a closed chain's
+plant or the Delta's reduced one.
 
-The plant (:func:`~delta_pin.sim.compiled_plant.build_core_plant`) and a controller's compiled law
+The plant (:func:`~delta_pin.sim.compiled_plant.build_core_plant`,
+:func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`) and a controller's compiled law
 (:meth:`Controller.sampled_core_law <delta_pin.control.base.Controller.sampled_core_law>`) are
 integrated as one ODE by the core's Radau IIA of order 5 with error control
 (``delta_pin/core/radau.hpp``, ``continuous.hpp``), in active coordinates
 
-    y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau), z_dot]:
+    y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau, t), z_dot]:
 
-every evaluation assembles q(alpha) by Newton, v = S alpha_dot, the law's torque and state rate at
-the reference of that time, and the constrained dynamics of the tree -- the arithmetic of the
-Python plant in active coordinates with LSODA (:mod:`delta_pin.sim.loop`), which the tests hold it
-to. The samples t_k = k dt are read from the collocation polynomial of the step that covers them.
-Python is not called during the run.
+every evaluation assembles q(alpha) by Newton, v = S alpha_dot (a closed chain's), the law's
+torque and state rate at the reference of that time, and the plant's dynamics with its truth
+(uncertainty profile, payload) interpolated linearly between the rows of a table on the
+reference's grid -- the arithmetic of the Python plant in active coordinates with LSODA
+(:mod:`delta_pin.sim.loop`), which the tests hold it to. The samples t_k = k dt are read from the
+collocation polynomial of the step that covers them. Python is not called during the run unless
+the controller is a Python one.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ import numpy as np
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Reference
 from delta_pin.errors import NativeUnavailableError, SimulationError
-from delta_pin.model.core_model import core_supports
+from delta_pin.sim.compiled_plant import set_core_truth
 from delta_pin.sim.integrators import MAX_JOINT_SPEED
 from delta_pin.sim.loop import ControlLoop, LoopRecord
 
@@ -57,23 +61,20 @@ class PythonLaw:
 
 
 def continuous_core(plant, controller) -> tuple[object, object] | None:
-    """(the core's plant, the law) for a continuous run of ``plant`` (a
-    :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`) in the core -- the controller's
-    compiled law (:meth:`Controller.sampled_core_law
+    """(the core's plant, the law) for a continuous run of ``plant`` in the core -- the
+    controller's compiled law (:meth:`Controller.sampled_core_law
     <delta_pin.control.base.Controller.sampled_core_law>`) or, for any other continuous-time
     controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
-    no compiled copy: an uncertainty profile or a payload profile (tabulated on a sampled grid in
-    the core), idle motions, passive joints or joint couplings
-    (:func:`~delta_pin.model.core_model.core_supports`), or the core off (``DELTA_PIN_NATIVE=0``)
-    or not importable."""
+    no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: a
+    closed chain's idle motions, passive joints or joint couplings, the core off with
+    ``DELTA_PIN_NATIVE=0`` or not importable) or the controller is a discrete-time law. The
+    plant's truth is tabulated when the run starts (:func:`run_core_continuous`)."""
     if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
         return None
-    if plant.uncertainty is not None or plant.payload_mass is not None or not core_supports(plant.robot):
-        return None
-    from delta_pin.sim.compiled_plant import build_core_plant
-
     try:
-        compiled_plant = build_core_plant(plant)
+        compiled_plant = plant.core_plant()  # its truth on the reference's grid, when the run starts
+        if compiled_plant is None:
+            return None
         make_law = getattr(controller, "sampled_core_law", None)
         law = make_law() if make_law is not None else None
     except NativeUnavailableError:
@@ -106,20 +107,23 @@ def run_core_continuous(
     controller.reset()
     if isinstance(law, PythonLaw):
         law.internals = {}
+    set_core_truth(core_plant, plant, table.step, len(table.alpha))
     run = module.new_continuous_run()
     z0 = np.asarray(controller.initial_state(), dtype=float)
     arrays = (
         np.ascontiguousarray(a) for a in (table.alpha, table.alpha_dot, table.alpha_ddot, table.alpha_dddot)
     )
     start = (
-        plant.robot.reference_configuration,
+        plant.robot.reference_configuration
+        if core_plant.has_configuration
+        else np.zeros(0),  # the first guess
         np.asarray(alpha0, float),
         np.asarray(alpha_dot0, float),
         z0,
     )
     try:
         module.run_continuous(
-            core_plant, law, table.step, *arrays, plant.active.astype(np.int32), *start, float(t[1] - t[0]),
+            core_plant, law, table.step, *arrays, *start, float(t[1] - t[0]),
             len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run,
         )  # fmt: skip
     except module.SimulationFailure as exc:
@@ -133,7 +137,8 @@ def run_core_continuous(
         xyz=np.array(run.xyz),
         closure_residual=np.array(run.gap),
     )
-    record.q, record.v = np.array(run.q), np.array(run.v)
+    if core_plant.has_configuration:
+        record.q, record.v = np.array(run.q), np.array(run.v)
     if isinstance(law, PythonLaw):
         record.internals = {name: np.array(values) for name, values in law.internals.items()}
     else:

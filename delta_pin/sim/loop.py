@@ -67,7 +67,8 @@ class LoopRecord:
     v: np.ndarray | None = None  # and its velocity (N, nv)
 
     def take_plant_records(self, recorded) -> None:
-        """The end effector, closure gap, q and v that the compiled loop recorded
+        """The end effector, closure gap, q and v (``None`` for a plant without a multibody
+        configuration) that the compiled loop recorded
         (:class:`~delta_pin.sim.compiled_plant.CompiledSampledRun`)."""
         self.xyz, self.closure_residual, self.q, self.v = recorded.xyz, recorded.gap, recorded.q, recorded.v
 
@@ -207,9 +208,9 @@ def run_python_loop(
             reference_alpha, reference_alpha_dot, reference_alpha_ddot, dt, z, steps + 1, MAX_JOINT_SPEED
         )
         recorded = run_core_sampled(core, x, steps, substeps, dt, law)
-        plant.projections += core.projections
-        record.alpha = recorded.q[:, plant.robot.actuated_q_indices]
-        record.alpha_dot = recorded.v[:, plant.active]
+        if core.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
+            plant.projections += core.projections
+        record.alpha, record.alpha_dot = recorded.alpha, recorded.alpha_dot
         record.tau = np.array(law.tau)
         record.take_plant_records(recorded)
         record.internals = controller.core_law_internals(law)
@@ -234,7 +235,8 @@ def run_python_loop(
             return tau
 
         recorded = run_core_sampled(core, x, steps, substeps, dt, compiled_control)
-        plant.projections += core.projections
+        if core.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
+            plant.projections += core.projections
         record.take_plant_records(recorded)
         bar.close()
         record.internals = _stacked(internals)

@@ -31,7 +31,7 @@ import numpy as np
 
 from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
 from delta_pin.compiled.layouts import TRUTH, as_table, records
-from delta_pin.errors import SimulationError
+from delta_pin.errors import NativeUnavailableError, SimulationError
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import kernel_geometry
 from delta_pin.model.friction import Friction, kernel_friction
@@ -63,6 +63,7 @@ class Plant(ABC):
 
     name: str = "plant"
     dof: int = 3  # actuated joints: the robot's where it says
+    stepped_in_core: bool = False  # whether core_plant handed a loop a compiled copy
 
     def __init__(self, robot) -> None:
         self.robot = robot
@@ -114,12 +115,26 @@ class Plant(ABC):
         step."""
         return None
 
-    def sampled_core(self, step: float, count: int):
-        """This plant in the compiled core for the sampled loop
-        (:mod:`delta_pin.sim.compiled_plant`), with its time-varying truth tabulated at the RK4
-        stage times t = i step / 2, i < count; ``None`` (the default) where it has none: the
-        Python loop then steps :meth:`derivative`."""
+    def truth_table(self, step: float, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(m_o (count,) [kg], F_n (count, dof) [N], F (count, dof) [N m]) at t = k step [s] of a
+        plant with a time-varying truth (:class:`~delta_pin.sim.truth.PlantTruth`): the table of
+        :meth:`precompute_truth` where it was made on that grid, else tabulated now."""
+        truth = self._truth
+        if truth.table is None or truth.step != step or len(truth.table[0]) < count:
+            self.precompute_truth(step, count)
+        return tuple(np.asarray(column)[:count] for column in truth.table)
+
+    def core_plant(self, step: float = 0.0, count: int = 0):
+        """This plant's copy in the compiled core (:mod:`delta_pin.sim.compiled_plant`), its
+        time-varying truth tabulated at t = i step, i < count [s] (``count=0``: not yet, the
+        caller sets it); ``None`` (the default) where it has none."""
         return None
+
+    def sampled_core(self, step: float, count: int):
+        """This plant in the compiled core for the sampled loop with RK4 steps of ``step`` [s],
+        its truth tabulated at the stage times t = i step / 2, i < count; ``None`` where it has
+        none: the Python loop then steps :meth:`derivative`."""
+        return self.core_plant(step / 2.0, count)
 
     def metadata(self) -> dict:
         """JSON-serialisable description stored with every run (``"plant"``: its name)."""
@@ -223,6 +238,19 @@ class AnalyticPlant(DeltaPlant):
 
     def joint_state(self, x):
         return x[:3], x[3:]
+
+    def core_plant(self, step: float = 0.0, count: int = 0):
+        """The compiled core's reduced Delta with this plant's friction and truth
+        (:func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`), or ``None`` where the
+        core is off (``DELTA_PIN_NATIVE=0``) or cannot be imported."""
+        from delta_pin.sim.compiled_plant import build_core_analytic_plant
+
+        try:
+            compiled = build_core_analytic_plant(self, step, count)
+        except NativeUnavailableError:
+            return None
+        self.stepped_in_core = True  # the run's metadata says so ("core_plant")
+        return compiled
 
     def platform_position(self, x):
         ok, xyz, *_ = delta_terms(self._geometry_table, self._cos, self._sin, 1.0, x[:3], x[3:])

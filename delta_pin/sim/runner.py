@@ -6,14 +6,15 @@ Two timings (docs/architecture.md section 6):
   hold) over [t_k, t_k + dt) while the plant integrates with ``substeps`` RK4 steps; the
   controller's internal state (rho_hat) advances once per period, z_{k+1} = z_k + dt z_dot_k;
 * ``mode="continuous"`` -- the analysis of the paper: the controller is evaluated inside the
-  integrator (the compiled Radau IIA with error control by default for the laws the compiled
-  loops hold -- the Delta's loops, or the core's for any closed chain
-  (:mod:`delta_pin.sim.continuous_core`) --, LSODA for other controllers; RK4 or the compiled
-  fixed-step BDF2 on request).
+  integrator (the compiled core's Radau IIA with error control by default where the plant has a
+  compiled copy, :mod:`delta_pin.sim.continuous_core`; LSODA elsewhere; RK4 or the Delta's
+  compiled fixed-step BDF2 on request).
 
-:func:`simulate` checks its arguments, chooses the compiled loops
-(:func:`~delta_pin.sim.batch.simulate_batch`) where they apply or the Python loop
-(:func:`~delta_pin.sim.loop.run_python_loop`) elsewhere, and wraps the result in a :class:`Run`.
+:func:`simulate` checks its arguments, takes the compiled core where the plant has a copy there
+(the Python loop, :func:`~delta_pin.sim.loop.run_python_loop`, hands the sampled loop to it) or the
+Python loop elsewhere -- BDF2 alone takes the Delta's numba loops
+(:func:`~delta_pin.sim.compiled_batch.simulate_compiled_batch`) -- and wraps the result in a
+:class:`Run`.
 """
 
 from __future__ import annotations
@@ -31,10 +32,9 @@ from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
-from delta_pin.sim.batch import batchable, simulate_batch
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
+from delta_pin.sim.compiled_batch import simulate_compiled_batch
 from delta_pin.sim.continuous_core import continuous_core, run_core_continuous
-from delta_pin.sim.digital_batch import digital_compilable, simulate_digital
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.loop import run_python_loop
@@ -45,16 +45,12 @@ from delta_pin.sim.run import Run, run_metadata
 __all__ = ["INTEGRATOR_CHOICES", "simulate"]
 
 
-def _choose_integrator(integrator: str, mode: str, controller=None, plant="pinocchio", compiled=None) -> str:
-    """The integrator ``"auto"`` stands for in ``mode``, or ``integrator`` if it fits the mode:
-    in continuous mode the compiled Radau IIA where it applies (designs I/II with their compiled
-    step, the LQR on the Delta's analytic nominal model; not with ``compiled=False``), else LSODA;
-    RK4 in sampled mode."""
+def _choose_integrator(integrator: str, mode: str) -> str:
+    """The integrator ``"auto"`` stands for in ``mode`` where the core's Radau does not take the
+    run (:func:`_core_integrator` chose it already where it does): RK4 in sampled mode, LSODA in
+    continuous mode; else ``integrator`` if it fits the mode."""
     if integrator == "auto":
-        if mode != "continuous":
-            return "rk4"
-        fits = compiled is not False and controller is not None and batchable(controller, plant, mode)
-        return "radau" if fits else "lsoda"
+        return "rk4" if mode != "continuous" else "lsoda"
     if integrator not in INTEGRATORS or (integrator != "rk4" and mode == "sampled"):
         raise InvalidParameterError(
             f"integrator={integrator!r} must be 'rk4' or, in continuous mode, 'lsoda', 'bdf2' or 'radau'"
@@ -80,37 +76,16 @@ def _layer_resolving_rtol(controller, table, rtol: float) -> float:
     return min(rtol, LAYER_FRACTION * width / speed)
 
 
-def _runs_compiled(
-    controller, plant, mode: str, integrator: str, compiled: bool | None, drive_effects: bool
-) -> bool:
-    """Whether the run goes to the compiled loops: BDF2 always (it exists only there); sampled
-    runs where they apply, unless ``compiled=False`` (``compiled=True``: required, so that
-    :func:`simulate_batch` names what it cannot run). The compiled loops of designs I/II do not
-    model an encoder, a delay or a torque limit: such runs take the Python loop (the digital laws
-    have their own compiled loop, :func:`~delta_pin.sim.digital_batch.simulate_digital`)."""
-    if integrator in ("bdf2", "radau"):
-        return True
-    if drive_effects:
-        if compiled:
-            raise InvalidParameterError(
-                "compiled=True: the compiled loops model a sensor, a delay or a torque limit for designs "
-                "I/II and the digital laws (tdc, digital_robust) with their compiled steps on the Delta's "
-                "analytic nominal model; use compiled=None or False"
-            )
-        return False
-    if mode != "sampled" or compiled is False:
-        return False
-    return bool(compiled) or batchable(controller, plant, mode)
-
-
-def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode):
-    """(compiled, plant) for a closed-chain robot: the Python loop, with its plant in the compiled
-    core in sampled mode (:meth:`~delta_pin.sim.plants.Plant.sampled_core`), on its constrained
-    Pinocchio plant, or the Delta's analytic plant where it is a recognised Delta; in continuous
-    mode the core's Radau IIA where it applies (:func:`_closed_chain_integrator`)."""
+def _core_options(robot, plant, integrator, compiled, friction, uncertainty, mode):
+    """(compiled, plant) of a run in the compiled core's loops: the plant by name -- a closed
+    chain's constrained Pinocchio plant (in active coordinates for LSODA where the actuated
+    joints carry the whole motion), or the Delta's reduced one -- or the given one; its copy in
+    the core steps the sampled loop (:meth:`~delta_pin.sim.plants.Plant.sampled_core`) and, in
+    continuous mode, the core's Radau IIA where it applies (:func:`_core_integrator`)."""
+    name = getattr(robot, "name", type(robot).__name__)
     if compiled and mode != "sampled" and integrator not in ("auto", "radau"):
         raise InvalidParameterError(
-            f"compiled=True: {robot.name!r} runs compiled in continuous mode with integrator='radau' "
+            f"compiled=True: {name!r} runs compiled in continuous mode with integrator='radau' "
             f"only, not {integrator!r} (compiled=None or False)"
         )
     if integrator == "bdf2":
@@ -119,52 +94,51 @@ def _closed_chain_options(robot, plant, integrator, compiled, friction, uncertai
             "(sampled), 'radau' or 'lsoda' (continuous)"
         )
     if isinstance(plant, str):
-        # LSODA's small state, where the actuated joints carry the whole motion
-        coordinates = "active" if mode == "continuous" and not robot.has_unactuated_motion else None
-        plant = closed_chain_plant(plant, robot, friction, uncertainty, coordinates=coordinates)
+        options = {}
+        if plant == "pinocchio" and mode == "continuous" and not robot.has_unactuated_motion:
+            options["coordinates"] = "active"  # LSODA's small state
+        plant = closed_chain_plant(plant, robot, friction, uncertainty, **options)
     return compiled, plant
 
 
-def _closed_chain_integrator(
+def _core_integrator(
     integrator: str, plant, controller, compiled: bool | None = None
 ) -> tuple[str, tuple | None]:
-    """(integrator, compiled plant and law) of a closed chain's continuous run: the core's Radau
-    IIA (:mod:`delta_pin.sim.continuous_core`) where the plant has a compiled copy, with the
+    """(integrator, compiled plant and law) of a continuous run: the core's Radau IIA
+    (:mod:`delta_pin.sim.continuous_core`) where the plant has a compiled copy, with the
     controller's compiled law or its own Python ``evaluate`` called per evaluation (``"auto"``
     or ``"radau"``), else LSODA (``"auto"``; ``"radau"`` or ``compiled=True``: one line that says
     why not)."""
     if integrator not in ("auto", "radau"):
         return integrator, None
-    in_core = continuous_core(plant, controller) if isinstance(plant, ClosedChainPlant) else None
+    in_core = continuous_core(plant, controller)
     if in_core is not None:
         return "radau", in_core
     if integrator == "radau" or compiled:
         asked = "integrator='radau'" if integrator == "radau" else "compiled=True"
         raise InvalidParameterError(
-            f"{asked}: a closed chain runs continuous in the compiled core with a continuous-time "
-            "controller on a plant without an uncertainty or payload profile, idle motions, passive "
-            f"joints or joint couplings, the core on; plant {getattr(plant, 'name', plant)!r} here takes "
-            "integrator='lsoda' (compiled=None or False)"
+            f"{asked}: the compiled core runs continuous with a continuous-time controller on a plant "
+            "with a compiled copy (not a closed chain's idle motions, passive joints or joint couplings), "
+            f"the core on; plant {getattr(plant, 'name', plant)!r} here takes integrator='lsoda' "
+            "(compiled=None or False)"
         )
     return "lsoda", None
 
 
-def _engine_robot(robot, delta, plant, trajectory, mode: str, integrator: str, uncertainty):
+def _engine_robot(robot, delta, plant, trajectory, integrator: str):
     """The robot a run goes on: for a Delta with the analytic model of its own URDF (the robot of
-    ``load_delta``, or that analytic :class:`~delta_pin.model.robot.Delta` itself) the analytic
-    model -- the Delta's own plants and compiled loops -- with the analytic plant, and on the
-    Pinocchio plant only where the core does not hold the run yet (the fixed-step BDF2, or a
-    continuous run with an uncertainty profile); else the closed chain of its URDF: its plant in
-    the compiled core, a controller's compiled law there (the Delta's analytic nominal model
-    included) or its own Python law called back. Any other robot runs as it is. ``delta``: the
-    robot's :func:`~delta_pin.model.delta_robot.analytic_delta`."""
+    ``load_delta``, or that analytic :class:`~delta_pin.model.robot.Delta` itself) the closed
+    chain of its URDF on the Pinocchio plant -- its plant in the compiled core, a controller's
+    compiled law there (the Delta's analytic nominal model included) or its own Python law called
+    back --, the analytic model with the analytic plant (the core's reduced Delta) or a plant of
+    the caller's, and for the fixed-step BDF2 (the Delta's own compiled loops). Any other robot
+    runs as it is. ``delta``: the robot's :func:`~delta_pin.model.delta_robot.analytic_delta`."""
     if not isinstance(delta, Delta):
         return robot
     chain = delta.pinocchio if robot is delta else robot
     if isinstance(plant, ClosedChainPlant) or isinstance(trajectory, FramePath):
         return chain
-    own_loops = integrator == "bdf2" or (mode == "continuous" and uncertainty is not None)
-    return chain if plant == "pinocchio" and not own_loops else delta
+    return chain if plant == "pinocchio" and integrator != "bdf2" else delta
 
 
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool, delay: int = 0) -> None:
@@ -238,29 +212,26 @@ def simulate(
         uncertainty: an :class:`~delta_pin.sim.uncertainty.Uncertainty` profile or ``None``.
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
         integrator: ``"rk4"`` (fixed step dt / substeps), ``"lsoda"`` (scipy's adaptive
-            stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (a compiled
-            Radau IIA of order 5 with error control, continuous mode: for the Delta's analytic
-            nominal model designs I/II and the LQR with their compiled steps on either plant,
-            :mod:`delta_pin.compiled.radau`; for any other closed chain the compiled core's,
-            :mod:`delta_pin.sim.continuous_core`, with a controller that has a compiled law --
-            designs I/II, computed torque, PD, LQR) or ``"bdf2"`` (compiled implicit BDF2 with
-            fixed steps dt / substeps, off by more than Radau in a reaching phase; what sweeps
-            batch). ``"auto"`` takes RK4 in sampled mode and, in continuous mode, Radau where it
-            applies (the robust term's boundary-layer gain makes the closed loop stiff) and LSODA
-            elsewhere.
+            stiff/non-stiff switching solver, continuous mode only), ``"radau"`` (the compiled
+            core's Radau IIA of order 5 with error control, continuous mode,
+            :mod:`delta_pin.sim.continuous_core`: any plant with a compiled copy and any
+            continuous-time controller, its compiled law or its Python one) or ``"bdf2"`` (the
+            Delta's compiled implicit BDF2 with fixed steps dt / substeps, designs I/II and the
+            LQR, off by more than Radau in a reaching phase; what the sweeps of ``reproduce
+            --full`` batch). ``"auto"`` takes RK4 in sampled mode and, in continuous mode, Radau
+            where it applies (the robust term's boundary-layer gain makes the closed loop stiff)
+            and LSODA elsewhere.
         rtol, atol: LSODA's or Radau's tolerances (relative; absolute in SI units of the state). For designs
             I/II rtol is tightened where needed to resolve the robust term's boundary layer (a fast
             path such as the Adept cycle); ``metadata["rtol"]`` is the one used.
         progress: show the simulated time on stderr (``None``: only on a terminal).
-        compiled: sampled mode only: run the whole loop compiled
-            (:func:`~delta_pin.sim.batch.simulate_batch`, the same arithmetic, ~10x faster) where
-            it applies -- designs I/II with their compiled step (without a sensor, delay or torque
-            limit), and the digital laws TDC and digital-robust with theirs (with or without them,
-            :func:`~delta_pin.sim.digital_batch.simulate_digital`), on the analytic plant; on the
-            Pinocchio plant the compiled core's plant, with a controller's compiled law or its
-            Python law called back once per sample. ``None`` (the default):
-            where it applies; ``False``: never (the Python loop, the reference the compiled loops
-            are tested against); ``True``: required (an error where it does not apply).
+        compiled: the compiled core's plant (:meth:`~delta_pin.sim.plants.Plant.core_plant`: a
+            closed chain's, the Delta's reduced one) with a controller's compiled law (designs
+            I/II, computed torque, PD, LQR, TDC, digital-robust; the drive included) or its Python
+            law called back once per sample (sampled) or per evaluation (continuous, Radau).
+            ``None`` (the default): where it applies; ``False``: never (the Python loop, the
+            reference the core is tested against); ``True``: required (an error where it does
+            not apply).
         sensor: sampled mode: an :class:`~delta_pin.sim.drive.Encoder` whose readings the
             controller gets (quantised angles; velocity by difference, by the controller's own
             estimate, or exact); ``None``: the true joint state.
@@ -281,36 +252,33 @@ def simulate(
     check_mode(mode)
     check_substeps(substeps)
     described = analytic_delta(robot)  # a Delta's run is described as the Delta's (its metadata)
-    robot = _engine_robot(robot, described, plant, trajectory, mode, integrator, uncertainty)
+    robot = _engine_robot(robot, described, plant, trajectory, integrator)
     # the compiled core's plant in the Python loop's sampled mode: where it applies, not with
     # compiled=False (the Python plant's RK4: the reference)
     core = False if compiled is False else None
-    in_core = None  # the core's plant and law for a closed chain's continuous run: where they apply
-    if isinstance(robot, ClosedChainRobot):
-        core, plant = _closed_chain_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
-        compiled = False  # the Delta's compiled loops
+    in_core = None  # the core's plant and law for a continuous run: where they apply
+    if isinstance(robot, ClosedChainRobot) or integrator != "bdf2":
+        core, plant = _core_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
+        compiled = False  # the Delta's numba loops: BDF2 only
         friction = uncertainty = None  # now the plant's
         if mode == "continuous" and core is not False:
             controller = as_controller(controller)  # one wrapper: the core's law calls the run's controller
-            integrator, in_core = _closed_chain_integrator(integrator, plant, controller, core)
-    integrator = _choose_integrator(integrator, mode, controller, plant, compiled)
+            integrator, in_core = _core_integrator(integrator, plant, controller, core)
+    integrator = _choose_integrator(integrator, mode)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
     _check_digital(as_controller(controller), mode, dt, drive_effects, delay)
-    if mode == "sampled" and compiled is not False and digital_compilable(controller, plant, drive_effects):
-        return simulate_digital(
-            robot, controller, trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps, alpha0=alpha0,
-            alpha_dot0=alpha_dot0, friction=friction, uncertainty=uncertainty, sensor=sensor, delay=delay,
-            torque_limit=torque_limit,
-        )  # fmt: skip
-    if in_core is None and _runs_compiled(controller, plant, mode, integrator, compiled, drive_effects):
-        return simulate_batch(
+    if integrator == "bdf2":  # the Delta's numba loops (sim.compiled_batch)
+        return simulate_compiled_batch(
             robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,
             mode=mode, alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction,
-            uncertainties=[uncertainty], integrator="radau" if integrator == "radau" else "bdf2", rtol=rtol,
-            atol=atol,
+            uncertainties=[uncertainty], integrator="bdf2",
         )[0]  # fmt: skip
+    if integrator == "radau" and in_core is None:
+        raise InvalidParameterError(
+            "integrator='radau' is the compiled core's (continuous mode): compiled=False takes 'lsoda'"
+        )
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)
     options = {"coordinates": "active"} if integrator == "lsoda" else {}

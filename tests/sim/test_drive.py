@@ -94,15 +94,16 @@ def test_bad_drive_arguments_are_refused(robot, options, match):
         dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, **options)
 
 
-def test_compiled_true_on_a_drive_needs_a_law_with_a_compiled_step(robot):
-    """Designs I/II and the digital laws run compiled on a drive; a plain function cannot."""
-    with pytest.raises(InvalidParameterError, match="compiled=True"):
-        dp.simulate(robot, lambda t, a, v: np.zeros(3), dp.PathI(), plant="analytic", t_end=0.01,
-                    mode="sampled", sensor=Encoder(), compiled=True)  # fmt: skip
+def test_compiled_true_on_a_drive_runs_every_law_in_the_core(robot):
+    """On a drive the core runs designs I/II and the digital laws compiled and a plain function
+    called back once per sample: compiled=True holds for both."""
+    run = dp.simulate(robot, lambda t, a, v: np.zeros(3), dp.PathI(), plant="analytic", t_end=0.01,
+                      mode="sampled", sensor=Encoder(), compiled=True)  # fmt: skip
+    assert run.metadata["core_plant"] and not np.any(run.tau)
     nominal = dp.DeltaNominalModel(robot)
     run = dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, mode="sampled",
                       sensor=Encoder(), compiled=True)  # fmt: skip
-    assert run.metadata["compiled"] and run.metadata["sensor"]["bits"] == 17
+    assert run.metadata["core_plant"] and run.metadata["sensor"]["bits"] == 17
 
 
 def test_the_controller_sees_encoder_readings_and_its_torque_acts_later(robot):

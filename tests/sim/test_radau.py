@@ -1,5 +1,5 @@
-"""The compiled Radau IIA integrator (delta_pin.compiled.radau), the default of continuous mode
-for designs I/II, against an independent tight reference.
+"""The compiled Radau IIA of continuous mode -- the core's (delta_pin/core/radau.hpp) on either
+plant of the Delta, with designs I/II and the LQR -- against an independent tight reference.
 
 Reference: LSODA (SciPy's, a different method and step control) at rtol 1e-11, atol 1e-13 on the
 same plant; on path I over 15 s it agrees with itself at rtol 1e-10 to 4e-8 rad and across the
@@ -31,12 +31,12 @@ def _run(robot, plant, t_end, **options):
 @pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
 def test_the_default_continuous_run_is_within_1e6_rad_of_a_tight_reference(robot, plant):
     fast = _run(robot, plant, 2.0)
-    assert fast.metadata["integrator"] == "radau" and fast.metadata["compiled"]
+    assert fast.metadata["integrator"] == "radau" and fast.metadata["core_plant"]
     tight = _run(robot, plant, 2.0, integrator="lsoda", rtol=1e-11, atol=1e-13)
     deviation = np.abs(fast.alpha - tight.alpha).max()
     assert deviation <= 1e-6
     assert np.abs(fast.alpha - tight.alpha)[:100].max() > 0.0  # the two runs are not the same code
-    assert fast.metadata["accepted_steps"] > 0 and fast.metadata["rtol"] == 1e-6
+    assert fast.metadata["radau_steps"] > 0 and fast.metadata["rtol"] == 1e-6
     # each sample's torque is the readable law at the sample's (dense-output) state
     controller = dp.design1(dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6)))
     for k in (0, 7, 500, 1999):
@@ -84,7 +84,7 @@ def test_the_lqr_runs_compiled_within_1e6_rad_of_a_tight_reference(robot, plant)
     loop. Measured over 2 s: 7e-9 rad on the analytic plant; over the study's 15 s on the Pinocchio
     plant 3.4e-8 rad against LSODA at rtol 1e-10 (LSODA at its default rtol 1e-6: 4.2e-7)."""
     fast = _lqr_run(robot, plant, 2.0)
-    assert fast.metadata["integrator"] == "radau" and fast.metadata["compiled"]
+    assert fast.metadata["integrator"] == "radau" and fast.metadata["core_plant"]
     assert fast.internals == {}  # as the Python loop's LQR run
     tight = _lqr_run(robot, plant, 2.0, integrator="lsoda", rtol=1e-11, atol=1e-13)
     assert tight.metadata["integrator"] == "lsoda"

@@ -18,7 +18,9 @@ namespace delta_pin
     double arm_gravity = 0.0;  // (m_a + m_b) g l_a / 2 [N m]
     double g = 9.81;  // [m/s^2]
     double m_eq = 0.0;  // m_o + 3/2 m_b [kg]
-    double cos_phi[3] = {1.0, -0.5, -0.5}, sin_phi[3] = {0.0, 0.8660254037844386, -0.8660254037844386};
+    // the chain azimuths phi_i = (2i/3 - 1/2) pi of eq. 2 (delta_pin.model.description.chain_azimuths)
+    double cos_phi[3] = {0.8660254037844387, -0.8660254037844385, -1.8369701987210297e-16};
+    double sin_phi[3] = {0.49999999999999983, 0.5000000000000003, -1.0};
   };
 
   typedef Eigen::Matrix3d Matrix3;

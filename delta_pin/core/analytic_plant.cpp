@@ -1,0 +1,112 @@
+// The paper's reduced Delta in the compiled core (analytic_plant.hpp).
+
+#include "analytic_plant.hpp"
+
+#include "failure.hpp"
+
+#include <stdexcept>
+
+namespace delta_pin
+{
+  AnalyticDeltaPlant::AnalyticDeltaPlant(const DeltaGeometry & geometry, double arm_mass_share, double platform_mass)
+  : geometry_(geometry)
+  , arm_mass_share_(arm_mass_share)
+  , platform_mass_(platform_mass)
+  {
+    actuated_q_ = Indices::LinSpaced(3, 0, 2);
+    actuated_v_ = actuated_q_;
+    friction_.normal_force = Vector::Zero(3);
+    k1_ = k2_ = k3_ = k4_ = y_ = Vector::Zero(6);
+  }
+
+  void AnalyticDeltaPlant::set_friction(const FrictionSpec & friction)
+  {
+    if (friction.normal_force.size() != 3)
+      throw std::invalid_argument("the friction needs one normal force per actuated joint (3)");
+    friction_ = friction;
+  }
+
+  void AnalyticDeltaPlant::set_truth_table(const TruthTable & truth)
+  {
+    if ((truth.normal_forces.rows() && truth.normal_forces.cols() != 3)
+        || (truth.disturbances.rows() && truth.disturbances.cols() != 3))
+      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint (3)");
+    if (truth.point_masses.size())
+      throw std::invalid_argument("the analytic Delta takes the platform mass m_o(t), not a point payload");
+    if (!(truth.step >= 0.0))
+      throw std::invalid_argument("the truth table's step must be >= 0 s");
+    truth_ = truth;
+  }
+
+  void AnalyticDeltaPlant::accelerations(
+    const Vector3 & alpha, const Vector3 & alpha_dot, const Vector & tau, double u, Vector3 & out)
+  {
+    DeltaGeometry p = geometry_;
+    p.m_eq = TruthTable::value(truth_.body_masses, u, platform_mass_) + arm_mass_share_;
+    Vector3 xyz;
+    Matrix3 J, J_dot, M, C;
+    Vector3 G;
+    if (!delta_kinematics(p, alpha, alpha_dot, xyz, J, J_dot))
+      throw SimulationFailure("alpha=" + joint_values(alpha) + " rad has no forward kinematics");
+    delta_dynamics(p, alpha, J, J_dot, M, C, G);
+    Vector3 rhs;
+    for (int i = 0; i < 3; ++i)
+    {
+      // F(t) + M_f(alpha_dot, F_n(t)): DeltaPlant.acceleration_terms
+      double passive = TruthTable::value(truth_.disturbances, u, i, 0.0);
+      if (friction_.enabled)
+        passive += friction_.torque(alpha_dot[i], TruthTable::value(truth_.normal_forces, u, i, friction_.normal_force[i]));
+      rhs[i] = tau[i] - C.row(i).dot(alpha_dot) - G[i] - passive;
+    }
+    out = inverse_by_rows(M) * rhs;  // solve3: M^-1 by cross products
+  }
+
+  void AnalyticDeltaPlant::derivative(const Vector & x, const Vector & tau, double u, Vector & dx)
+  {
+    Vector3 ddq;
+    accelerations(x.head<3>(), x.tail<3>(), tau, u, ddq);
+    dx.resize(6);
+    dx.head<3>() = x.tail<3>();
+    dx.tail<3>() = ddq;
+  }
+
+  double AnalyticDeltaPlant::step(Vector & x, const Vector & tau, long stage, double h)
+  {
+    if (x.size() != 6 || tau.size() != 3)
+      throw std::invalid_argument("the analytic Delta steps x = [alpha, alpha_dot] (6) under 3 torques");
+    const double u = (double)stage;
+    derivative(x, tau, u, k1_);
+    y_ = x + 0.5 * h * k1_;
+    derivative(y_, tau, u + 1.0, k2_);
+    y_ = x + 0.5 * h * k2_;
+    derivative(y_, tau, u + 1.0, k3_);
+    y_ = x + h * k3_;
+    derivative(y_, tau, u + 2.0, k4_);
+    x = x + (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    return 0.0;
+  }
+
+  Eigen::Vector3d AnalyticDeltaPlant::end_effector_position(const Vector & q)
+  {
+    Vector3 xyz;
+    Matrix3 J, J_dot;
+    if (!delta_kinematics(geometry_, q.head<3>(), Vector3::Zero(), xyz, J, J_dot))
+      xyz.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return xyz;
+  }
+
+  bool AnalyticDeltaPlant::complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v)
+  {
+    q = alpha;
+    v = alpha_dot;
+    return true;
+  }
+
+  void AnalyticDeltaPlant::active_accelerations(
+    double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot)
+  {
+    Vector3 ddq;
+    accelerations(q.head<3>(), v.head<3>(), tau, truth_.position(t), ddq);
+    alpha_ddot = ddq;
+  }
+} // namespace delta_pin

@@ -1,0 +1,124 @@
+// What the compiled core's loops need of a plant (docs/architecture.md section 7): the sampled
+// loop (CorePlant::run_sampled: RK4 sub-steps under a held torque) and the continuous loop
+// (continuous.hpp: Radau IIA in active coordinates) run any plant that implements CorePlant --
+// the constrained plant of a closed chain (closed_chain.hpp) or the paper's reduced Delta
+// (analytic_plant.hpp) -- and both plants read their time-varying truth from one TruthTable.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <limits>
+
+namespace delta_pin
+{
+  class SampledController;
+  typedef Eigen::VectorXd Vector;
+  typedef Eigen::MatrixXd Matrix;
+  typedef Eigen::VectorXi Indices;
+  typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
+  typedef Eigen::Ref<RowMatrix> RowsOut;
+
+  // The plant's time-varying truth (delta_pin/sim/truth.py) tabulated at t = i step, i < rows:
+  // the payload body's mass [kg], a point mass [kg], the friction's normal forces [N] and the
+  // joint disturbance [N m] on the actuated joints. A column without rows is the plant's own
+  // (nominal) value. Read at a row position u = t / step: the row itself at whole u (the sampled
+  // loop's stage times), linear interpolation between rows elsewhere (the continuous loop), the
+  // last row past the end.
+  struct TruthTable
+  {
+    double step = 0.0;  // [s]
+    Vector body_masses, point_masses;
+    RowMatrix normal_forces, disturbances;
+
+    double position(double t) const { return step > 0.0 ? t / step : 0.0; }
+    static double value(const Vector & column, double u, double fallback)
+    {
+      if (column.size() == 0)
+        return fallback;
+      Eigen::Index k;
+      double w;
+      split(column.size(), u, k, w);
+      return w == 0.0 ? column[k] : (1.0 - w) * column[k] + w * column[k + 1];
+    }
+    // entry i of a table's row position u (fallback where the table has no rows)
+    static double value(const RowMatrix & table, double u, Eigen::Index i, double fallback)
+    {
+      if (table.rows() == 0)
+        return fallback;
+      Eigen::Index k;
+      double w;
+      split(table.rows(), u, k, w);
+      return w == 0.0 ? table(k, i) : (1.0 - w) * table(k, i) + w * table(k + 1, i);
+    }
+
+  private:
+    // the row k and the weight w of row k + 1 at u, in a table of `rows` rows
+    static void split(Eigen::Index rows, double u, Eigen::Index & k, double & w)
+    {
+      const Eigen::Index last = rows - 1;
+      if (!(u > 0.0))
+      {
+        k = 0;
+        w = 0.0;
+        return;
+      }
+      k = (Eigen::Index)u;
+      if (k >= last)
+      {
+        k = last;
+        w = 0.0;
+        return;
+      }
+      w = u - (double)k;
+    }
+  };
+
+  // A plant of the core's loops, x = [q, v] (for the reduced Delta q = alpha, v = alpha_dot).
+  class CorePlant
+  {
+  public:
+    virtual ~CorePlant() = default;
+
+    virtual int nq() const = 0;
+    virtual int nv() const = 0;
+    int dof() const { return (int)actuated_v_.size(); }
+    // the actuated joints' entries in q and in v
+    const Indices & actuated_q() const { return actuated_q_; }
+    const Indices & actuated_v() const { return actuated_v_; }
+    // whether x's q and v are a multibody configuration worth recording (a run keeps them)
+    virtual bool has_configuration() const = 0;
+
+    // One RK4 step of length h under the held actuated torque tau, the truth read at the table
+    // rows stage, stage + 1, stage + 1, stage + 2 (t, t + h/2, t + h/2, t + h); returns the
+    // closure gap of the result [m, rad]. May throw SimulationFailure (without a time).
+    virtual double step(Vector & x, const Vector & tau, long stage, double h) = 0;
+    virtual Eigen::Vector3d end_effector_position(const Vector & q) = 0;
+    virtual double closure_gap(const Vector & q) = 0;
+
+    // The continuous loop in active coordinates: q (warm start in, the configuration out) and
+    // v at the actuated (alpha, alpha_dot); false where the loops cannot be closed there.
+    virtual bool complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v) = 0;
+    // the actuated joints' accelerations at (q, v) under tau [N m] with the truth at time t [s]
+    virtual void active_accelerations(double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot) = 0;
+
+    // the truth of the run (TruthTable); rows of normal forces and disturbances have dof() columns
+    virtual void set_truth_table(const TruthTable & truth) = 0;
+
+    long projections() const { return projections_; }
+    // the simulated time [s] of the last SimulationFailure of run_sampled (NaN before one)
+    double failure_time() const { return failure_time_; }
+
+    // The sampled loop: the controller gives the torque held over sample k (controller.hpp: a
+    // C++ law, or the Python side's sensor, controller and drive); the plant takes `substeps`
+    // RK4 steps of dt / substeps. Records (steps + 1 rows) x's q and v, the end effector and
+    // the closure gap. Returns the number of samples recorded.
+    long run_sampled(
+      Vector x, long steps, int substeps, double dt, SampledController & controller, RowsOut q_out, RowsOut v_out,
+      RowsOut xyz_out, Eigen::Ref<Vector> gap_out);
+
+  protected:
+    Indices actuated_q_, actuated_v_;
+    long projections_ = 0;
+    double failure_time_ = std::numeric_limits<double>::quiet_NaN();
+  };
+} // namespace delta_pin
