@@ -35,7 +35,7 @@ namespace delta_pin
   void run_continuous(
     CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start,
     const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples,
-    const RadauOptions & options, double max_joint_speed, ContinuousRun & run)
+    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps)
   {
     const int n = (int)alpha0.size(), nz = (int)z0.size();
     if (plant.dof() != n || alpha_dot0.size() != n)
@@ -125,6 +125,30 @@ namespace delta_pin
     try
     {
       record(0, y);
+      if (bdf2_substeps > 0)  // fixed steps dt / bdf2_substeps, every stage on the tables' grid
+      {
+        Bdf2 bdf2(rhs, y, 0.0, dt / bdf2_substeps);
+        try
+        {
+          for (long k = 1; k < samples; ++k)
+          {
+            for (int j = 0; j < bdf2_substeps; ++j)
+            {
+              bdf2.step();
+              check_sample(
+                bdf2.y().allFinite(), bdf2.y().head(n), bdf2.y().segment(n, n), max_joint_speed, bdf2.t());
+            }
+            record(k, bdf2.y());
+          }
+        }
+        catch (...)
+        {
+          run.bdf2_counters = bdf2.counters;
+          throw;
+        }
+        run.bdf2_counters = bdf2.counters;
+        return;
+      }
       RadauOptions bounded = options;
       bounded.t_bound = (double)(samples - 1) * dt;  // the reference ends there
       RadauIIA radau(rhs, y, 0.0, bounded);

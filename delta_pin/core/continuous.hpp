@@ -10,6 +10,7 @@
 // I/II), and the plant's dynamics give alpha_ddot with its truth interpolated at t.
 #pragma once
 
+#include "bdf2.hpp"
 #include "controller.hpp"
 #include "plant.hpp"
 #include "radau.hpp"
@@ -69,18 +70,20 @@ namespace delta_pin
   {
     RowMatrix alpha, alpha_dot, tau, state, q, v, xyz;  // the internals: the law's records (keep)
     Vector gap;
-    RadauCounters counters;
+    RadauCounters counters;  // Radau IIA's
+    Bdf2Counters bdf2_counters;  // BDF2's
     long samples = 0;  // the samples recorded (all of them, or up to a failure)
     double failure_time = std::nan("");  // [s] the time of the SimulationFailure that stopped it
   };
 
   // Integrate from (alpha0, alpha_dot0, z0) at t = 0 (a closed chain's loops assembled from
-  // q_start) over `samples` - 1 periods dt and record the samples. A failure (the loops cannot be closed, a non-finite state or torque, a torque
+  // q_start) over `samples` - 1 periods dt and record the samples: by Radau IIA with `options`,
+  // or with bdf2_substeps > 0 by BDF2 (bdf2.hpp) with fixed steps dt / bdf2_substeps. A failure (the loops cannot be closed, a non-finite state or torque, a torque
   // or state rate of the wrong size, |alpha_dot| above max_joint_speed, the step size collapsing)
   // throws SimulationFailure with its time; a CallbackError of the law passes unchanged; `run`
   // keeps the samples recorded before.
   void run_continuous(
     CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
     long samples,
-    const RadauOptions & options, double max_joint_speed, ContinuousRun & run);
+    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps = 0);
 } // namespace delta_pin

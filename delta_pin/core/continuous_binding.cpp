@@ -93,13 +93,18 @@ void bind_continuous(nb::module_ & m)
     .def_prop_ro("counters", [](const ContinuousRun & run) {
       const RadauCounters & c = run.counters;
       return nb::make_tuple(c.steps, c.rejected, c.evaluations, c.jacobians, c.factorizations);
-    }, "(steps, rejected steps, evaluations, Jacobians, factorisations) of Radau IIA");
+    }, "(steps, rejected steps, evaluations, Jacobians, factorisations) of Radau IIA")
+    .def_prop_ro("bdf2_counters", [](const ContinuousRun & run) {
+      const Bdf2Counters & c = run.bdf2_counters;
+      return nb::make_tuple(c.steps, c.evaluations, c.split_steps, c.jacobians);
+    }, "(steps, evaluations, split steps, Jacobians) of BDF2");
   m.def(
     "run_continuous",
     [](CorePlant & plant, nb::object law, double step, const RowMatrix & alpha, const RowMatrix & alpha_dot,
        const RowMatrix & alpha_ddot, const RowMatrix & alpha_dddot, const Vector & q_start,
        const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples, double rtol,
-       double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run)
+       double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run,
+       int bdf2_substeps)
     {
       HermiteReference reference{step, alpha, alpha_dot, alpha_ddot, alpha_dddot};
       RadauOptions options;
@@ -114,7 +119,7 @@ void bind_continuous(nb::module_ & m)
         nb::gil_scoped_release release;  // nothing in the loop touches Python
         run_continuous(
           plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
-          max_joint_speed, run);
+          max_joint_speed, run, bdf2_substeps);
         return;
       }
       // a law in Python: (evaluate, keep), called with the GIL held
@@ -124,7 +129,7 @@ void bind_continuous(nb::module_ & m)
         nb::gil_scoped_release release;
         run_continuous(
           plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
-          max_joint_speed, run);
+          max_joint_speed, run, bdf2_substeps);
       }
       catch (const CallbackError &)
       {
@@ -134,8 +139,9 @@ void bind_continuous(nb::module_ & m)
     nb::arg("plant"), nb::arg("law"), nb::arg("step"), nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"),
     nb::arg("alpha_dddot"), nb::arg("q_start"), nb::arg("alpha0"), nb::arg("alpha_dot0"),
     nb::arg("z0"), nb::arg("dt"), nb::arg("samples"), nb::arg("rtol"), nb::arg("atol"), nb::arg("first_step"),
-    nb::arg("max_step"), nb::arg("max_joint_speed"), nb::arg("run"),
-    "Continuous mode: a plant (ClosedChainPlant, AnalyticDeltaPlant) and a law integrated by Radau IIA (continuous.hpp); the law is a compiled "
+    nb::arg("max_step"), nb::arg("max_joint_speed"), nb::arg("run"), nb::arg("bdf2_substeps") = 0,
+    "Continuous mode: a plant (ClosedChainPlant, AnalyticDeltaPlant) and a law integrated by Radau IIA, or with "
+    "bdf2_substeps > 0 by BDF2 with fixed steps dt / bdf2_substeps (continuous.hpp); the law is a compiled "
     "ProjectedLaw, or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, "
     "z) -> (tau, z_dot) and keep(k, tau, z) called from the loop (what it raises passes through "
     "unchanged). The records go to `run` (kept up to a SimulationFailure).");

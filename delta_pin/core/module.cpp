@@ -5,10 +5,8 @@
 // reduced Delta -- share the sampled loop, which runs a compiled law or calls back into Python
 // once per sample for the torque (delta_pin/sim/compiled_plant.py builds them).
 //
-// The constrained tree dynamics of tree_dynamics.cpp keep their C entry points, which the numba
-// loops call through plain function addresses (delta_pin/compiled/native/calls.py); `symbols()`
-// hands those addresses to Python. Nothing here is compiled at run time: scikit-build-core builds
-// this module when the package is installed (CMakeLists.txt).
+// Nothing here is compiled at run time: scikit-build-core builds this module when the package
+// is installed (CMakeLists.txt).
 
 #include "analytic_plant.hpp"
 #include "closed_chain.hpp"
@@ -23,23 +21,7 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
-#include <cstdint>
 
-extern "C" {
-void * dpn_create(
-  int, const int *, const int *, const double *, const double *, const double *, int, const int *,
-  const double *, double, double, int, char *, int);
-void dpn_destroy(void *);
-int dpn_nv(void *);
-int dpn_dynamics(void *, const double *, const double *, const double *, double, const double *, double *);
-int dpn_dynamics_axis(
-  void *, const double *, const double *, const double *, double, const double *, double *);
-int dpn_set_active(void *, const int *, const int *, double, int, const double *);
-int dpn_active_dynamics(
-  void *, const double *, const double *, const double *, double, const double *, double *, double *,
-  double *);
-double dpn_closure_gap(void *, const double *);
-}
 
 namespace nb = nanobind;
 
@@ -107,11 +89,6 @@ namespace
     return frames;
   }
 
-  template<typename Function>
-  std::uintptr_t address(Function * function)
-  {
-    return reinterpret_cast<std::uintptr_t>(function);
-  }
 } // namespace
 
 void bind_continuous(nb::module_ & m);  // continuous_binding.cpp
@@ -501,20 +478,4 @@ NB_MODULE(_core, m)
         model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
         disturbance, name, g);
     });
-  m.def(
-    "symbols",
-    []()
-    {
-      nb::dict table;
-      table["dpn_create"] = address(&dpn_create);
-      table["dpn_destroy"] = address(&dpn_destroy);
-      table["dpn_nv"] = address(&dpn_nv);
-      table["dpn_dynamics"] = address(&dpn_dynamics);
-      table["dpn_dynamics_axis"] = address(&dpn_dynamics_axis);
-      table["dpn_set_active"] = address(&dpn_set_active);
-      table["dpn_active_dynamics"] = address(&dpn_active_dynamics);
-      table["dpn_closure_gap"] = address(&dpn_closure_gap);
-      return table;
-    },
-    "Addresses of the C entry points of the constrained tree dynamics (name -> int).");
 }

@@ -10,8 +10,6 @@ core is turned off (``DELTA_PIN_NATIVE=0``) or cannot be imported.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from delta_pin.errors import NativeUnavailableError
@@ -28,10 +26,8 @@ def add_core_folder(folder: str) -> None:
 
 
 def core_supports(robot) -> bool:
-    """Whether the core's closed-chain model applies to ``robot`` (its actuated joints carry the
-    whole motion; no joint couplings) and the core is on."""
-    if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
-        return False
+    """Whether the core's closed-chain model applies to ``robot``: its actuated joints carry the
+    whole motion, no joint couplings (whether the core is on here: :func:`~delta_pin.compiled.core.core`)."""
     return not robot.has_unactuated_motion and not getattr(robot, "_couplings", None)
 
 

@@ -1,9 +1,8 @@
-"""Many runs of designs I/II (the LQR in continuous mode) that share the robot, the path and the
-timing but differ in gains, uncertainty or initial state: :func:`simulate_batch`, the batch of
-:func:`~delta_pin.studies.experiments.run_batch` and the sweeps. Sampled and Radau batches run
-one :func:`~delta_pin.sim.runner.simulate` after the other on the compiled core (a run of a
-batch is the run made alone); BDF2 batches take the Delta's numba loops
-(:mod:`delta_pin.sim.compiled_batch`), one compiled call each.
+"""Many runs that share the robot, the path and the timing but differ in controller, gains,
+uncertainty or initial state: :func:`simulate_batch`, the batch of
+:func:`~delta_pin.studies.experiments.run_batch` and the sweeps: one
+:func:`~delta_pin.sim.runner.simulate` after the other on the compiled core (a run of a batch is
+the run made alone).
 
 Example:
     >>> robot = load_delta()
@@ -19,26 +18,30 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from delta_pin.control.adaptive_robust import AdaptiveRobustController
-from delta_pin.control.baselines import LQR
-from delta_pin.errors import SimulationError
+from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.model.robot import Delta
-from delta_pin.sim.compiled_batch import (
-    _is_tree,
-    batchable,
-    check_batch,
-    native_available,
-    simulate_compiled_batch,
-)
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.runner import simulate
 
-__all__ = ["batchable", "native_available", "simulate_batch"]
+__all__ = ["native_available", "simulate_batch"]
+
+
+def native_available() -> bool:
+    """Whether the compiled core (``delta_pin/core/``, :mod:`delta_pin.compiled.core`) can be
+    imported here (off with ``DELTA_PIN_NATIVE=0``): the runs of a batch then take it."""
+    from delta_pin.compiled.core import core
+    from delta_pin.errors import NativeUnavailableError
+
+    try:
+        core()
+    except NativeUnavailableError:
+        return False
+    return True
 
 
 def simulate_batch(
     robot: Delta,
-    controllers: Sequence[AdaptiveRobustController | LQR],
+    controllers: Sequence,
     trajectory=None,
     *,
     plant: str | Plant = "analytic",
@@ -55,15 +58,15 @@ def simulate_batch(
     rtol: float = 1e-6,
     atol: float = 1e-8,
 ) -> list:
-    """Simulate one run per controller (design I or II; the LQR in continuous mode), compiled: BDF2
-    or Radau IIA in continuous mode, RK4 under a zero-order hold in sampled mode.
+    """Simulate one run per controller on the compiled core: BDF2 or Radau IIA in continuous mode,
+    RK4 under a zero-order hold in sampled mode.
 
     Args:
         robot: the robot; every run uses it.
-        controllers: designs I/II (or, in continuous mode, LQRs) on the Delta's analytic nominal
-            model, all with the same ``vector_rho``; gains and options may differ.
+        controllers: the runs' controllers (designs I/II, the baselines, a user's own; a
+            continuous-time one in continuous mode).
         trajectory: the shared path (``None``: hold ``alpha0``).
-        plant: ``"analytic"`` or ``"pinocchio"`` (needs the native library), or such a
+        plant: ``"analytic"`` or ``"pinocchio"``, or such a
             :class:`~delta_pin.sim.plants.Plant` (its friction and uncertainty then serve the
             first run).
         t_end, dt: duration and sample period [s]; integrator steps are dt / substeps.
@@ -75,7 +78,7 @@ def simulate_batch(
         uncertainties: one profile per run (``None`` entries: no uncertainty), or ``None``.
         errors: ``"raise"`` the first failure, or ``"return"`` it in place of its run.
         integrator: continuous mode: ``"bdf2"`` (fixed steps dt / substeps) or ``"radau"`` (Radau
-            IIA with error control, :mod:`delta_pin.compiled.radau`; its samples every dt).
+            IIA with error control, :mod:`delta_pin.sim.continuous_core`; its samples every dt).
         rtol, atol: ``"radau"``'s tolerances (relative; absolute in SI units of the state).
 
     Returns:
@@ -86,28 +89,31 @@ def simulate_batch(
         InvalidParameterError: a controller or plant the compiled path cannot run, bad sizes.
         SimulationError: a run that fails (with ``errors="raise"``), naming the time.
     """
-    if mode == "continuous" and integrator == "bdf2":
-        return simulate_compiled_batch(
-            robot, controllers, trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps, mode=mode,
-            alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction, uncertainties=uncertainties,
-            errors=errors, integrator=integrator, rtol=rtol, atol=atol,
-        )  # fmt: skip
-    controllers, uncertainties, _, _ = check_batch(
-        controllers, plant, mode, errors, integrator, rtol, atol, substeps, dt, t_end, uncertainties
-    )
-    kind = "pinocchio" if _is_tree(plant, mode) else "analytic"
+    controllers = list(controllers)
+    if not controllers:
+        raise InvalidParameterError("controllers must hold at least one controller")
+    if errors not in ("raise", "return"):
+        raise InvalidParameterError(f"errors={errors!r} must be 'raise' or 'return'")
+    if mode == "continuous" and integrator not in ("bdf2", "radau"):
+        raise InvalidParameterError(f"integrator={integrator!r} must be 'bdf2' or 'radau' (continuous mode)")
+    uncertainties = [None] * len(controllers) if uncertainties is None else list(uncertainties)
+    if len(uncertainties) != len(controllers):
+        raise InvalidParameterError(
+            f"uncertainties has {len(uncertainties)} entries for {len(controllers)} controllers"
+        )
+    kind = plant.name if isinstance(plant, Plant) else plant
     return _core_runs(
         robot, controllers, trajectory, plant, kind, uncertainties, errors, alpha0, alpha_dot0,
         t_end=t_end, dt=dt, substeps=substeps, mode=mode, friction=friction,
-        integrator="rk4" if mode == "sampled" else "radau", rtol=rtol, atol=atol,
+        integrator="rk4" if mode == "sampled" else integrator, rtol=rtol, atol=atol,
     )  # fmt: skip
 
 
 def _core_runs(
     robot, controllers, trajectory, plant, kind, uncertainties, errors, alpha0, alpha_dot0, **options
 ):
-    """The runs of a sampled or Radau batch, each :func:`~delta_pin.sim.runner.simulate` on the
-    compiled core (so that a run of a batch is the run made alone); ``plant``: a name, or a
+    """The runs of a batch, each :func:`~delta_pin.sim.runner.simulate` on the compiled core (so
+    that a run of a batch is the run made alone); ``plant``: a name, or a
     :class:`~delta_pin.sim.plants.Plant` for the first run (the others: ``kind`` by name)."""
 
     def row(values, b):

@@ -61,7 +61,7 @@ from delta_pin.errors import (
 )
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
 from delta_pin.model.core_model import core_model, core_supports
-from delta_pin.model.delta_robot import as_closed_chain, carries_own_delta
+from delta_pin.model.delta_robot import as_closed_chain
 from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
 from delta_pin.sim.truth import PlantTruth
@@ -207,20 +207,7 @@ class ClosedChainPlant(Plant):
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
         self._core_chain = None  # the core's ClosedChainModel for completions (False: none here)
         self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
-        self._native_tree = None
-        self.stepped_in_core = False  # whether sampled_core handed the loop a compiled copy
-        # the Delta's compiled loops (delta_pin.sim.batch) take this plant: the analytic Delta of
-        # its own URDF (their kernels' geometry), 1-DOF joints only and no truth they do not model
-        self.delta_tree = (
-            carries_own_delta(robot)
-            and full_possible
-            and payload_mass is None
-            and not (springs or robot.joint_couplings or carried)
-        )
-        # held_rk4's arrays: k1, k2, k3, k4, then the stage points y2, y3, y4 with their q and v views
-        stages = np.empty((7, self.model.nq + self.model.nv))
-        points = [(y, y[: self.model.nq], y[self.model.nq :]) for y in stages[4:]]
-        self._stages = (*stages[:4], *(view for point in points for view in point))
+        self.stepped_in_core = False  # whether core_plant handed a loop a compiled copy
         self.metadata_extra = {
             "coordinates": coordinates,
             "baumgarte_frequency": baumgarte_frequency,
@@ -254,10 +241,8 @@ class ClosedChainPlant(Plant):
 
     def precompute_truth(self, step: float, count: int) -> None:
         """Tabulate the truth at t = k step, k < count [s] (one vectorised call): the stage times
-        of the integrator then read the table (and the payload body's rotational inertia at each
-        mass) instead of calling the profile."""
+        of the integrator then read the table instead of calling the profile."""
         self._truth.tabulate(step, count)
-        self._rotational_table = self.rotational_inertia(np.asarray(self._truth.table[0])[:, None, None])
 
     def truth(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
         """(m_o(t) [kg], F_n(t) (dof,) [N], F(t) (dof,) [N m]): the plant's time-varying truth."""
@@ -455,71 +440,6 @@ class ClosedChainPlant(Plant):
         self.projections += 1
         self.largest_projected_gap = max(self.largest_projected_gap, gap)
         return x, self.closure_residual(x)
-
-    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
-        """One RK4 step of length h [s] under the held torque tau from t = stage h / 2, reading the
-        truth table of :meth:`precompute_truth` (step h / 2) by index: the step of
-        :func:`~delta_pin.sim.integrators.rk4_step` on :meth:`derivative` (to rounding), without
-        its per-call overhead, through the compiled stage kernels of
-        :mod:`delta_pin.compiled.tree_kernels`. ``None`` where this fast path does not apply (a
-        plant the Delta's compiled loops do not take, active coordinates, no table for h)."""
-        table = self._truth.table
-        if not self.delta_tree or self.coordinates != "full" or table is None or self._truth.step != 0.5 * h:
-            return None
-        masses, normals, disturbances = table
-        if stage + 2 >= len(masses):
-            return None
-        from delta_pin.compiled.tree_kernels import joint_torques_at, tree_combine, tree_stage
-
-        # the stages of rk4_step at t, t + h/2, t + h/2, t + h: table rows i, i+1, i+1, i+2
-        rotational, dynamics = self._rotational_table, self._tree_dynamics
-        torques, active, friction = self._tau, self.active, self.friction_parameters
-        k1, k2, k3, k4, y2, q2, v2, y3, q3, v3, y4, q4, v4 = self._stages
-        q, v = x[: self.nq], x[self.nq :]
-        i, half = stage, 0.5 * h
-        torques[:] = 0.0
-        joint_torques_at(torques, active, tau, v, disturbances, normals, i, friction)
-        ddq = dynamics(q, v, masses[i], rotational[i])
-        tree_stage(y2, x, k1, v, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
-        ddq = dynamics(q2, v2, masses[i + 1], rotational[i + 1])
-        tree_stage(y3, x, k2, v2, ddq, half, torques, active, tau, disturbances, normals, i + 1, friction)
-        ddq = dynamics(q3, v3, masses[i + 1], rotational[i + 1])
-        tree_stage(y4, x, k3, v3, ddq, h, torques, active, tau, disturbances, normals, i + 2, friction)
-        ddq = dynamics(q4, v4, masses[i + 2], rotational[i + 2])
-        return tree_combine(x, k1, k2, k3, k4, v4, ddq, h / 6.0)
-
-    def _tree_dynamics(self, q, v, mass, rotational=None) -> np.ndarray:
-        """ddq under the joint torques already in ``_tau`` with the payload body's mass [kg] and
-        rotational inertia [kg m^2] (default: scaled with the mass): held_rk4's stages."""
-        self._set_mass(mass, 0.0, rotational)
-        return self._constrained(q, v, self._tau)
-
-    def native_tree(self):
-        """This plant's tree and closures in the native library
-        (:class:`delta_pin.compiled.native.TreeDynamics`, built once), for the Delta's compiled
-        loops.
-
-        Raises:
-            NativeUnavailableError: the native library cannot be built here, or the tree is not
-                one it takes (1-DOF axis joints, point closures).
-        """
-        if self._native_tree is None:
-            from delta_pin.compiled import native
-
-            self._native_tree = native.TreeDynamics(
-                native.load(strict=True), self.model, self.constraint_models, self.baumgarte_gains,
-                self._payload_joint,
-            )  # fmt: skip
-        return self._native_tree
-
-    @property
-    def platform_q_indices(self) -> np.ndarray:
-        """The indices in q of the Delta's platform slides x, y, z (its compiled loops read the
-        platform position there)."""
-        model = self.robot.model
-        return np.array(
-            [model.idx_qs[model.getJointId(name)] for name in self.robot.delta.description.platform_joints]
-        )
 
     def core_plant(self, step: float = 0.0, count: int = 0):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or

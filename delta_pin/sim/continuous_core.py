@@ -92,10 +92,13 @@ def run_core_continuous(
     t: np.ndarray,
     rtol: float,
     atol: float,
+    bdf2_substeps: int = 0,
 ) -> tuple[LoopRecord, dict]:
     """Run the compiled plant and law of :func:`continuous_core` from (alpha0 [rad], alpha_dot0
-    [rad/s]) over the sample times t [s]; ``table``: the reference on the grid dt / 4 with its
-    jerk (cubic Hermite between its rows, as LSODA's). Returns the record and Radau's counters.
+    [rad/s]) over the sample times t [s] by Radau IIA (rtol, atol) or, with ``bdf2_substeps`` > 0,
+    by BDF2 with fixed steps dt / bdf2_substeps (``delta_pin/core/bdf2.hpp``); ``table``: the
+    reference with its jerk (cubic Hermite between its rows, as LSODA's; for BDF2 on the step
+    grid). Returns the record and the integrator's counters.
 
     Raises:
         SimulationError: the loops cannot be closed, the state or the torque became non-finite,
@@ -124,12 +127,11 @@ def run_core_continuous(
     try:
         module.run_continuous(
             core_plant, law, table.step, *arrays, *start, float(t[1] - t[0]),
-            len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run,
+            len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run, bdf2_substeps,
         )  # fmt: skip
     except module.SimulationFailure as exc:
         time = run.failure_time
         raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
-    steps, rejected, evaluations, jacobians, factorizations = run.counters
     record = LoopRecord(
         alpha=np.array(run.alpha),
         alpha_dot=np.array(run.alpha_dot),
@@ -143,8 +145,16 @@ def run_core_continuous(
         record.internals = {name: np.array(values) for name, values in law.internals.items()}
     else:
         record.internals = controller.core_law_internals(law)
-    counters = {
-        "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
-        "jacobians": int(jacobians), "factorizations": int(factorizations),
-    }  # fmt: skip
+    if bdf2_substeps > 0:
+        steps, evaluations, split_steps, jacobians = run.bdf2_counters
+        counters = {
+            "bdf2_steps": int(steps), "rhs_evaluations": int(evaluations), "split_steps": int(split_steps),
+            "jacobians": int(jacobians),
+        }  # fmt: skip
+    else:
+        steps, rejected, evaluations, jacobians, factorizations = run.counters
+        counters = {
+            "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
+            "jacobians": int(jacobians), "factorizations": int(factorizations),
+        }  # fmt: skip
     return record, counters

@@ -19,8 +19,6 @@ from delta_pin.utils.progress import Progress
 
 __all__ = ["ControlLoop", "LoopRecord", "run_python_loop"]
 
-USE_HELD_RK4 = True  # sampled mode: a plant's held_rk4 fast path (False: the generic RK4 only)
-
 
 class ControlLoop:
     """A controller on a plant: evaluates it with checks that name the time of a bad output."""
@@ -185,7 +183,6 @@ def run_python_loop(
     bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
     stride = max(steps // 100, 1)
     gap = None  # the closure residual of x when the step computed it
-    held = mode == "sampled" and USE_HELD_RK4
     wants_core = mode == "sampled" and compiled is not False
     core = plant.sampled_core(h, 2 * steps * substeps + 3) if wants_core else None
     if compiled and core is None:
@@ -252,14 +249,8 @@ def run_python_loop(
             tau, out = sample(k, x, z, gap)
             if mode == "sampled":
                 for j in range(substeps):
-                    # the plant's own RK4 step under the held torque if it has one (truth read by
-                    # stage index, same numbers), else the generic step on plant.derivative
-                    x_next = plant.held_rk4(x, tau, 2 * (k * substeps + j), h) if held else None
-                    if x_next is None:
-                        x = rk4_step(lambda ts, xs: plant.derivative(ts, xs, tau), t[k] + j * h, x, h)  # noqa: B023
-                        x, gap = plant.finish_step(x, t[k] + (j + 1) * h), None
-                    else:
-                        x, gap = plant.finish_step_residual(x_next, t[k] + (j + 1) * h)
+                    x = rk4_step(lambda ts, xs: plant.derivative(ts, xs, tau), t[k] + j * h, x, h)  # noqa: B023
+                    x, gap = plant.finish_step(x, t[k] + (j + 1) * h), None
                 z = controller.advance(z, out, dt)
             else:
                 y = np.concatenate([x, z])

@@ -108,13 +108,6 @@ class Plant(ABC):
         x = self.finish_step(x, t)
         return x, self.closure_residual(x)
 
-    def held_rk4(self, x: np.ndarray, tau: np.ndarray, stage: int, h: float) -> np.ndarray | None:
-        """A fast path for one RK4 step of length h [s] of :meth:`derivative` under a held torque
-        from t = stage h / 2 (the sampled mode's inner step), equal to the generic step bit for
-        bit; ``None`` (the default) where the plant has none: the caller then takes the generic
-        step."""
-        return None
-
     def truth_table(self, step: float, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(m_o (count,) [kg], F_n (count, dof) [N], F (count, dof) [N m]) at t = k step [s] of a
         plant with a time-varying truth (:class:`~delta_pin.sim.truth.PlantTruth`): the table of

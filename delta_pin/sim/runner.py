@@ -7,14 +7,12 @@ Two timings (docs/architecture.md section 6):
   controller's internal state (rho_hat) advances once per period, z_{k+1} = z_k + dt z_dot_k;
 * ``mode="continuous"`` -- the analysis of the paper: the controller is evaluated inside the
   integrator (the compiled core's Radau IIA with error control by default where the plant has a
-  compiled copy, :mod:`delta_pin.sim.continuous_core`; LSODA elsewhere; RK4 or the Delta's
-  compiled fixed-step BDF2 on request).
+  compiled copy, :mod:`delta_pin.sim.continuous_core`; LSODA elsewhere; RK4 or the core's
+  fixed-step BDF2 on request).
 
 :func:`simulate` checks its arguments, takes the compiled core where the plant has a copy there
 (the Python loop, :func:`~delta_pin.sim.loop.run_python_loop`, hands the sampled loop to it) or the
-Python loop elsewhere -- BDF2 alone takes the Delta's numba loops
-(:func:`~delta_pin.sim.compiled_batch.simulate_compiled_batch`) -- and wraps the result in a
-:class:`Run`.
+Python loop elsewhere, and wraps the result in a :class:`Run`.
 """
 
 from __future__ import annotations
@@ -33,7 +31,6 @@ from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
-from delta_pin.sim.compiled_batch import simulate_compiled_batch
 from delta_pin.sim.continuous_core import continuous_core, run_core_continuous
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
@@ -83,15 +80,10 @@ def _core_options(robot, plant, integrator, compiled, friction, uncertainty, mod
     the core steps the sampled loop (:meth:`~delta_pin.sim.plants.Plant.sampled_core`) and, in
     continuous mode, the core's Radau IIA where it applies (:func:`_core_integrator`)."""
     name = getattr(robot, "name", type(robot).__name__)
-    if compiled and mode != "sampled" and integrator not in ("auto", "radau"):
+    if compiled and mode != "sampled" and integrator not in ("auto", "radau", "bdf2"):
         raise InvalidParameterError(
-            f"compiled=True: {name!r} runs compiled in continuous mode with integrator='radau' "
-            f"only, not {integrator!r} (compiled=None or False)"
-        )
-    if integrator == "bdf2":
-        raise InvalidParameterError(
-            "integrator='bdf2' exists in the Delta's compiled loops only; a closed-chain robot takes 'rk4' "
-            "(sampled), 'radau' or 'lsoda' (continuous)"
+            f"compiled=True: {name!r} runs compiled in continuous mode with integrator='radau' or "
+            f"'bdf2', not {integrator!r} (compiled=None or False)"
         )
     if isinstance(plant, str):
         options = {}
@@ -104,18 +96,17 @@ def _core_options(robot, plant, integrator, compiled, friction, uncertainty, mod
 def _core_integrator(
     integrator: str, plant, controller, compiled: bool | None = None
 ) -> tuple[str, tuple | None]:
-    """(integrator, compiled plant and law) of a continuous run: the core's Radau IIA
-    (:mod:`delta_pin.sim.continuous_core`) where the plant has a compiled copy, with the
-    controller's compiled law or its own Python ``evaluate`` called per evaluation (``"auto"``
-    or ``"radau"``), else LSODA (``"auto"``; ``"radau"`` or ``compiled=True``: one line that says
-    why not)."""
-    if integrator not in ("auto", "radau"):
+    """(integrator, compiled plant and law) of a continuous run: the core's Radau IIA or, asked
+    for, its BDF2 (:mod:`delta_pin.sim.continuous_core`) where the plant has a compiled copy, with
+    the controller's compiled law or its own Python ``evaluate`` called per evaluation, else
+    LSODA (``"auto"``; ``"radau"``, ``"bdf2"`` or ``compiled=True``: one line that says why not)."""
+    if integrator not in ("auto", "radau", "bdf2"):
         return integrator, None
     in_core = continuous_core(plant, controller)
     if in_core is not None:
-        return "radau", in_core
-    if integrator == "radau" or compiled:
-        asked = "integrator='radau'" if integrator == "radau" else "compiled=True"
+        return ("bdf2" if integrator == "bdf2" else "radau"), in_core
+    if integrator != "auto" or compiled:
+        asked = f"integrator={integrator!r}" if integrator != "auto" else "compiled=True"
         raise InvalidParameterError(
             f"{asked}: the compiled core runs continuous with a continuous-time controller on a plant "
             "with a compiled copy (not a closed chain's idle motions, passive joints or joint couplings), "
@@ -125,7 +116,7 @@ def _core_integrator(
     return "lsoda", None
 
 
-def _engine_robot(robot, delta, plant, trajectory, integrator: str):
+def _engine_robot(robot, delta, plant, trajectory):
     """The robot a run goes on: for a Delta with the analytic model of its own URDF (the robot of
     ``load_delta``, or that analytic :class:`~delta_pin.model.robot.Delta` itself) the closed
     chain of its URDF on the Pinocchio plant -- its plant in the compiled core, a controller's
@@ -138,7 +129,7 @@ def _engine_robot(robot, delta, plant, trajectory, integrator: str):
     chain = delta.pinocchio if robot is delta else robot
     if isinstance(plant, ClosedChainPlant) or isinstance(trajectory, FramePath):
         return chain
-    return chain if plant == "pinocchio" and integrator != "bdf2" else delta
+    return chain if plant == "pinocchio" else delta
 
 
 def _check_digital(controller, mode: str, dt: float, drive_effects: bool, delay: int = 0) -> None:
@@ -251,33 +242,27 @@ def simulate(
     steps = check_timing(dt, t_end)
     check_mode(mode)
     check_substeps(substeps)
+    if not (math.isfinite(rtol) and math.isfinite(atol) and rtol > 0.0 and atol > 0.0):
+        raise InvalidParameterError(f"rtol={rtol!r} and atol={atol!r} must be positive")
     described = analytic_delta(robot)  # a Delta's run is described as the Delta's (its metadata)
-    robot = _engine_robot(robot, described, plant, trajectory, integrator)
+    robot = _engine_robot(robot, described, plant, trajectory)
     # the compiled core's plant in the Python loop's sampled mode: where it applies, not with
     # compiled=False (the Python plant's RK4: the reference)
     core = False if compiled is False else None
     in_core = None  # the core's plant and law for a continuous run: where they apply
-    if isinstance(robot, ClosedChainRobot) or integrator != "bdf2":
-        core, plant = _core_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
-        compiled = False  # the Delta's numba loops: BDF2 only
-        friction = uncertainty = None  # now the plant's
-        if mode == "continuous" and core is not False:
-            controller = as_controller(controller)  # one wrapper: the core's law calls the run's controller
-            integrator, in_core = _core_integrator(integrator, plant, controller, core)
+    core, plant = _core_options(robot, plant, integrator, compiled, friction, uncertainty, mode)
+    friction = uncertainty = None  # now the plant's
+    if mode == "continuous" and core is not False:
+        controller = as_controller(controller)  # one wrapper: the core's law calls the run's controller
+        integrator, in_core = _core_integrator(integrator, plant, controller, core)
     integrator = _choose_integrator(integrator, mode)
     drive_effects = sensor is not None or check_delay(delay) > 0 or torque_limit is not None
     if sensor is not None and not isinstance(sensor, Encoder):
         raise InvalidParameterError(f"sensor={sensor!r} must be a delta_pin Encoder or None")
     _check_digital(as_controller(controller), mode, dt, drive_effects, delay)
-    if integrator == "bdf2":  # the Delta's numba loops (sim.compiled_batch)
-        return simulate_compiled_batch(
-            robot, [controller], trajectory, plant=plant, t_end=t_end, dt=dt, substeps=substeps,
-            mode=mode, alpha0=alpha0, alpha_dot0=alpha_dot0, friction=friction,
-            uncertainties=[uncertainty], integrator="bdf2",
-        )[0]  # fmt: skip
-    if integrator == "radau" and in_core is None:
+    if integrator in ("radau", "bdf2") and in_core is None:
         raise InvalidParameterError(
-            "integrator='radau' is the compiled core's (continuous mode): compiled=False takes 'lsoda'"
+            f"integrator={integrator!r} is the compiled core's (continuous mode); compiled=False: 'lsoda'"
         )
     # an adaptive integrator takes the Pinocchio plant in active coordinates (loops closed by
     # construction at every evaluation; a 7-dimensional state instead of 25)
@@ -287,7 +272,7 @@ def simulate(
     dof, h = plant.dof, dt / substeps
     # the reference on a grid fine enough for the integrator: the samples in sampled mode, the RK4
     # stage times (half steps) or dt/4 for LSODA in continuous mode
-    per_sample = 1 if mode == "sampled" else (2 * substeps if integrator == "rk4" else 4)
+    per_sample = 1 if mode == "sampled" else {"rk4": 2 * substeps, "bdf2": substeps}.get(integrator, 4)
     table, sample_xyz, alpha0 = tabulate_reference(robot, trajectory, alpha0, dof, steps, dt, per_sample)
     alpha0 = joint_vector(alpha0, "alpha0", dof)
     if integrator == "lsoda":
@@ -304,8 +289,9 @@ def simulate(
     counters = {}
     if in_core is not None:
         record, counters = run_core_continuous(
-            in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol
-        )
+            in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol,
+            substeps if integrator == "bdf2" else 0,
+        )  # fmt: skip
     else:
         record = run_python_loop(
             controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,

@@ -316,10 +316,10 @@ def run_spec(
 
 
 def batch_group(spec: RunSpec) -> tuple | None:
-    """What runs must share to be simulated in one compiled batch (:func:`run_batch`), or ``None``
-    when ``spec`` cannot be batched: designs I/II in continuous mode with ``integrator="bdf2"`` or
-    in sampled mode (RK4) on the analytic plant, or in continuous mode, where the native library of
-    :mod:`delta_pin.compiled.native` is available, on the Pinocchio plant."""
+    """What runs must share to be simulated in one batch (:func:`run_batch`, one task of a sweep's
+    workers), or ``None`` when ``spec`` runs alone: designs I/II in continuous mode with
+    ``integrator="bdf2"`` or in sampled mode (RK4) on the analytic plant, or in continuous mode,
+    where the compiled core is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (spec.controller in ("design1", "design2") and (continuous or sampled)) or spec.drive_effects:

@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.compiled import native
 from delta_pin.errors import InvalidParameterError
-from delta_pin.sim.batch import simulate_batch
+from delta_pin.sim.batch import native_available, simulate_batch
 
-needs_native = pytest.mark.skipif(native.load() is None, reason="native library unavailable")
+needs_native = pytest.mark.skipif(not native_available(), reason="the compiled core is unavailable here")
 ALPHA0 = np.full(3, 0.3322)
 
 
