@@ -23,6 +23,13 @@ namespace delta_pin
       a_ddot = alpha_ddot.row(row).transpose();
       return;
     }
+    if (linear)
+    {
+      a = ((1.0 - s) * alpha.row(k) + s * alpha.row(k + 1)).transpose();
+      a_dot = ((1.0 - s) * alpha_dot.row(k) + s * alpha_dot.row(k + 1)).transpose();
+      a_ddot = ((1.0 - s) * alpha_ddot.row(k) + s * alpha_ddot.row(k + 1)).transpose();
+      return;
+    }
     const double s2 = s * s, s3 = s2 * s, h = step;
     const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
     auto hermite = [&](const RowMatrix & y, const RowMatrix & dy) -> Vector

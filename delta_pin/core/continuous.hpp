@@ -20,11 +20,14 @@
 namespace delta_pin
 {
   // alpha^d(t) on a uniform grid read by cubic Hermite interpolation (the arithmetic of
-  // delta_pin.sim.reference.ReferenceTable: exact at the grid points)
+  // delta_pin.sim.reference.ReferenceTable: exact at the grid points), or with `linear` by linear
+  // interpolation of each row's entries (BDF2's: its stages lie on the grid, and its split steps
+  // read the reference as its truth, linearly inside the step)
   struct HermiteReference
   {
     double step = 0.0;
     RowMatrix alpha, alpha_dot, alpha_ddot, alpha_dddot;
+    bool linear = false;
     void at(double t, Vector & a, Vector & a_dot, Vector & a_ddot) const;
   };
 

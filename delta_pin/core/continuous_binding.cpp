@@ -106,7 +106,7 @@ void bind_continuous(nb::module_ & m)
        double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run,
        int bdf2_substeps)
     {
-      HermiteReference reference{step, alpha, alpha_dot, alpha_ddot, alpha_dddot};
+      HermiteReference reference{step, alpha, alpha_dot, alpha_ddot, alpha_dddot, bdf2_substeps > 0};
       RadauOptions options;
       options.rtol = rtol;
       options.atol = atol;

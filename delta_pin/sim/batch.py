@@ -19,8 +19,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from delta_pin.errors import InvalidParameterError, SimulationError
+from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.plants import Plant
+from delta_pin.sim.reference import SharedReference
 from delta_pin.sim.runner import simulate
 
 __all__ = ["native_available", "simulate_batch"]
@@ -122,6 +124,8 @@ def _core_runs(
 
     results = []
     friction = options.pop("friction")
+    if trajectory is not None and not isinstance(trajectory, FramePath):
+        trajectory = SharedReference(trajectory)  # one path, one grid: tabulated once
     for b, (controller, uncertainty) in enumerate(zip(controllers, uncertainties)):
         given = isinstance(plant, Plant) and b == 0
         try:

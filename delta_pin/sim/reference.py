@@ -81,3 +81,26 @@ def tabulate_reference(robot: Delta, trajectory, alpha0, dof: int, steps: int, d
     zeros = np.zeros((len(grid), dof))
     table = ReferenceTable(dt / per_sample, np.broadcast_to(hold, (len(grid), dof)), zeros, zeros, zeros)
     return table, np.broadcast_to(robot.forward_kinematics(hold), (steps + 1, 3)), alpha0
+
+
+class SharedReference:
+    """A trajectory whose joint references are computed once per robot and time grid and then
+    shared: the runs of a batch (:func:`~delta_pin.sim.batch.simulate_batch`) follow one path on
+    one grid, and tabulating it (inverse kinematics at every point) costs about a third of a
+    compiled 15 s run. Everything else is the wrapped trajectory's."""
+
+    def __init__(self, trajectory) -> None:
+        self.trajectory = trajectory
+        self._tables: list[tuple[object, np.ndarray, object]] = []  # (robot, times, reference)
+
+    def joint_reference(self, robot, times):
+        times = np.asarray(times, dtype=float)
+        for known_robot, known_times, reference in self._tables:
+            if known_robot is robot and np.array_equal(known_times, times):
+                return reference
+        reference = self.trajectory.joint_reference(robot, times)
+        self._tables.append((robot, times.copy(), reference))
+        return reference
+
+    def __getattr__(self, name: str):
+        return getattr(self.trajectory, name)

@@ -356,3 +356,17 @@ def test_without_the_core_simulate_falls_back_to_python(robot, monkeypatch):
     finally:
         monkeypatch.delenv("DELTA_PIN_NATIVE")
         core.core.cache_clear()
+
+
+def test_bdf2_crosses_a_sweep_point_that_needs_split_steps(robot):
+    """A point of reproduce --full's surface grid (design II, Delta_m 0.3, Delta_f = Delta_fc =
+    0.09) where Newton fails on whole 1 ms steps in the sliding phase: the split steps, with the
+    reference and the truth read linearly inside the step (as the former numba BDF2 read them),
+    cross it. Read by cubic Hermite interpolation instead, the split steps failed at t = 12.975 s."""
+    spec = RunSpec(
+        controller="design2", plant="analytic", integrator="bdf2", t_end=15.0, gains={"rho0": 0.02},
+        delta_f=0.09, delta_fc=0.09, delta_m=0.3,
+    )  # fmt: skip
+    run = run_spec(spec, robot)
+    assert run.metadata["split_steps"] > 0
+    assert np.abs(run.alpha - run.alpha_d)[-1000:].max() < 1e-3  # tracking in the last second
