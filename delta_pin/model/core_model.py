@@ -14,15 +14,7 @@ import numpy as np
 
 from delta_pin.errors import NativeUnavailableError
 
-__all__ = ["add_core_folder", "core_arguments", "core_model", "core_supports"]
-
-
-def add_core_folder(folder: str) -> None:
-    """Import the compiled core from ``folder`` too: a build's staging folder, before the package
-    is installed (the install-time warm-up, ``python -m delta_pin.warmup --core-folder``)."""
-    import delta_pin.compiled
-
-    delta_pin.compiled.__path__.append(str(folder))
+__all__ = ["core_arguments", "core_model", "core_supports"]
 
 
 def core_supports(robot) -> bool:
