@@ -1,4 +1,6 @@
-"""Named data layouts of the compiled layer: numpy structured dtypes, read in kernels by field.
+"""Named data layouts of the numba BDF2 loop (:mod:`delta_pin.compiled.closed_loop`, entered through
+:mod:`delta_pin.sim.compiled_batch`): numpy structured dtypes, read in its kernels by field. They go
+with that loop; every other compiled run takes the compiled core, built from plain numbers.
 
 Every number a kernel reads travels in one of these records (``p.xi``, ``plant.friction.mu_s``,
 ``ws.J``), never at a position of a float vector: a field that is renamed, added or moved changes
@@ -6,9 +8,8 @@ the dtype, and a kernel that reads a missing field fails to compile instead of r
 neighbour. numba compiles each record type once and caches it (docs/architecture.md section 8).
 
 Records are built with :func:`record`; arrays of records (a truth table, the samples of a run)
-with :func:`records`. Both read their fields as attributes, in Python (where the kernels run as
-plain Python without numba) as in compiled code. Units are SI throughout. This module imports
-only numpy: the model layer builds its records without loading numba.
+with :func:`records`. Both read their fields as attributes. Units are SI throughout. This module
+imports only numpy: the model layer builds its records without loading numba.
 """
 
 from __future__ import annotations
@@ -16,26 +17,19 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "ADAPTIVE_ROBUST",
     "CONTROLLER",
-    "DIGITAL_INFO",
-    "DIGITAL_LAW",
-    "DIGITAL_ROBUST",
     "FRICTION",
     "GEOMETRY",
     "INFO",
     "LAW_ADAPTIVE_ROBUST",
     "LAW_LQR",
-    "OBSERVER_MAX",
     "PLANT",
     "REFERENCE",
     "SAMPLE",
     "STEP_CONTROL",
-    "TDC",
     "TIMING",
     "TRUTH",
     "WORKSPACE",
-    "as_table",
     "record",
     "records",
 ]
@@ -102,57 +96,6 @@ CONTROLLER = np.dtype(
     ]
 )
 LAW_ADAPTIVE_ROBUST, LAW_LQR = 0, 1  # CONTROLLER.law
-
-OBSERVER_MAX = 6  # states per joint of the largest extended-state observer (order 4)
-ADAPTIVE_ROBUST, TDC, DIGITAL_ROBUST = 0, 1, 2  # DIGITAL_LAW.kind (0: designs I/II, their CONTROLLER)
-
-#: A discrete-time law on the Delta's analytic nominal model: time-delay control
-#: (delta_pin.control.digital) or the sampled-data adaptive robust law (delta_pin.control.digital_robust).
-DIGITAL_LAW = np.dtype(
-    [
-        (
-            "kind",
-            I8,
-        ),  # ADAPTIVE_ROBUST (designs I/II: the loop reads their CONTROLLER), TDC or DIGITAL_ROBUST
-        ("dt", F8),  # sample period T [s]
-        ("delay", I8),  # samples of computation delay d
-        ("K_p", F8),  # omega^2 [1/s^2]
-        ("K_v", F8),  # 2 omega [1/s]
-        ("mean_pairing", B1),  # TDC: pair the second difference with the mean of two torques
-        ("D", F8),  # digital robust: s = r_dot + D r [1/s]
-        ("beta", F8),  # the adaptive law (eq. 24)
-        ("b1", F8),
-        ("b2", F8),
-        ("b3", F8),
-        ("epsilon", F8),  # its dead zone on ||s|| [rad/s]
-        ("layer_time", F8),  # n_s T [s]: K_s = lambda_min(M-bar) / layer_time
-        ("has_limit", B1),  # the observer is told the torque clipped at torque_limit
-        ("torque_limit", F8, (3,)),  # [N m]
-        ("observer_size", I8),  # N = order + 2 states per joint
-        ("transition", F8, (OBSERVER_MAX, OBSERVER_MAX)),  # Phi (first N x N)
-        ("input_gain", F8, (OBSERVER_MAX,)),  # Gamma
-        ("observer_gain", F8, (OBSERVER_MAX,)),  # L
-        ("compensation", B1),  # include the nominal friction M-bar_f in n-bar
-        ("disturbance", F8, (3,)),  # nominal F-bar [N m]
-        ("friction", FRICTION),  # nominal friction (``on`` False: none)
-        ("normal_force", F8, (3,)),  # nominal F_n [N]
-        ("m_eq", F8),  # nominal m_o + 3/2 m_b [kg]
-        ("geometry", GEOMETRY),  # the nominal model's geometry
-    ]
-)
-
-#: What a digital law's step reports besides its torque (each law fills its own fields).
-DIGITAL_INFO = np.dtype(
-    [
-        ("ok", B1),  # False: the nominal model has no FK where the law evaluated it
-        ("rho_hat", F8),  # digital robust: the bound used at this sample [N m]
-        ("robust_torque", F8, (3,)),  # digital robust: v [N m]
-        ("disturbance_estimate", F8, (3,)),  # digital robust: M-bar f-hat [N m]
-        ("velocity_estimate", F8, (3,)),  # digital robust: the observer's alpha_dot [rad/s]
-        ("s", F8, (3,)),  # digital robust: r_dot + D r at the predicted state [rad/s]
-        ("lumped_estimate", F8, (3,)),  # TDC: N-hat [N m]
-    ]
-)
 
 #: A plant for the closed loops: the analytic model, or Pinocchio's tree in active coordinates.
 PLANT = np.dtype(
@@ -258,12 +201,3 @@ def record(dtype: np.dtype, **values) -> np.record:
 def records(dtype: np.dtype, count: int) -> np.recarray:
     """``count`` zeroed records of ``dtype`` (a ``np.recarray``: fields read as attributes)."""
     return np.zeros(count, dtype).view(np.recarray)
-
-
-def as_table(rec: np.record) -> np.ndarray:
-    """``rec`` copied into a one-record plain array: what Python passes to a kernel called once per
-    state (numba types an array argument several times faster than a record; the kernel reads it
-    back with :func:`~delta_pin.compiled.jit.as_record`)."""
-    table = np.zeros(1, rec.dtype)
-    table[0] = rec
-    return table

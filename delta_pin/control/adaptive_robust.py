@@ -42,13 +42,11 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
-from delta_pin.compiled.layouts import CONTROLLER, INFO, as_table, record
+from delta_pin.compiled.layouts import CONTROLLER, record
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
 from delta_pin.control.nominal import DeltaNominalModel, NominalModel
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
 
@@ -102,6 +100,10 @@ class AdaptiveRobustController(Controller):
         sampling_period: control period T [s] of a digital drive: caps the robust gain (the
             sampling-aware option); ``None`` applies the paper's law unchanged.
         sampling_margin: bound on (T_v + k) T / lambda_min(M̄) for the cap (0 < margin < 2).
+        compiled: whether the compiled loops of :func:`delta_pin.sim.batch.simulate_batch` (BDF2)
+            may run this controller (on a :class:`~delta_pin.control.nominal.DeltaNominalModel`);
+            ``False`` keeps it out of them. :meth:`evaluate` is the readable law either way, and
+            the compiled core builds its own copy (:meth:`sampled_core_law`).
     """
 
     def __init__(
@@ -138,24 +140,22 @@ class AdaptiveRobustController(Controller):
         )
         self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
-        # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
+        # the numbers of the numba BDF2 loop (delta_pin.sim.compiled_batch; they go with it), on the
+        # Delta's analytic nominal model
         self.kernel_parameters = None
         if compiled and isinstance(nominal, DeltaNominalModel):
             self.kernel_parameters = self._kernel_parameters(nominal)
-            self._kernel_table = as_table(self.kernel_parameters)  # what evaluate passes
-            self._chains = chain_trigonometry()
-            self._info_table = as_table(record(INFO))  # the step's INFO, read back in one .item()
         self.reset()
 
     @property
     def compiled(self) -> bool:
-        """Whether :meth:`evaluate` runs the compiled step (design I/II on a
-        :class:`~delta_pin.control.nominal.DeltaNominalModel`): then the compiled loops of
-        :func:`delta_pin.sim.batch.simulate_batch` can run this controller."""
+        """Whether the compiled loops of :func:`delta_pin.sim.batch.simulate_batch` can run this
+        controller (design I/II on a :class:`~delta_pin.control.nominal.DeltaNominalModel`, built
+        with ``compiled=True``)."""
         return self.kernel_parameters is not None
 
     def _kernel_parameters(self, nominal: DeltaNominalModel) -> np.record:
-        """This controller as the compiled step reads it (a
+        """This controller as the numba BDF2 loop reads it (a
         :data:`~delta_pin.compiled.layouts.CONTROLLER` record)."""
         ctc, gains = self.computed_torque, self.gains
         return record(
@@ -240,32 +240,15 @@ class AdaptiveRobustController(Controller):
     def evaluate(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        """Torque, rho_hat_dot and internals: the compiled step when available, else the reference."""
-        if self.kernel_parameters is None:
-            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        tau, rate = np.empty(3), np.empty(len(state))
-        if not adaptive_robust_kernel(
-            self._kernel_table, *self._chains, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
-            reference.alpha_ddot, state, tau, rate, self._info_table,
-        ):  # fmt: skip
-            self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
-        _, Lambda, gain, omega_norm, active, robust_torque = self._info_table.item()  # INFO's fields
-        return ControlOutput(
-            tau=tau,
-            state_derivative=rate,
-            internals={
-                "rho_hat": state.copy(),
-                "Lambda": Lambda,
-                "robust_gain": gain,
-                "omega_norm": omega_norm,
-                "robust_torque": robust_torque.copy(),  # item() gives a view of the table
-                "adaptation_active": active,
-            },
-        )
+        """Torque [N m], rho_hat_dot and internals: the law of the module docstring
+        (:meth:`evaluate_reference`)."""
+        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
 
     def evaluate_reference(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
+        """The law as the module docstring writes it (the reference the compiled core's law is
+        tested against)."""
         nominal = self.computed_torque.terms(alpha, alpha_dot, reference)  # C1 + C2
         s, M = nominal.s, nominal.M
         a_ref, v_ref = nominal.a_ref, nominal.v_ref
