@@ -11,9 +11,10 @@
   change in Ḡ excepted). Default weights Q = diag(100 I, I), R = 0.01 I give K_p = 100 N m/rad and
   K_d ~ 10 N m s/rad, the stiffness and damping scale of design I's PD part (T_p + D T_v = 84,
   T_v + D M̄ ~ 9.3) so the comparison is about the model, not the gains.
-  On the Delta's analytic nominal model its law also exists compiled
-  (:mod:`delta_pin.compiled.lqr`, read from :attr:`LQR.kernel_parameters`), so that continuous runs
-  take the compiled Radau IIA; :meth:`LQR.evaluate` stays the readable law it is tested against.
+  Its law also exists compiled, in the core (:meth:`LQR.sampled_core_law`, where the nominal model
+  has one there) and, on the Delta's analytic nominal model, in the numba BDF2 loop (read from
+  :attr:`LQR.kernel_parameters`; it goes with :mod:`delta_pin.sim.compiled_batch`);
+  :meth:`LQR.evaluate` stays the readable law they are tested against.
 """
 
 from __future__ import annotations
@@ -190,8 +191,8 @@ class LQR(Controller):
         P = solve_continuous_are(A, B, self.Q, self.R)
         self.K = np.linalg.solve(self.R, B.T @ P)
         self.closed_loop_poles = np.linalg.eigvals(A - B @ self.K)
-        # the compiled law (delta_pin.compiled.lqr) for the compiled closed loops, on the Delta's
-        # analytic nominal model (its geometry tells the loops whether the plant's kinematics serve)
+        # the numbers of the numba BDF2 loop's law (delta_pin.sim.compiled_batch; they go with it), on
+        # the Delta's analytic nominal model (its geometry tells it whether the plant's kinematics serve)
         self.kernel_parameters = None
         if isinstance(nominal, DeltaNominalModel):
             self.kernel_parameters = record(
