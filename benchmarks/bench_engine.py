@@ -64,7 +64,8 @@ def _python_reference(path, robot, t):
 def delta_cases(args) -> None:
     """The paper's Delta, sampled design I (sampling-aware) on path I: the robot of load_delta and
     the same URDF through load_robot, both on the projected nominal model (the core's plant and
-    law), and load_delta's robot with the Delta's analytic nominal model (its own numba loop)."""
+    law), and load_delta's robot with the Delta's analytic nominal model (the core's plant and its
+    law on that model)."""
     import tempfile
 
     delta = dp.load_delta()
@@ -89,7 +90,7 @@ def delta_cases(args) -> None:
             args.repeats,
         ),
         measure(
-            "load_delta, analytic nominal: the Delta's numba loop",
+            "load_delta, analytic nominal: the core's plant and law",
             lambda: run(delta, dp.DeltaNominalModel),
             args.repeats,
         ),

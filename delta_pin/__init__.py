@@ -2,7 +2,7 @@
 
 The public API is the table :data:`_PUBLIC` below: each name ``dp.X`` and the module that defines
 it. The table makes ``__all__`` and loads each module on first use (PEP 562), so that a command
-such as ``delta-pin validate`` imports only what it needs (no SciPy, numba or controllers for a
+such as ``delta-pin validate`` imports only what it needs (no SciPy, compiled core or controllers for a
 validation). The layers behind it (``model``, ``control``, ``sim``, ``studies``, ``viz``; private
 ``compiled``) are described in docs/architecture.md section 2.
 """

@@ -1,6 +1,6 @@
 """The names a user chooses among (controllers, paths, modes, integrators, encoder velocities):
-one home, importing nothing, so that ``delta-pin ... --help`` lists them without loading SciPy,
-numba or Pinocchio. The modules that implement each choice import their tuple from here."""
+one home, importing nothing, so that ``delta-pin ... --help`` lists them without loading SciPy
+or Pinocchio. The modules that implement each choice import their tuple from here."""
 
 from __future__ import annotations
 

@@ -22,8 +22,8 @@ def test_validate_command_does_not_import_the_heavy_modules():
         import sys
         from delta_pin.cli import main
         assert main(["validate", "--samples", "3"]) == 0
-        heavy = ["scipy", "numba", "matplotlib", "meshcat", "delta_pin.control", "delta_pin.sim.runner",
-                 "delta_pin.studies.experiments", "delta_pin.model.trajectory", "delta_pin.compiled.jit"]
+        heavy = ["scipy", "matplotlib", "meshcat", "delta_pin.control", "delta_pin.sim.runner",
+                 "delta_pin.studies.experiments", "delta_pin.model.trajectory"]
         print("LOADED", [name for name in heavy if name in sys.modules])
         """
     )
@@ -66,7 +66,7 @@ def test_no_module_shadows_a_public_name():
 
 @pytest.mark.parametrize("command", ["urdf", "validate", "run", "view", "compare", "sweep", "reproduce"])
 def test_help_loads_no_heavy_module(command):
-    """``delta-pin CMD --help`` lists every choice without importing SciPy, numba or Pinocchio
+    """``delta-pin CMD --help`` lists every choice without importing SciPy or Pinocchio
     (issue 14: it took 2.4 s when the choices lived in the modules that implement them)."""
     import subprocess
     import sys
@@ -75,7 +75,7 @@ def test_help_loads_no_heavy_module(command):
         "import sys\nfrom delta_pin.cli import main\n"
         f"try:\n    main([{command!r}, '--help'])\nexcept SystemExit:\n    pass\n"
         "loaded = {m.split('.')[0] for m in sys.modules}\n"
-        "heavy = sorted(loaded & {'scipy', 'numba', 'pinocchio', 'matplotlib'})\n"
+        "heavy = sorted(loaded & {'scipy', 'pinocchio', 'matplotlib'})\n"
         "print('HEAVY', heavy)\n"
     )
     result = subprocess.run(

@@ -42,13 +42,10 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from delta_pin.compiled.adaptive_robust import adaptive_robust_kernel
-from delta_pin.compiled.layouts import CONTROLLER, INFO, as_table, record
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
-from delta_pin.control.nominal import DeltaNominalModel, NominalModel
+from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
 
@@ -102,6 +99,9 @@ class AdaptiveRobustController(Controller):
         sampling_period: control period T [s] of a digital drive: caps the robust gain (the
             sampling-aware option); ``None`` applies the paper's law unchanged.
         sampling_margin: bound on (T_v + k) T / lambda_min(M̄) for the cap (0 < margin < 2).
+        compiled: whether the compiled core runs this law as its own C++ copy
+            (:meth:`sampled_core_law`); ``False`` keeps the readable :meth:`evaluate`, which the
+            core then calls back once per sample (sampled) or per evaluation (continuous).
     """
 
     def __init__(
@@ -138,43 +138,14 @@ class AdaptiveRobustController(Controller):
         )
         self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
-        # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
-        self.kernel_parameters = None
-        if compiled and isinstance(nominal, DeltaNominalModel):
-            self.kernel_parameters = self._kernel_parameters(nominal)
-            self._kernel_table = as_table(self.kernel_parameters)  # what evaluate passes
-            self._chains = chain_trigonometry()
-            self._info_table = as_table(record(INFO))  # the step's INFO, read back in one .item()
+        self._compiled = compiled
         self.reset()
 
     @property
     def compiled(self) -> bool:
-        """Whether :meth:`evaluate` runs the compiled step (design I/II on a
-        :class:`~delta_pin.control.nominal.DeltaNominalModel`): then the compiled loops of
-        :func:`delta_pin.sim.batch.simulate_batch` can run this controller."""
-        return self.kernel_parameters is not None
-
-    def _kernel_parameters(self, nominal: DeltaNominalModel) -> np.record:
-        """This controller as the compiled step reads it (a
-        :data:`~delta_pin.compiled.layouts.CONTROLLER` record)."""
-        ctc, gains = self.computed_torque, self.gains
-        return record(
-            CONTROLLER,
-            D=ctc.D,
-            T_p=ctc.T_p,
-            T_v=ctc.T_v,
-            beta=gains.beta,
-            xi=gains.xi,
-            epsilon=gains.epsilon,
-            b1=gains.b1,
-            b2=gains.b2,
-            b3=gains.b3,
-            design_two=self.design == "II",
-            vector_rho=self.vector_rho,
-            sampling_period=self.sampling_period or 0.0,
-            sampling_margin=self.sampling_margin,
-            **nominal.kernel_fields(self.friction_compensation),
-        )
+        """Whether the compiled core runs this law compiled (:meth:`sampled_core_law`, built with
+        ``compiled=True``, the default); ``False``: the core calls :meth:`evaluate` back."""
+        return self._compiled
 
     def initial_state(self) -> np.ndarray:
         return np.full(3 if self.vector_rho else 1, self.gains.rho0)
@@ -184,6 +155,8 @@ class AdaptiveRobustController(Controller):
         ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
         nominal model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
+        if not self._compiled:
+            return None
         ctc, g = self.computed_torque, self.gains
         return self.nominal.core_law(
             "AdaptiveRobust", self.name, ctc.D, ctc.T_p, ctc.T_v, g.beta, g.xi, g.epsilon, g.b1, g.b2, g.b3,
@@ -240,32 +213,15 @@ class AdaptiveRobustController(Controller):
     def evaluate(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        """Torque, rho_hat_dot and internals: the compiled step when available, else the reference."""
-        if self.kernel_parameters is None:
-            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        tau, rate = np.empty(3), np.empty(len(state))
-        if not adaptive_robust_kernel(
-            self._kernel_table, *self._chains, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
-            reference.alpha_ddot, state, tau, rate, self._info_table,
-        ):  # fmt: skip
-            self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
-        _, Lambda, gain, omega_norm, active, robust_torque = self._info_table.item()  # INFO's fields
-        return ControlOutput(
-            tau=tau,
-            state_derivative=rate,
-            internals={
-                "rho_hat": state.copy(),
-                "Lambda": Lambda,
-                "robust_gain": gain,
-                "omega_norm": omega_norm,
-                "robust_torque": robust_torque.copy(),  # item() gives a view of the table
-                "adaptation_active": active,
-            },
-        )
+        """Torque [N m], rho_hat_dot and internals: the law of the module docstring
+        (:meth:`evaluate_reference`)."""
+        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
 
     def evaluate_reference(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
+        """The law as the module docstring writes it (the reference the compiled core's law is
+        tested against)."""
         nominal = self.computed_torque.terms(alpha, alpha_dot, reference)  # C1 + C2
         s, M = nominal.s, nominal.M
         a_ref, v_ref = nominal.a_ref, nominal.v_ref

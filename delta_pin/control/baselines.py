@@ -11,9 +11,8 @@
   change in Ḡ excepted). Default weights Q = diag(100 I, I), R = 0.01 I give K_p = 100 N m/rad and
   K_d ~ 10 N m s/rad, the stiffness and damping scale of design I's PD part (T_p + D T_v = 84,
   T_v + D M̄ ~ 9.3) so the comparison is about the model, not the gains.
-  On the Delta's analytic nominal model its law also exists compiled
-  (:mod:`delta_pin.compiled.lqr`, read from :attr:`LQR.kernel_parameters`), so that continuous runs
-  take the compiled Radau IIA; :meth:`LQR.evaluate` stays the readable law it is tested against.
+  Its law also exists compiled, in the core (:meth:`LQR.sampled_core_law`, where the nominal model
+  has one there); :meth:`LQR.evaluate` stays the readable law it is tested against.
 """
 
 from __future__ import annotations
@@ -23,9 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from delta_pin.compiled.layouts import CONTROLLER, LAW_LQR, record
 from delta_pin.control.base import Controller, ControlOutput, Reference
-from delta_pin.control.nominal import DeltaNominalModel, NominalModel
+from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["LQR", "ComputedTorque", "ComputedTorqueTerms", "PDGravity"]
@@ -190,27 +188,6 @@ class LQR(Controller):
         P = solve_continuous_are(A, B, self.Q, self.R)
         self.K = np.linalg.solve(self.R, B.T @ P)
         self.closed_loop_poles = np.linalg.eigvals(A - B @ self.K)
-        # the compiled law (delta_pin.compiled.lqr) for the compiled closed loops, on the Delta's
-        # analytic nominal model (its geometry tells the loops whether the plant's kinematics serve)
-        self.kernel_parameters = None
-        if isinstance(nominal, DeltaNominalModel):
-            self.kernel_parameters = record(
-                CONTROLLER,
-                law=LAW_LQR,
-                lqr_alpha0=self.alpha0,
-                lqr_gravity=self.G0,
-                lqr_gravity_slope=self.dG,
-                lqr_inertia=self.M0,
-                lqr_gain=self.K,
-                **nominal.kernel_fields(friction_compensation),
-            )
-
-    @property
-    def compiled(self) -> bool:
-        """Whether the compiled closed loops (:func:`delta_pin.sim.batch.simulate_batch`) can run this
-        controller in continuous mode: the LQR of a
-        :class:`~delta_pin.control.nominal.DeltaNominalModel`."""
-        return self.kernel_parameters is not None
 
     @staticmethod
     def _weight(value, size: int, name: str) -> np.ndarray:

@@ -45,12 +45,9 @@ import math
 
 import numpy as np
 
-from delta_pin.compiled.digital_laws import tdc_step
-from delta_pin.compiled.layouts import DIGITAL_INFO, DIGITAL_LAW, TDC, as_table, record
 from delta_pin.control.base import Controller, ControlOutput, Reference, check_delay, check_period
-from delta_pin.control.nominal import DeltaNominalModel, NominalModel
+from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["PAIRINGS", "TimeDelayControl", "tdc"]
 
@@ -92,24 +89,7 @@ class TimeDelayControl(Controller):
         self.bandwidth = float(bandwidth)
         self.delay = check_delay(delay)
         self.K_p, self.K_v = bandwidth**2, 2.0 * bandwidth
-        # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
-        self.kernel_parameters = None
-        if isinstance(nominal, DeltaNominalModel):
-            self.kernel_parameters = record(
-                DIGITAL_LAW, kind=TDC, dt=self.dt, delay=self.delay, K_p=self.K_p, K_v=self.K_v,
-                mean_pairing=pairing == "mean", **nominal.kernel_fields(False),
-            )  # fmt: skip
-            self._kernel_table = as_table(self.kernel_parameters)
-            self._chains = chain_trigonometry()
-            self._info_table = as_table(record(DIGITAL_INFO))
         self.reset()
-
-    @property
-    def compiled(self) -> bool:
-        """Whether :meth:`evaluate` runs the compiled step (on a
-        :class:`~delta_pin.control.nominal.DeltaNominalModel`): then the compiled digital loop can
-        run this controller."""
-        return self.kernel_parameters is not None
 
     def initial_state(self) -> np.ndarray:
         n = self.nominal.dof
@@ -118,22 +98,14 @@ class TimeDelayControl(Controller):
     def evaluate(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        """The torque of this sample and the next state: the compiled step when available."""
-        if self.kernel_parameters is None:
-            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        tau, next_state = np.empty(3), np.empty(len(state))
-        if not tdc_step(
-            self._kernel_table, *self._chains, state, alpha, alpha_dot, reference.alpha, reference.alpha_dot,
-            reference.alpha_ddot, tau, next_state, self._info_table,
-        ):  # fmt: skip
-            self.nominal.terms(alpha, alpha_dot)  # raises with the offending alpha
-        lumped = self._info_table["lumped_estimate"][0].copy()
-        return ControlOutput(tau=tau, next_state=next_state, internals={"lumped_estimate": lumped})
+        """The torque [N m] of this sample and the next state (:meth:`evaluate_reference`)."""
+        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
 
     def evaluate_reference(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        """The law as written in the module docstring (the compiled step's reference)."""
+        """The law as written in the module docstring (the reference of the compiled core's
+        ``TimeDelayControl``)."""
         n = self.nominal.dof
         previous, before, commands, seen = state[:n], state[n : 2 * n], state[2 * n : -1], state[-1]
         commands = commands.reshape(self.delay + 2, n)  # newest first: tau_cmd[k-1], ..., [k-2-d]

@@ -62,15 +62,6 @@ import math
 
 import numpy as np
 
-from delta_pin.compiled.digital_laws import digital_robust_step
-from delta_pin.compiled.layouts import (
-    DIGITAL_INFO,
-    DIGITAL_LAW,
-    DIGITAL_ROBUST,
-    OBSERVER_MAX,
-    as_table,
-    record,
-)
 from delta_pin.control.base import (
     Controller,
     ControlOutput,
@@ -79,10 +70,9 @@ from delta_pin.control.base import (
     check_period,
     check_torque_limit,
 )
-from delta_pin.control.nominal import DeltaNominalModel, NominalModel
+from delta_pin.control.nominal import NominalModel
 from delta_pin.control.observer import ExtendedStateObserver
 from delta_pin.errors import InvalidParameterError
-from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["DigitalRobustController", "digital_robust"]
 
@@ -156,40 +146,8 @@ class DigitalRobustController(Controller):
         if self.layer_samples < 1.0:
             raise InvalidParameterError(f"layer_samples={layer_samples!r} must be >= 1 (1: one-step law)")
         self.torque_limit = check_torque_limit(torque_limit, nominal.dof)
-        # the compiled step (identical to evaluate_reference) serves the Delta's analytic nominal model
-        self.kernel_parameters = None
-        if isinstance(nominal, DeltaNominalModel):
-            self.kernel_parameters = self._kernel_parameters(nominal)
-            self._kernel_table = as_table(self.kernel_parameters)
-            self._chains = chain_trigonometry()
-            self._info_table = as_table(record(DIGITAL_INFO))
         self.reset()
 
-    @property
-    def compiled(self) -> bool:
-        """Whether :meth:`evaluate` runs the compiled step (on a
-        :class:`~delta_pin.control.nominal.DeltaNominalModel`): then the compiled digital loop can
-        run this controller."""
-        return self.kernel_parameters is not None
-
-    def _kernel_parameters(self, nominal: DeltaNominalModel) -> np.record:
-        """This controller as the compiled step reads it (a DIGITAL_LAW record)."""
-        observer, size = self.observer, self.observer.size
-        law = record(
-            DIGITAL_LAW, kind=DIGITAL_ROBUST, dt=self.dt, delay=self.delay, K_p=self.K_p, K_v=self.K_v,
-            D=self.D, beta=self.beta, b1=self.b1, b2=self.b2, b3=self.b3, epsilon=self.epsilon,
-            layer_time=self.layer_samples * self.dt, has_limit=self.torque_limit is not None,
-            torque_limit=np.zeros(3) if self.torque_limit is None else self.torque_limit,
-            observer_size=size, compensation=self.friction_compensation,
-            **nominal.kernel_fields(self.friction_compensation),
-        )  # fmt: skip
-        assert size <= OBSERVER_MAX
-        law["transition"][:size, :size] = observer.transition
-        law["input_gain"][:size] = observer.input_gain
-        law["observer_gain"][:size] = observer.gain
-        return law
-
-    # state: [estimate (N x n), the last delay + 1 commands newest first, rho_hat, started]
     # state: [estimate (N x n), the last delay + 1 commands newest first, M-bar (n x n) and n-bar (n)
     # at the estimate (the next sample's prediction starts there), rho_hat, started]
     def initial_state(self) -> np.ndarray:
@@ -218,29 +176,14 @@ class DigitalRobustController(Controller):
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
         """The torque of sample k from the measured angles ``alpha`` [rad] (``alpha_dot`` is not
-        used: the observer's velocity replaces it): the compiled step when available."""
-        if self.kernel_parameters is None:
-            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-        tau, next_state = np.empty(3), np.empty(len(state))
-        if not digital_robust_step(
-            self._kernel_table, *self._chains, state, alpha, reference.alpha, reference.alpha_dot,
-            reference.alpha_ddot, tau, next_state, self._info_table,
-        ):  # fmt: skip
-            return self.evaluate_reference(t, alpha, alpha_dot, reference, state)  # raises, naming alpha
-        info = self._info_table[0]
-        internals = {
-            "rho_hat": np.array([info["rho_hat"]]),
-            "robust_torque": info["robust_torque"].copy(),
-            "disturbance_estimate": info["disturbance_estimate"].copy(),
-            "velocity_estimate": info["velocity_estimate"].copy(),
-            "s": info["s"].copy(),
-        }
-        return ControlOutput(tau=tau, next_state=next_state, internals=internals)
+        used: the observer's velocity replaces it) [N m] (:meth:`evaluate_reference`)."""
+        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
 
     def evaluate_reference(
         self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
     ) -> ControlOutput:
-        """The law as written in the module docstring (the compiled step's reference)."""
+        """The law as written in the module docstring (the reference of the compiled core's
+        ``DigitalRobust``)."""
         d, T = self.delay, self.dt
         estimate, commands, M_last, n_last, rho, started = self._split(state)
         if started:  # the torque that acted over [t_{k-1}, t_k) was commanded at sample k-1-d

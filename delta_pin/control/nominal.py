@@ -19,13 +19,11 @@ from abc import ABC, abstractmethod
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.compiled.delta_kernels import delta_terms, friction_torque
-from delta_pin.compiled.layouts import as_table
-from delta_pin.errors import InvalidParameterError, NativeUnavailableError
+from delta_pin.errors import ForwardKinematicsError, InvalidParameterError, NativeUnavailableError
 from delta_pin.model.core_model import core_arguments, core_model, core_supports
 from delta_pin.model.delta_robot import analytic_delta
-from delta_pin.model.dynamics import kernel_geometry
-from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
+from delta_pin.model.dynamics import analytic_dynamics
+from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = ["ClosedChainNominalModel", "DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
@@ -76,10 +74,7 @@ class DeltaNominalModel(NominalModel):
 
     Attributes:
         m_eq: m̄_o + 3/2 m_b [kg], the platform-side mass of eqs. 7-8.
-        geometry: the robot's constants as a compiled kernel reads them
-            (:func:`~delta_pin.model.dynamics.kernel_geometry`).
-        friction_parameters: the nominal friction as a kernel reads it
-            (:func:`~delta_pin.model.friction.kernel_friction`; ``on`` False without friction).
+        stribeck: the nominal Stribeck parameters in force (``None`` without friction).
         normal_force: nominal F̄_n per joint (3,) [N] (zeros without friction).
     """
 
@@ -99,27 +94,30 @@ class DeltaNominalModel(NominalModel):
             raise InvalidParameterError(f"platform_mass={platform_mass} must be > 0")
         self.platform_mass = m_o
         self.m_eq = m_o + 1.5 * robot.params.m_b
-        self.geometry = kernel_geometry(robot.params)
-        self._geometry_table = as_table(self.geometry)  # what Python passes to the kernels
-        self._cos, self._sin = chain_trigonometry()
+        self._cos, self._sin = chain_trigonometry()  # the chain azimuths, for the core's model
         self._disturbance = np.asarray(nominal_disturbance, dtype=float).reshape(3)
         if friction is True:
             friction = Friction()
         self.friction_model = friction or None
-        self.friction_parameters = kernel_friction(None)
         self.normal_force = np.zeros(3)
         self.stribeck = None
         if self.friction_model is not None:
-            stribeck = self.stribeck = self.friction_model.stribeck_for(robot.params.friction)
-            self.friction_parameters = kernel_friction(stribeck, self.friction_model.sign_velocity_scale)
+            self.stribeck = self.friction_model.stribeck_for(robot.params.friction)
             self.normal_force = np.full(3, float(self.friction_model.normal_force))
-        self._friction_table = as_table(self.friction_parameters)
 
     def terms(self, q, q_dot):
-        ok, _, _, _, M, C, G = delta_terms(self._geometry_table, self._cos, self._sin, self.m_eq, q, q_dot)
-        if not ok:
-            raise InvalidParameterError(f"alpha={np.asarray(q).tolist()} rad has no forward kinematics")
-        return M, C, G
+        """M̄ [kg m^2], C̄ [kg m^2/s], Ḡ [N m] of eqs. 7-9 at (alpha [rad], alpha_dot [rad/s]) with
+        the nominal platform mass (:func:`~delta_pin.model.dynamics.analytic_dynamics`).
+
+        Raises:
+            InvalidParameterError: ``alpha`` has no forward kinematics (the message names it).
+        """
+        try:
+            terms = analytic_dynamics(self.robot.params, q, q_dot, platform_mass=self.platform_mass)
+        except ForwardKinematicsError:
+            message = f"alpha={np.asarray(q).tolist()} rad has no forward kinematics"
+            raise InvalidParameterError(message) from None
+        return terms.M, terms.C, terms.G
 
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
         """The compiled law ``kind`` on this analytic model (eqs. 7-10 in the core,
@@ -147,25 +145,16 @@ class DeltaNominalModel(NominalModel):
             )
         return law
 
-    def kernel_fields(self, friction_compensation: bool = True) -> dict:
-        """The nominal model as a compiled law's record reads it: ``disturbance``, ``friction``
-        (off without friction or its compensation), ``normal_force``, ``m_eq``, ``geometry``."""
-        compensated = friction_compensation and self.friction_parameters.on
-        return {
-            "disturbance": self.disturbance(),
-            "friction": self.friction_parameters if compensated else kernel_friction(None),
-            "normal_force": self.normal_force if compensated else np.zeros(3),
-            "m_eq": self.m_eq,
-            "geometry": self.geometry,
-        }
-
     def disturbance(self):
         return self._disturbance
 
     def friction(self, q_dot):
+        """M̄_f(alpha_dot) of eq. 12 with F̄_n, sgn smoothed like the plant's [N m]."""
         if self.friction_model is None:
             return np.zeros(3)
-        return friction_torque(self._friction_table, np.asarray(q_dot, dtype=float), self.normal_force)
+        return stribeck_torque(
+            self.stribeck, q_dot, self.normal_force, self.friction_model.sign_velocity_scale
+        )
 
     def metadata(self):
         return {
@@ -258,15 +247,11 @@ class ClosedChainNominalModel(NominalModel):
                 )
             friction = Friction()
         self.friction_model = friction or None
-        self._friction_table = as_table(kernel_friction(None))
         self.normal_force = np.zeros(self.dof)
         self.stribeck = None  # the Stribeck parameters in force (None without friction)
         if self.friction_model is not None:
             self.stribeck = self.friction_model.stribeck_for(
                 None if robot.delta is None else robot.delta.params.friction
-            )
-            self._friction_table = as_table(
-                kernel_friction(self.stribeck, self.friction_model.sign_velocity_scale)
             )
             self.normal_force = np.full(self.dof, float(self.friction_model.normal_force))
 

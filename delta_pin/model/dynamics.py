@@ -16,11 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from delta_pin.compiled.layouts import GEOMETRY, record
 from delta_pin.model.description import DeltaParameters
 from delta_pin.model.kinematics import as_vector3, forward_kinematics, jacobian, jacobian_derivative
 
-__all__ = ["ReducedDynamics", "analytic_dynamics", "kernel_geometry"]
+__all__ = ["ReducedDynamics", "analytic_dynamics"]
 
 
 @dataclass(frozen=True)
@@ -66,19 +65,3 @@ def analytic_dynamics(
         m_eq[..., 0] * params.g * J[..., 2, :]
     )
     return ReducedDynamics(M=M, G=G, coriolis=(C @ alpha_dot[..., None])[..., 0], C=C)
-
-
-def kernel_geometry(params: DeltaParameters) -> np.record:
-    """The robot's constants as the compiled kernels read them (a
-    :data:`~delta_pin.compiled.layouts.GEOMETRY` record): R, r, l_a, l_b, the arm part of M
-    (eq. 7) and of G (eq. 9, corrected), g."""
-    return record(
-        GEOMETRY,
-        R=params.R,
-        r=params.r,
-        l_a=params.l_a,
-        l_b=params.l_b,
-        arm_inertia=params.arm_equivalent_inertia,
-        arm_gravity=0.5 * (params.m_a + params.m_b) * params.g * params.l_a,
-        g=params.g,
-    )

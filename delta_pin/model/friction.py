@@ -11,7 +11,7 @@ rad/s); the viscous term is mu_v alpha_dot r_a [N m] with mu_v in N s/m, as prin
 sign of the paper; a plant uses a small positive scale so that the ODE stays Lipschitz.
 
 :class:`Friction` is what a plant (the truth) or a nominal model (what a controller knows) is
-given; :func:`kernel_friction` is the same as the compiled kernels read it.
+given.
 """
 
 from __future__ import annotations
@@ -20,11 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from delta_pin.compiled.layouts import FRICTION, record
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.description import StribeckParameters
 
-__all__ = ["Friction", "kernel_friction", "stribeck_torque"]
+__all__ = ["Friction", "stribeck_torque"]
 
 
 @dataclass(frozen=True)
@@ -54,23 +53,6 @@ class Friction:
         if stribeck is None:
             raise InvalidParameterError("friction requested but the robot's URDF carries no Stribeck data")
         return stribeck
-
-
-def kernel_friction(stribeck: StribeckParameters | None, sign_velocity_scale: float = 0.0) -> np.record:
-    """A :data:`~delta_pin.compiled.layouts.FRICTION` record: ``stribeck`` with sgn smoothed at
-    ``sign_velocity_scale`` [rad/s], or no friction (``on`` False) for ``None``."""
-    if stribeck is None:
-        return record(FRICTION, on=False)
-    return record(
-        FRICTION,
-        on=True,
-        r_a=stribeck.r_a,
-        v_s=stribeck.v_s,
-        mu_s=stribeck.mu_s,
-        mu_d=stribeck.mu_d,
-        mu_v=stribeck.mu_v,
-        sign_velocity_scale=sign_velocity_scale,
-    )
 
 
 def stribeck_torque(

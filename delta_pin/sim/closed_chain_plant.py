@@ -62,7 +62,7 @@ from delta_pin.errors import (
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
 from delta_pin.model.core_model import core_model, core_supports
 from delta_pin.model.delta_robot import as_closed_chain
-from delta_pin.model.friction import Friction, kernel_friction, stribeck_torque
+from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
 from delta_pin.sim.truth import PlantTruth
 
@@ -227,10 +227,6 @@ class ClosedChainPlant(Plant):
         self.stribeck = None
         if self.friction is not None:
             self.stribeck = self.friction.stribeck_for(None if delta is None else delta.params.friction)
-        # the friction as the compiled loops read it (delta_pin.compiled.layouts.FRICTION)
-        self.friction_parameters = kernel_friction(
-            self.stribeck, 0.0 if self.friction is None else self.friction.sign_velocity_scale
-        )
         self._normal_force = np.full(self.dof, 0.0 if self.friction is None else self.friction.normal_force)
 
     # ------------------------------------------------------------------ truth

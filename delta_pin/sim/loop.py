@@ -1,5 +1,5 @@
 """The Python closed loop: any controller on any plant, sampled or continuous (the reference that
-the compiled loops of :mod:`delta_pin.compiled` are tested against)."""
+the compiled core's loops are tested against)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from delta_pin.compiled.rk4 import all_finite
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
 from delta_pin.sim.compiled_plant import run_core_sampled
@@ -40,7 +39,7 @@ class ControlLoop:
                 f"expected ({self.plant.dof},)",
                 t,
             )
-        if not all_finite(tau):
+        if not np.isfinite(tau).all():
             raise SimulationError(
                 f"controller {self.controller.name!r} returned a non-finite torque {tau.tolist()}", t
             )

@@ -12,8 +12,9 @@ joint disturbance F(t)) kept apart from what a controller knows:
   its closures through ``pin.constraintDynamics``, Baumgarte stabilisation and a projection onto
   the loops where the gap exceeds a tolerance; the platform mass changes during the run by
   rewriting the platform body's inertia (its rotational inertia scales with the mass);
-* :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G) through the fast
-  kernels of :mod:`delta_pin.compiled.delta_kernels`.
+* :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G): the readable model
+  of :mod:`delta_pin.model.dynamics` in Python, its copy in the compiled core
+  (``delta_pin/core/analytic_plant.hpp``) for the compiled loops.
 
 A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
 
@@ -29,29 +30,16 @@ from dataclasses import asdict
 
 import numpy as np
 
-from delta_pin.compiled.delta_kernels import delta_terms, friction_torque, solve3
-from delta_pin.compiled.layouts import TRUTH, as_table, records
-from delta_pin.errors import NativeUnavailableError, SimulationError
+from delta_pin.errors import ForwardKinematicsError, NativeUnavailableError, SimulationError
 from delta_pin.model.delta_robot import analytic_delta
-from delta_pin.model.dynamics import kernel_geometry
-from delta_pin.model.friction import Friction, kernel_friction
-from delta_pin.model.kinematics import chain_trigonometry
+from delta_pin.model.dynamics import analytic_dynamics
+from delta_pin.model.friction import Friction, stribeck_torque
+from delta_pin.model.kinematics import forward_kinematics_masked
 from delta_pin.model.robot import Delta
 from delta_pin.sim.truth import PlantTruth
 from delta_pin.sim.uncertainty import NoUncertainty
 
-__all__ = ["AnalyticPlant", "DeltaPlant", "Plant", "truth_records"]
-
-
-def truth_records(mass, normal_force, disturbance) -> np.ndarray:
-    """A table of :data:`~delta_pin.compiled.layouts.TRUTH` records from the columns m_o (R,)
-    [kg], F_n (R, 3) [N] and F (R, 3) [N m] (what :meth:`Plant.evaluate_truth` gives)."""
-    mass = np.atleast_1d(np.asarray(mass, dtype=float))
-    table = records(TRUTH, len(mass))
-    table["platform_mass"] = mass
-    table["normal_force"] = np.broadcast_to(normal_force, (len(mass), 3))
-    table["disturbance"] = np.broadcast_to(disturbance, (len(mass), 3))
-    return table
+__all__ = ["AnalyticPlant", "DeltaPlant", "Plant"]
 
 
 class Plant(ABC):
@@ -156,11 +144,8 @@ class DeltaPlant(Plant):
             friction = Friction()
         self.friction = friction or None
         self.stribeck = None
-        self.friction_parameters = kernel_friction(None)  # the friction as the kernels read it
         if self.friction is not None:
             self.stribeck = self.friction.stribeck_for(robot.params.friction)
-            self.friction_parameters = kernel_friction(self.stribeck, self.friction.sign_velocity_scale)
-        self._friction_table = as_table(self.friction_parameters)  # what Python passes to kernels
         self.uncertainty = NoUncertainty() if uncertainty is None else uncertainty
         normal_force = 0.0 if self.friction is None else self.friction.normal_force
         self._truth = PlantTruth(self.uncertainty, robot.params.m_o, np.full(3, normal_force))
@@ -192,7 +177,8 @@ class DeltaPlant(Plant):
         mass, normal, disturbance = self.truth(t)
         if self.friction is None:
             return mass, disturbance
-        return mass, disturbance + friction_torque(self._friction_table, alpha_dot, normal)
+        friction = stribeck_torque(self.stribeck, alpha_dot, normal, self.friction.sign_velocity_scale)
+        return mass, disturbance + friction
 
     def metadata(self) -> dict:
         return {
@@ -209,25 +195,20 @@ class AnalyticPlant(DeltaPlant):
 
     name = "analytic"
 
-    def __init__(self, robot: Delta, friction=None, uncertainty=None) -> None:
-        super().__init__(robot, friction, uncertainty)
-        robot = self.robot
-        self._geometry_table = as_table(kernel_geometry(robot.params))  # what Python passes to kernels
-        self._cos, self._sin = chain_trigonometry()
-        self._last_xyz = np.full(3, np.nan)
-
     def initial_state(self, alpha, alpha_dot):
         return np.concatenate([alpha, alpha_dot]).astype(float)
 
     def derivative(self, t, x, tau):
+        """[alpha_dot, alpha_ddot] of eq. 13 at t [s], x = [alpha [rad], alpha_dot [rad/s]] under
+        tau [N m]: M, C, G of :func:`~delta_pin.model.dynamics.analytic_dynamics` at m_o(t)."""
         alpha, alpha_dot = x[:3], x[3:]
         mass, passive = self.acceleration_terms(t, alpha_dot)
-        m_eq = mass + 1.5 * self.robot.params.m_b
-        ok, _, _, _, M, C, G = delta_terms(self._geometry_table, self._cos, self._sin, m_eq, alpha, alpha_dot)
-        if not ok:
-            raise SimulationError(f"alpha={alpha.tolist()} rad has no forward kinematics", t)
-        rhs = tau - C @ alpha_dot - G - passive
-        return np.concatenate([alpha_dot, solve3(M, rhs)])
+        try:
+            terms = analytic_dynamics(self.robot.params, alpha, alpha_dot, platform_mass=mass)
+        except ForwardKinematicsError:
+            raise SimulationError(f"alpha={alpha.tolist()} rad has no forward kinematics", t) from None
+        rhs = tau - terms.coriolis - terms.G - passive
+        return np.concatenate([alpha_dot, np.linalg.solve(terms.M, rhs)])
 
     def joint_state(self, x):
         return x[:3], x[3:]
@@ -246,5 +227,5 @@ class AnalyticPlant(DeltaPlant):
         return compiled
 
     def platform_position(self, x):
-        ok, xyz, *_ = delta_terms(self._geometry_table, self._cos, self._sin, 1.0, x[:3], x[3:])
-        return xyz if ok else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha
+        xyz, valid = forward_kinematics_masked(self.robot.params, x[:3])
+        return xyz if valid else self.robot.forward_kinematics(x[:3])  # the latter raises with alpha

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from delta_pin.compiled.layouts import REFERENCE, records
 from delta_pin.control.base import Reference
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.robot import Delta
@@ -36,14 +35,6 @@ class ReferenceTable:
     def rows(self, per_sample: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(alpha^d, alpha_dot^d, alpha_ddot^d) at every ``per_sample``-th grid point (the samples)."""
         return self.alpha[::per_sample], self.alpha_dot[::per_sample], self.alpha_ddot[::per_sample]
-
-    def records(self, per_sample: int = 1) -> np.ndarray:
-        """Every ``per_sample``-th row as :data:`~delta_pin.compiled.layouts.REFERENCE` records,
-        for the compiled loops."""
-        alpha, alpha_dot, alpha_ddot = self.rows(per_sample)
-        table = records(REFERENCE, len(alpha))
-        table["alpha"], table["alpha_dot"], table["alpha_ddot"] = alpha, alpha_dot, alpha_ddot
-        return table
 
     def __call__(self, t: float) -> Reference:
         u = t / self.step

@@ -176,7 +176,6 @@ def _versions() -> dict:
     import pinocchio
 
     from delta_pin import __version__
-    from delta_pin.compiled.jit import FAST_BACKEND
 
     return {
         "delta_pin": __version__,
@@ -184,7 +183,6 @@ def _versions() -> dict:
         "numpy": np.__version__,
         "python": sys.version.split()[0],
         "machine": platform.machine(),
-        "fast_backend": FAST_BACKEND,
     }
 
 

@@ -1,11 +1,12 @@
 """Ctrl-C and SIGTERM that arrive during a compiled call.
 
 The signal's Python handler raises :class:`KeyboardInterrupt` at the next point where CPython
-checks for signals. Inside a numba-compiled call that point can be numba's own return path, which
-then reports ``SystemError: ... returned a result with an exception set`` with the
-:class:`KeyboardInterrupt` as its cause. :func:`reraise_interrupt` turns such an error back into
-the interrupt, so a command exits 130 (143 for SIGTERM) with its one line, and a study stops
-instead of recording the interrupt as a failed point (issue 25).
+checks for signals. Inside a compiled call that point can be the extension's own return path
+(numba's did this, issue 25; any C extension can), which then reports ``SystemError: ...
+returned a result with an exception set`` with the :class:`KeyboardInterrupt` as its cause.
+:func:`reraise_interrupt` turns such an error back into the interrupt, so a command exits 130
+(143 for SIGTERM) with its one line, and a study stops instead of recording the interrupt as a
+failed point (issue 25).
 """
 
 from __future__ import annotations

@@ -45,21 +45,14 @@ def main() -> None:
     # the joint states of a real run (the analytic plant, the paper's friction), as a drive would read them
     options = {"plant": "analytic", "t_end": args.samples * dt, "mode": "sampled", "dt": dt}
     run = dp.simulate(robot, controller, dp.PathI(), friction=dp.Friction(), **options)
-    p = controller.kernel_parameters
-    geometry = p.geometry
-    cos_phi, sin_phi = chain_trigonometry()
-    friction = p.friction
+    ctc, gains = controller.computed_torque, controller.gains  # the numbers the C library reads, by name
     numbers = {
-        "R": geometry.R, "r": geometry.r, "l_a": geometry.l_a, "l_b": geometry.l_b,
-        "arm_inertia": geometry.arm_inertia, "arm_gravity": geometry.arm_gravity, "g": geometry.g,
-        "m_eq": p.m_eq, "cos_phi": cos_phi, "sin_phi": sin_phi, "D": p.D, "T_p": p.T_p, "T_v": p.T_v,
-        "beta": p.beta, "xi": p.xi, "epsilon": p.epsilon, "b1": p.b1, "b2": p.b2, "b3": p.b3,
-        "design_two": int(p.design_two), "vector_rho": int(p.vector_rho),
-        "sampling_period": p.sampling_period,
-        "sampling_margin": p.sampling_margin, "rho0": controller.gains.rho0, "friction": int(friction.on),
-        "r_a": friction.r_a, "v_s": friction.v_s, "mu_s": friction.mu_s, "mu_d": friction.mu_d,
-        "mu_v": friction.mu_v, "sign_scale": friction.sign_velocity_scale, "normal_force": p.normal_force,
-        "disturbance": p.disturbance, "period": dt,
+        **nominal_numbers(nominal, controller.friction_compensation),
+        "D": ctc.D, "T_p": ctc.T_p, "T_v": ctc.T_v, "beta": gains.beta, "xi": gains.xi,
+        "epsilon": gains.epsilon, "b1": gains.b1, "b2": gains.b2, "b3": gains.b3,
+        "design_two": int(controller.design == "II"), "vector_rho": int(controller.vector_rho),
+        "sampling_period": controller.sampling_period or 0.0, "sampling_margin": controller.sampling_margin,
+        "rho0": gains.rho0, "period": dt,
     }  # fmt: skip
     write_parameters(args.out, numbers)
     path = dp.PathI().joint_reference(robot, run.t)  # alpha^d, alpha_dot^d, alpha_ddot^d per sample
@@ -80,22 +73,16 @@ def digital_robust(robot, nominal, dt: float, args) -> None:
     controller = dp.digital_robust(nominal, dt, delay=1, torque_limit=5.0, rho0=0.05)
     options = {"plant": "analytic", "t_end": args.samples * dt, "mode": "sampled", "dt": dt, "delay": 1}
     run = dp.simulate(robot, controller, dp.PathI(), friction=dp.Friction(), **options)
-    p = controller.kernel_parameters  # the nominal model's numbers as the compiled steps read them
-    geometry, friction, observer = p.geometry, p.friction, controller.observer
-    cos_phi, sin_phi = chain_trigonometry()
+    observer = controller.observer
     numbers = {
-        "law": 2, "R": geometry.R, "r": geometry.r, "l_a": geometry.l_a, "l_b": geometry.l_b,
-        "arm_inertia": geometry.arm_inertia, "arm_gravity": geometry.arm_gravity, "g": geometry.g,
-        "m_eq": p.m_eq, "cos_phi": cos_phi, "sin_phi": sin_phi, "period": dt, "delay": controller.delay,
+        "law": 2, **nominal_numbers(nominal, controller.friction_compensation), "period": dt,
+        "delay": controller.delay,
         "K_p": controller.K_p, "K_v": controller.K_v, "D": controller.D, "beta": controller.beta,
         "b1": controller.b1, "b2": controller.b2, "b3": controller.b3, "epsilon": controller.epsilon,
         "layer_samples": controller.layer_samples, "rho0": controller.rho0, "has_limit": 1,
         "torque_limit": controller.torque_limit, "observer_size": observer.size,
         "transition": observer.transition.ravel(), "input_gain": observer.input_gain,
-        "observer_gain": observer.gain, "friction": int(friction.on), "r_a": friction.r_a,
-        "v_s": friction.v_s, "mu_s": friction.mu_s, "mu_d": friction.mu_d, "mu_v": friction.mu_v,
-        "sign_scale": friction.sign_velocity_scale, "normal_force": p.normal_force,
-        "disturbance": p.disturbance,
+        "observer_gain": observer.gain,
     }  # fmt: skip
     write_parameters(args.out, numbers)
     path = dp.PathI().joint_reference(robot, run.t)
@@ -108,6 +95,25 @@ def digital_robust(robot, nominal, dt: float, args) -> None:
                      *reference.alpha_ddot, *out.tau, z[-2]])  # fmt: skip
         z = controller.advance(z, out, dt)
     write_golden(args.out, rows)
+
+
+def nominal_numbers(nominal, friction_compensation: bool) -> dict:
+    """The Delta's analytic nominal model as the C library reads it: the geometry (lengths [m],
+    the arm's part of M [kg m^2] and of G [N m], g [m/s^2]), m_eq [kg], the chain azimuths, F̄ [N m]
+    and the compensated Stribeck friction (zeros and ``friction 0`` where none is compensated)."""
+    p = nominal.robot.params
+    cos_phi, sin_phi = chain_trigonometry()
+    compensated = friction_compensation and nominal.stribeck is not None
+    s = nominal.stribeck if compensated else None
+    return {
+        "R": p.R, "r": p.r, "l_a": p.l_a, "l_b": p.l_b, "arm_inertia": p.arm_equivalent_inertia,
+        "arm_gravity": 0.5 * (p.m_a + p.m_b) * p.g * p.l_a, "g": p.g, "m_eq": nominal.m_eq,
+        "cos_phi": cos_phi, "sin_phi": sin_phi, "friction": int(compensated),
+        "r_a": s.r_a if s else 0.0, "v_s": s.v_s if s else 0.0, "mu_s": s.mu_s if s else 0.0,
+        "mu_d": s.mu_d if s else 0.0, "mu_v": s.mu_v if s else 0.0,
+        "sign_scale": nominal.friction_model.sign_velocity_scale if s else 0.0,
+        "normal_force": nominal.normal_force if s else np.zeros(3), "disturbance": nominal.disturbance(),
+    }  # fmt: skip
 
 
 def write_parameters(out: Path, numbers: dict) -> None:
