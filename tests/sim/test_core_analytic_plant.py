@@ -114,3 +114,21 @@ def test_a_continuous_run_with_uncertainty_runs_in_the_core(robot, needs_core, p
     assert np.abs(run.alpha - reference.alpha).max() < TOLERANCE
     np.testing.assert_allclose(run.internals["rho_hat"], reference.internals["rho_hat"], rtol=0, atol=1e-5)
     assert np.abs(run.alpha - ALPHA0).max() > 1e-2
+
+
+def test_compiled_false_keeps_the_readable_law_on_the_core_plant(robot, needs_core):
+    """design1(compiled=False): the core's plant calls the readable evaluate back once per sample
+    instead of running its C++ copy; the two agree to the module's 1e-10."""
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    options = dict(plant="analytic", t_end=0.1, alpha0=ALPHA0, friction=dp.Friction())
+    runs = [
+        dp.simulate(
+            robot, dp.design1(nominal, sampling_period=1e-3, compiled=compiled), dp.PathI(), **options
+        )
+        for compiled in (True, False)
+    ]
+    assert dp.design1(nominal).sampled_core_law() is not None
+    assert dp.design1(nominal, compiled=False).sampled_core_law() is None
+    assert all(run.metadata["core_plant"] for run in runs)
+    np.testing.assert_allclose(runs[0].alpha, runs[1].alpha, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(runs[0].tau, runs[1].tau, rtol=1e-10, atol=1e-12)
