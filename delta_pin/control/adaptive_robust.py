@@ -44,7 +44,7 @@ import numpy as np
 
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.control.baselines import ComputedTorque
-from delta_pin.control.nominal import NominalModel
+from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["AdaptiveRobustController", "AdaptiveRobustGains", "design1", "design2"]
@@ -158,7 +158,7 @@ class AdaptiveRobustController(Controller):
         if not self._compiled:
             return None
         ctc, g = self.computed_torque, self.gains
-        return self.nominal.core_law(
+        return core_law_of(self.nominal,
             "AdaptiveRobust", self.name, ctc.D, ctc.T_p, ctc.T_v, g.beta, g.xi, g.epsilon, g.b1, g.b2, g.b3,
             self.design == "II", self.vector_rho, self.sampling_period or 0.0, self.sampling_margin,
             friction_compensation=self.friction_compensation,

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.linalg import solve_continuous_are
 
 from delta_pin.control.base import Controller, ControlOutput, Reference
-from delta_pin.control.nominal import NominalModel
+from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["LQR", "ComputedTorque", "ComputedTorqueTerms", "PDGravity"]
@@ -88,7 +88,8 @@ class ComputedTorque(Controller):
 
     def sampled_core_law(self):
         """The compiled core's C1 + C2 where the nominal model has one there."""
-        return self.nominal.core_law(
+        return core_law_of(
+            self.nominal,
             "ComputedTorque",
             self.name,
             self.D,
@@ -130,8 +131,13 @@ class PDGravity(Controller):
 
     def sampled_core_law(self):
         """The compiled core's PD + gravity where the nominal model has one there."""
-        return self.nominal.core_law(
-            "PDGravity", self.name, self.K_p, self.K_d, friction_compensation=self.friction_compensation
+        return core_law_of(
+            self.nominal,
+            "PDGravity",
+            self.name,
+            self.K_p,
+            self.K_d,
+            friction_compensation=self.friction_compensation,
         )
 
     def metadata(self):
@@ -213,7 +219,7 @@ class LQR(Controller):
         """The compiled core's LQR (``LQR`` of ``delta_pin/core/controller.hpp``, :meth:`evaluate`'s
         arithmetic with this linearisation and gain) where the nominal model has one there; else
         ``None``."""
-        return self.nominal.core_law(
+        return core_law_of(self.nominal,
             "LQR", self.name, self.alpha0, self.G0, self.dG, self.M0, self.K,
             friction_compensation=self.friction_compensation,
         )  # fmt: skip

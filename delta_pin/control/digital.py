@@ -46,7 +46,7 @@ import math
 import numpy as np
 
 from delta_pin.control.base import Controller, ControlOutput, Reference, check_delay, check_period
-from delta_pin.control.nominal import NominalModel
+from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["PAIRINGS", "TimeDelayControl", "tdc"]
@@ -129,7 +129,7 @@ class TimeDelayControl(Controller):
         model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``. Its first samples' N̂ is
         C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""
-        return self.nominal.core_law(
+        return core_law_of(self.nominal,
             "TimeDelayControl", self.name, self.dt, self.K_p, self.K_v, self.delay, self.pairing == "mean",
             friction_compensation=False,
         )  # fmt: skip

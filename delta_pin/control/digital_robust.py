@@ -70,7 +70,7 @@ from delta_pin.control.base import (
     check_period,
     check_torque_limit,
 )
-from delta_pin.control.nominal import NominalModel
+from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.control.observer import ExtendedStateObserver
 from delta_pin.errors import InvalidParameterError
 
@@ -231,7 +231,7 @@ class DigitalRobustController(Controller):
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
         observer = self.observer
         limit = np.zeros(0) if self.torque_limit is None else self.torque_limit
-        return self.nominal.core_law(
+        return core_law_of(self.nominal,
             "DigitalRobust", self.name, self.dt, self.delay, self.K_p, self.K_v, self.D, self.beta, self.b1,
             self.b2, self.b3, self.epsilon, self.layer_samples, limit, observer.transition,
             observer.input_gain, observer.gain, friction_compensation=self.friction_compensation,

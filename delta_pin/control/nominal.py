@@ -26,7 +26,22 @@ from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.model.kinematics import chain_trigonometry
 
-__all__ = ["ClosedChainNominalModel", "DeltaNominalModel", "NominalModel", "PinocchioNominalModel"]
+__all__ = [
+    "ClosedChainNominalModel",
+    "DeltaNominalModel",
+    "NominalModel",
+    "PinocchioNominalModel",
+    "core_law_of",
+]
+
+
+def core_law_of(nominal, kind: str, name: str, *gains, friction_compensation: bool = True):
+    """The compiled law ``kind`` on ``nominal`` (:meth:`NominalModel.core_law`), or ``None`` where
+    the nominal model declares none: any object with the :class:`NominalModel` methods serves a
+    controller as its nominal model (a robot's own ``terms``, say), and one without ``core_law``
+    has no compiled law (the core then calls the controller's ``evaluate`` back)."""
+    make = getattr(nominal, "core_law", None)
+    return None if make is None else make(kind, name, *gains, friction_compensation=friction_compensation)
 
 
 class NominalModel(ABC):

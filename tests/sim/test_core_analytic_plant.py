@@ -132,3 +132,29 @@ def test_compiled_false_keeps_the_readable_law_on_the_core_plant(robot, needs_co
     assert all(run.metadata["core_plant"] for run in runs)
     np.testing.assert_allclose(runs[0].alpha, runs[1].alpha, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(runs[0].tau, runs[1].tau, rtol=1e-10, atol=1e-12)
+
+
+def test_a_nominal_model_without_a_compiled_law_is_called_back(robot, needs_core):
+    """A controller's nominal model may be any object with the NominalModel methods; one without
+    ``core_law`` has no compiled law, and the core's plant calls the controller back (before, the
+    run stopped with an AttributeError)."""
+
+    class Terms:  # the analytic model's terms, no core_law
+        dof = 3
+
+        def __init__(self):
+            self._nominal = dp.DeltaNominalModel(robot)
+
+        def terms(self, q, q_dot):
+            return self._nominal.terms(q, q_dot)
+
+        def compensation(self, q_dot, friction):
+            return np.zeros(3)
+
+        def metadata(self):
+            return {"name": "terms"}
+
+    controller = dp.PDGravity(Terms())
+    assert controller.sampled_core_law() is None
+    run = dp.simulate(robot, controller, dp.PathI(), plant="analytic", t_end=0.05, alpha0=ALPHA0)
+    assert run.metadata["core_plant"] and np.isfinite(run.tau).all()

@@ -12,7 +12,6 @@ import math
 import os
 import re
 import shutil
-import subprocess
 import uuid
 from pathlib import Path
 
@@ -34,6 +33,7 @@ from delta_pin.viz.meshcat_export import (
     read_scene_commands,
 )
 from tests.model.closed_chain_fixtures import BASE, DISTAL, PROXIMAL, five_bar_urdf
+from tests.viz.browser import run_browser
 from tests.viz.test_meshcat_export import live_scene_commands, scene_key
 
 meshcat = pytest.importorskip("meshcat")
@@ -549,7 +549,7 @@ def screenshot(tmp_path: Path, page: Path, budget_ms: int) -> np.ndarray:
         f"--user-data-dir={tmp_path / ('profile-' + png.stem)}", f"--window-size={WINDOW[0]},{WINDOW[1]}",
         f"--virtual-time-budget={budget_ms}", f"--screenshot={png}", page.as_uri(),
     ]  # fmt: skip
-    result = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+    result = run_browser(command, 120)
     assert result.returncode == 0, result.stderr[-2000:]
     return np.asarray(Image.open(png).convert("RGB")).astype(int)
 

@@ -33,6 +33,7 @@ from delta_pin.viz.meshcat_export import (
     read_scene_commands,
     view_live,
 )
+from tests.viz.browser import run_browser
 
 meshcat = pytest.importorskip("meshcat")
 
@@ -357,9 +358,9 @@ def browser_timeout(tmp_path: Path) -> float:
     render timed just before, scaled (a busy 2-core machine took over 120 s for a mesh page that
     an idle one renders in ~5 s), within [floor, ceiling]."""
     start = time.perf_counter()
-    subprocess.run(
+    run_browser(
         _chromium_command(tmp_path, "about:blank", f"--screenshot={tmp_path / 'blank.png'}", budget_ms=100),
-        capture_output=True, timeout=BROWSER_TIMEOUT_CEILING, check=False,
+        BROWSER_TIMEOUT_CEILING, retries=0,
     )  # fmt: skip
     blank = time.perf_counter() - start
     return min(max(BROWSER_TIMEOUT_FLOOR, BROWSER_TIMEOUT_SCALE * blank), BROWSER_TIMEOUT_CEILING)
@@ -370,7 +371,7 @@ def chromium(tmp_path: Path, url: str, *options: str, budget_ms: int) -> subproc
     time, with the wall-time limit of :func:`browser_timeout`."""
     command = _chromium_command(tmp_path, url, *options, budget_ms=budget_ms)
     timeout = browser_timeout(tmp_path)
-    result = subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
+    result = run_browser(command, timeout)
     assert result.returncode == 0, result.stderr[-2000:]
     return result
 
