@@ -74,15 +74,9 @@ namespace delta_pin
   {
     if (x.size() != 6 || tau.size() != 3)
       throw std::invalid_argument("the analytic Delta steps x = [alpha, alpha_dot] (6) under 3 torques");
-    const double u = (double)stage;
-    derivative(x, tau, u, k1_);
-    y_ = x + 0.5 * h * k1_;
-    derivative(y_, tau, u + 1.0, k2_);
-    y_ = x + 0.5 * h * k2_;
-    derivative(y_, tau, u + 1.0, k3_);
-    y_ = x + h * k3_;
-    derivative(y_, tau, u + 2.0, k4_);
-    x = x + (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    rk4_step(
+      x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
+      k3_, k4_, y_);
     return 0.0;
   }
 

@@ -635,7 +635,7 @@ namespace delta_pin
     }
   }
 
-  void ClosedChainPlant::derivative(const Vector & x, const Vector & tau, long stage, Vector & dx)
+  void ClosedChainPlant::derivative(const Vector & x, const Vector & tau, double u, Vector & dx)
   {
     const int nq = model_.nq, nv = model_.nv;
     dx.resize(nq + nv);
@@ -644,7 +644,7 @@ namespace delta_pin
       configuration_rate(q, v, dx.head(nq));
     else
       dx.head(nq) = v;
-    dx.tail(nv) = accelerations(q, v, tau, stage);
+    dx.tail(nv) = accelerations(q, v, tau, u);
   }
 
   void ClosedChainPlant::finish(Vector & x)
@@ -660,14 +660,9 @@ namespace delta_pin
   double ClosedChainPlant::step(Vector & x, const Vector & tau, long stage, double h)
   {
     check_size(x, model_.nq + model_.nv, "x");
-    derivative(x, tau, stage, k1_);
-    y_ = x + 0.5 * h * k1_;
-    derivative(y_, tau, stage + 1, k2_);
-    y_ = x + 0.5 * h * k2_;
-    derivative(y_, tau, stage + 1, k3_);
-    y_ = x + h * k3_;
-    derivative(y_, tau, stage + 2, k4_);
-    x = x + (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    rk4_step(
+      x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
+      k3_, k4_, y_);
     finish(x);
     const int nq = model_.nq, nv = model_.nv;
     const double gap = chain_.closure_gap(x.head(nq));

@@ -171,7 +171,7 @@ namespace delta_pin
     // (a stage of the sampled loop, or t / step)
     const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, double u);
     // dx/dt at x
-    void derivative(const Vector & x, const Vector & tau, long stage, Vector & dx);
+    void derivative(const Vector & x, const Vector & tau, double u, Vector & dx);
     // one RK4 step (CorePlant::step), then renormalisation, the gap, a projection where it
     // exceeds the tolerance
     double step(Vector & x, const Vector & tau, long stage, double h) override;

@@ -73,6 +73,22 @@ namespace delta_pin
     }
   };
 
+  // One classical RK4 step of length h of x' = f(x, u) in place, the stages at the table rows u,
+  // u + 1, u + 1, u + 2 (t, t + h/2, t + h/2, t + h: the truth's rows h/2 apart); f(x, u, dx).
+  // k1..k4 and y are the caller's scratch (no allocation once sized).
+  template<typename Derivative>
+  void rk4_step(Vector & x, double u, double h, Derivative && f, Vector & k1, Vector & k2, Vector & k3, Vector & k4, Vector & y)
+  {
+    f(x, u, k1);
+    y = x + 0.5 * h * k1;
+    f(y, u + 1.0, k2);
+    y = x + 0.5 * h * k2;
+    f(y, u + 1.0, k3);
+    y = x + h * k3;
+    f(y, u + 2.0, k4);
+    x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+  }
+
   // A plant of the core's loops, x = [q, v] (for the reduced Delta q = alpha, v = alpha_dot).
   class CorePlant
   {

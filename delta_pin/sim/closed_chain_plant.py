@@ -56,7 +56,6 @@ from delta_pin.errors import (
     AssemblyError,
     ForwardKinematicsError,
     InvalidParameterError,
-    NativeUnavailableError,
     SimulationError,
 )
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
@@ -446,12 +445,7 @@ class ClosedChainPlant(Plant):
             return None
         from delta_pin.sim.compiled_plant import build_core_plant
 
-        try:
-            core = build_core_plant(self, step, count)
-        except NativeUnavailableError:
-            return None
-        self.stepped_in_core = True  # the run's metadata says so ("core_plant")
-        return core
+        return self._built_in_core(build_core_plant, step, count)
 
     def sampled_core(self, step: float, count: int):
         """:meth:`core_plant` for the sampled loop, in full coordinates only (the core's sampled

@@ -111,6 +111,17 @@ class Plant(ABC):
         caller sets it); ``None`` (the default) where it has none."""
         return None
 
+    def _built_in_core(self, build, step: float, count: int):
+        """``build(self, step, count)`` (a builder of :mod:`delta_pin.sim.compiled_plant`), or
+        ``None`` where the core is off (``DELTA_PIN_NATIVE=0``), cannot be imported or rejects
+        the model; a plant handed out marks the run's metadata (``"core_plant"``)."""
+        try:
+            compiled = build(self, step, count)
+        except NativeUnavailableError:
+            return None
+        self.stepped_in_core = True
+        return compiled
+
     def sampled_core(self, step: float, count: int):
         """This plant in the compiled core for the sampled loop with RK4 steps of ``step`` [s],
         its truth tabulated at the stage times t = i step / 2, i < count; ``None`` where it has
@@ -219,12 +230,7 @@ class AnalyticPlant(DeltaPlant):
         core is off (``DELTA_PIN_NATIVE=0``) or cannot be imported."""
         from delta_pin.sim.compiled_plant import build_core_analytic_plant
 
-        try:
-            compiled = build_core_analytic_plant(self, step, count)
-        except NativeUnavailableError:
-            return None
-        self.stepped_in_core = True  # the run's metadata says so ("core_plant")
-        return compiled
+        return self._built_in_core(build_core_analytic_plant, step, count)
 
     def platform_position(self, x):
         xyz, valid = forward_kinematics_masked(self.robot.params, x[:3])
