@@ -181,6 +181,7 @@ class ClosedChainPlant(Plant):
         self._tau = np.zeros(self.model.nv)
         self.nq = self.model.nq
         self.active = robot.actuated_indices
+        self._active_v_rows = self.nq + np.asarray(self.active)  # alpha_dot's rows in a full state
         self.projection_tolerance = projection_tolerance
         self.failure_tolerance = failure_tolerance
         self.projections = 0  # steps projected back onto the loops
@@ -366,7 +367,7 @@ class ClosedChainPlant(Plant):
     def joint_state(self, x):
         if self.coordinates == "active":
             return x[: self.dof], x[self.dof :]
-        return x[self.robot.actuated_q_indices], x[self.nq + self.active]
+        return x[self.robot.actuated_q_indices], x[self._active_v_rows]
 
     def _completed_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) of an active-coordinate state, completed once: the position, the closure gap

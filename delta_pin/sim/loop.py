@@ -11,7 +11,7 @@ from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
 from delta_pin.sim.compiled_plant import run_core_sampled
 from delta_pin.sim.drive import Drive, Encoder
-from delta_pin.sim.integrators import MAX_JOINT_SPEED, check_state, integrate_lsoda, rk4_step
+from delta_pin.sim.integrators import MAX_JOINT_SPEED, all_finite, check_state, integrate_lsoda, rk4_step
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import ReferenceTable
 from delta_pin.utils.progress import Progress
@@ -39,7 +39,7 @@ class ControlLoop:
                 f"expected ({self.plant.dof},)",
                 t,
             )
-        if not np.isfinite(tau).all():
+        if not all_finite(tau):
             raise SimulationError(
                 f"controller {self.controller.name!r} returned a non-finite torque {tau.tolist()}", t
             )
@@ -217,17 +217,18 @@ def run_python_loop(
         return record
     if core is not None:
         # the compiled plant and loop; the controller called back once per sample
-        state = {"z": z, "out": None}
+        out = None
 
         def compiled_control(k: int, x: np.ndarray) -> np.ndarray:
+            nonlocal z, out
             joints = plant.joint_state(x)
             alphas[k], alpha_dots[k] = joints
             if k:
-                state["z"] = controller.advance(state["z"], state["out"], dt)
-                check_state(t[k], x, state["z"], *joints)
+                z = controller.advance(z, out, dt)
+                check_state(t[k], x, z, *joints)
                 if k % stride == 0:
                     bar.update(round(stride * dt, 9))
-            tau, state["out"] = control(k, x, state["z"], joints)
+            tau, out = control(k, x, z, joints)
             return tau
 
         recorded = run_core_sampled(core, x, steps, substeps, dt, compiled_control)
