@@ -383,7 +383,7 @@ def _save_run(args: argparse.Namespace, out: Path, robot, folder, run, head: dic
     print(f"  {'closure_residual_max':<28} {summary['closure_residual_max']:.3g}")
     if run.metadata.get("closure_projections"):
         largest = run.metadata.get("closure_gap_projected_max")
-        largest = "not kept by the compiled core" if largest is None else f"{largest:.3g}"
+        largest = "not recorded" if largest is None else f"{largest:.3g}"
         print(
             f"  {'closure_projections':<28} {run.metadata['closure_projections']} (largest gap projected "
             f"back: {largest})"

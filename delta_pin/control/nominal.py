@@ -20,7 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import ForwardKinematicsError, InvalidParameterError, NativeUnavailableError
-from delta_pin.model.core_model import core_arguments, core_model, core_supports
+from delta_pin.model.core_model import core_chain, core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
@@ -318,9 +318,7 @@ class ClosedChainNominalModel(NominalModel):
 def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
     """The compiled law ``kind`` of ``delta_pin/core/controller.hpp`` for the closed chain
     ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
-    compensates, or ``None``), or ``None`` where the core does not take the robot."""
-    if not core_supports(robot):
-        return None
+    compensates, or ``None``), or ``None`` where the core cannot be imported here."""
     from delta_pin.compiled.core import core
 
     try:
@@ -328,9 +326,8 @@ def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, frictio
     except NativeUnavailableError:
         return None
     law = getattr(module, kind)(
-        *core_arguments(robot), int(robot.end_effector), robot.reference_configuration,
-        np.asarray(disturbance, dtype=float), name, *gains,
-    )  # fmt: skip
+        core_chain(robot), robot.reference_configuration, np.asarray(disturbance, dtype=float), name, *gains
+    )
     if stribeck is not None:
         s = stribeck
         law.set_friction(s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, friction.sign_velocity_scale, normal_force)

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
 namespace delta_pin
@@ -93,22 +94,69 @@ namespace delta_pin
     }
   } // namespace
 
-  ClosedChainModel::ClosedChainModel(
-    const std::string & model_text,
-    const std::vector<ClosureFrames> & closures,
-    const Indices & actuated_q,
-    const Indices & actuated_v,
-    const Indices & dependent_v,
-    FrameIndex end_effector)
-  : closures_(closures)
-  , actuated_q_(actuated_q)
-  , actuated_v_(actuated_v)
-  , dependent_v_(dependent_v)
-  , end_effector_(end_effector)
+  void JointCouplingSpec::polynomial(double q2_value, double & value, double & slope, double & curvature) const
   {
-    model_.loadFromString(model_text);
+    const double x = v2 < 0 ? 0.0 : q2_value - reference2;
+    value = slope = curvature = 0.0;
+    double power = 1.0;  // x^k
+    for (Eigen::Index k = 0; k < coefficients.size(); ++k)
+    {
+      value += coefficients[k] * power;
+      if (k + 1 < coefficients.size())
+        slope += (double)(k + 1) * coefficients[k + 1] * power;
+      if (k + 2 < coefficients.size())
+        curvature += (double)((k + 2) * (k + 1)) * coefficients[k + 2] * power;
+      power *= x;
+    }
+  }
+
+  void ClosedChainModel::coupling_terms(const Vector & q, const Vector & v, Vector & r, Matrix & J, Vector & drift) const
+  {
+    const Eigen::Index k = (Eigen::Index)couplings_.size();
+    r.resize(k);
+    J.setZero(k, model_.nv);
+    drift.setZero(k);
+    for (Eigen::Index row = 0; row < k; ++row)
+    {
+      const JointCouplingSpec & c = couplings_[row];
+      double value, slope, curvature;
+      c.polynomial(c.q2 >= 0 ? q[c.q2] : 0.0, value, slope, curvature);
+      r[row] = q[c.q1] - c.reference1 - value;
+      J(row, c.v1) = 1.0;
+      if (c.v2 >= 0)
+      {
+        J(row, c.v2) -= slope;
+        if (v.size())
+          drift[row] = -curvature * v[c.v2] * v[c.v2];
+      }
+    }
+  }
+
+  ClosedChainModel::ClosedChainModel(const ChainDescription & chain)
+  : closures_(chain.closures)
+  , couplings_(chain.couplings)
+  , actuated_q_(chain.actuated_q)
+  , actuated_v_(chain.actuated_v)
+  , dependent_v_(chain.dependent_v)
+  , idle_dof_(chain.idle_dof)
+  , end_effector_(chain.end_effector)
+  {
+    model_.loadFromString(chain.model_text);
     if (end_effector_ >= (FrameIndex)model_.nframes)
       throw std::invalid_argument("the end-effector frame is not in the model");
+    if (actuated_q_.size() != actuated_v_.size())
+      throw std::invalid_argument("the actuated joints need one entry in q and one in v each");
+    if (idle_dof_ < 0 || idle_dof_ > dependent_v_.size())
+      throw std::invalid_argument(
+        "idle_dof=" + std::to_string(idle_dof_) + " must lie between 0 and the dependent joints' "
+        + std::to_string(dependent_v_.size()));
+    for (const Indices * indices : {&actuated_v_, &dependent_v_})
+      for (Eigen::Index i = 0; i < indices->size(); ++i)
+        if ((*indices)[i] < 0 || (*indices)[i] >= model_.nv)
+          throw std::invalid_argument("a joint's entry in v lies outside the model's " + std::to_string(model_.nv));
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      if (actuated_q_[i] < 0 || actuated_q_[i] >= model_.nq)
+        throw std::invalid_argument("an actuated joint's entry in q lies outside the model's " + std::to_string(model_.nq));
     int size = 0;
     for (const ClosureFrames & closure : closures_)
     {
@@ -116,6 +164,15 @@ namespace delta_pin
         throw std::invalid_argument("a closure frame is not in the model");
       size += closure.size;
     }
+    closure_rows_ = size;
+    for (const JointCouplingSpec & c : couplings_)
+    {
+      const bool inside = c.q1 >= 0 && c.q1 < model_.nq && c.v1 >= 0 && c.v1 < model_.nv && c.q2 < model_.nq
+                          && c.v2 < model_.nv && (c.q2 < 0) == (c.v2 < 0);
+      if (!inside)
+        throw std::invalid_argument("a joint coupling's entries lie outside the model");
+    }
+    size += (int)couplings_.size();
     data_ = Data(model_);
     residual_ = Vector::Zero(size);
     jacobian_ = Matrix::Zero(size, model_.nv);
@@ -124,28 +181,23 @@ namespace delta_pin
   }
 
   ClosedChainPlant::ClosedChainPlant(
-    const std::string & model_text,
-    const std::vector<ClosureFrames> & closures,
+    const ChainDescription & chain,
     const std::vector<ConstraintSpec> & constraints,
-    const Indices & actuated_q,
-    const Indices & actuated_v,
-    const Indices & dependent_v,
     double baumgarte_kp,
     double baumgarte_kd,
     double proximal_accuracy,
     double proximal_mu,
     int proximal_iterations,
-    double projection_tolerance,
-    FrameIndex end_effector)
-  : chain_(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector)
+    double projection_tolerance)
+  : chain_(chain)
   , model_(chain_.model())
   , settings_(proximal_accuracy, proximal_mu, proximal_iterations)
   , projection_tolerance_(projection_tolerance)
   , baumgarte_kp_(baumgarte_kp)
   , baumgarte_kd_(baumgarte_kd)
   {
-    actuated_q_ = actuated_q;
-    actuated_v_ = actuated_v;
+    actuated_q_ = chain.actuated_q;
+    actuated_v_ = chain.actuated_v;
     coefficient_rates_ = model_.nq != model_.nv;
     for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
       rate_kinds_.push_back(coefficient_rates_ ? rate_kind(model_, j) : AXIS);
@@ -317,6 +369,13 @@ namespace delta_pin
           -M1.rotation() * log3(Eigen::Matrix3d(M1.rotation().transpose() * M2.rotation()));
       row += closure.size;
     }
+    if (!couplings_.empty())
+    {
+      Vector r, drift;
+      Matrix J;
+      coupling_terms(q, Vector(), r, J, drift);
+      residual_.tail(r.size()) = r;
+    }
     return residual_;
   }
 
@@ -340,6 +399,13 @@ namespace delta_pin
       jacobian_.middleRows(row, closure.size) =
         (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
+    }
+    if (!couplings_.empty())
+    {
+      Vector r, drift;
+      Matrix J;
+      coupling_terms(q, Vector(), r, J, drift);
+      jacobian_.bottomRows(J.rows()) = J;
     }
     return jacobian_;
   }
@@ -374,11 +440,74 @@ namespace delta_pin
     return false;
   }
 
+  Matrix ClosedChainModel::dependent_columns() const
+  {
+    Matrix A(jacobian_.rows(), dependent_v_.size());
+    for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
+      A.col(c) = jacobian_.col(dependent_v_[c]);
+    return A;
+  }
+
+  void ClosedChainModel::pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const
+  {
+    const Eigen::Index columns = A.cols(), rank = columns - idle_dof_;
+    const Eigen::JacobiSVD<Matrix> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
+    if (rank > svd.singularValues().size())
+      throw SimulationFailure("the closures' Jacobian has fewer rows than its rank with the idle motions");
+    pinv = svd.matrixV().leftCols(rank) * svd.singularValues().head(rank).cwiseInverse().asDiagonal()
+           * svd.matrixU().leftCols(rank).transpose();
+    null_basis = svd.matrixV().rightCols(idle_dof_);
+  }
+
+  Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
+  {
+    const Matrix A = dependent_columns();
+    if (idle_dof_ == 0)
+      return least_squares(A, rhs);
+    Matrix pinv, null_basis;
+    pseudo_inverse(A, pinv, null_basis);
+    return pinv * rhs;
+  }
+
+  Matrix ClosedChainModel::minimum_norm_map(const Matrix & pinv) const
+  {
+    const Eigen::Index n = actuated_v_.size();
+    Matrix B(jacobian_.rows(), n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      B.col(c) = jacobian_.col(actuated_v_[c]);
+    const Matrix dependent = -pinv * B;
+    Matrix S = Matrix::Zero(model_.nv, n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      S(actuated_v_[c], c) = 1.0;
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      S.row(dependent_v_[r]) = dependent.row(r);
+    return S;
+  }
+
+  Matrix ClosedChainModel::mass_matrix(const Vector & q)
+  {
+    crba(model_, data_, q);
+    data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
+    return data_.M;
+  }
+
   Matrix ClosedChainModel::velocity_map(const Vector & q)
   {
     residual(q);  // the frame placements at q, which the Jacobians read
     const Matrix & J = closure_jacobian(q);
     const Eigen::Index n = actuated_v_.size();
+    if (idle_dof_ > 0)
+    {
+      Matrix pinv, null_basis;
+      pseudo_inverse(dependent_columns(), pinv, null_basis);
+      const Matrix S0 = minimum_norm_map(pinv);
+      Matrix N = Matrix::Zero(model_.nv, idle_dof_);
+      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+        N.row(dependent_v_[r]) = null_basis.row(r);
+      const Matrix M = mass_matrix(q);
+      const Matrix NtM = N.transpose() * M;
+      return S0 - N * (NtM * N).partialPivLu().solve(NtM * S0);
+    }
     Matrix B(J.rows(), n);
     for (Eigen::Index c = 0; c < n; ++c)
       B.col(c) = J.col(actuated_v_[c]);
@@ -391,26 +520,30 @@ namespace delta_pin
     return S;
   }
 
-  Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
-  {
-    Matrix A(jacobian_.rows(), dependent_v_.size());
-    for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
-      A.col(c) = jacobian_.col(dependent_v_[c]);
-    return least_squares(A, rhs);
-  }
-
-  void ClosedChainModel::reduced_terms(
-    const Vector & q, const Vector & alpha_dot, Matrix & M_red, Matrix & C_red, Vector & G_red, Vector & C_alpha_dot)
+  bool ClosedChainModel::project_state(Vector & q, Vector & v)
   {
     check_size(q, model_.nq, "q");
-    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
-    const Matrix S = velocity_map(q);  // J_c at q stays in jacobian_
-    const Vector v = S * alpha_dot;
-    const Eigen::Index n_closure = jacobian_.rows(), nv = model_.nv;
-    // J_c_dot (Pinocchio's LOCAL_WORLD_ALIGNED dJ is the time derivative of J) and J_c_dot v
+    check_size(v, model_.nv, "v");
+    Vector alpha(actuated_q_.size()), closed;
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      alpha[i] = q[actuated_q_[i]];
+    const bool converged = configuration(alpha, q, closed);
+    q = closed;
+    if (!converged)
+      return false;
+    residual(q);
+    closure_jacobian(q);
+    const Vector correction = solve_dependent(jacobian_ * v);
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      v[dependent_v_[r]] -= correction[r];
+    return true;
+  }
+
+  Matrix ClosedChainModel::closure_jacobian_derivative(const Vector & q, const Vector & v)
+  {
     computeJointJacobiansTimeVariation(model_, data_, q, v);
     updateFramePlacements(model_, data_);
-    Matrix J_dot(n_closure, nv);
+    Matrix J_dot(jacobian_.rows(), model_.nv);
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
@@ -421,15 +554,94 @@ namespace delta_pin
       J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
     }
-    Matrix S_dot = Matrix::Zero(nv, S.cols());
-    const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
-    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
-      S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
-    const Vector rate = dependent_rate(q, v);  // S_dot alpha_dot, from the drift
-    crba(model_, data_, q);
-    data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
-    const Matrix M = data_.M;
-    const Matrix C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    J_dot.bottomRows((Eigen::Index)couplings_.size()).setZero();
+    for (size_t k = 0; k < couplings_.size(); ++k)  // -p'' v_2 e_2
+    {
+      const JointCouplingSpec & c = couplings_[k];
+      if (c.v2 < 0)
+        continue;
+      double value, slope, curvature;
+      c.polynomial(q[c.q2], value, slope, curvature);
+      J_dot(closure_rows_ + (Eigen::Index)k, c.v2) = -curvature * v[c.v2];
+    }
+    return J_dot;
+  }
+
+  void ClosedChainModel::idle_projection(
+    const Vector & q, const Vector & alpha_dot, Matrix & S, Matrix & S_dot, Matrix & M, Matrix & C_tree, Vector & v)
+  {
+    const Eigen::Index nv = model_.nv, n = actuated_v_.size(), nd = dependent_v_.size();
+    residual(q);
+    closure_jacobian(q);
+    const Matrix A = dependent_columns();
+    Matrix B(jacobian_.rows(), n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      B.col(c) = jacobian_.col(actuated_v_[c]);
+    Matrix A_pinv, null_basis;
+    pseudo_inverse(A, A_pinv, null_basis);
+    M = mass_matrix(q);
+    const Matrix S0 = minimum_norm_map(A_pinv);
+    Matrix N = Matrix::Zero(nv, idle_dof_);
+    for (Eigen::Index r = 0; r < nd; ++r)
+      N.row(dependent_v_[r]) = null_basis.row(r);
+    const Matrix W = N.transpose() * M * N;
+    const Eigen::PartialPivLU<Matrix> W_lu(W);
+    const Matrix K = W_lu.solve(N.transpose() * M);
+    const Matrix P = Matrix::Identity(nv, nv) - N * K;
+    S = P * S0;
+    v = S * alpha_dot;
+    const Matrix J_dot = closure_jacobian_derivative(q, v);
+    Matrix A_dot(J_dot.rows(), nd), B_dot(J_dot.rows(), n);
+    for (Eigen::Index c = 0; c < nd; ++c)
+      A_dot.col(c) = J_dot.col(dependent_v_[c]);
+    for (Eigen::Index c = 0; c < n; ++c)
+      B_dot.col(c) = J_dot.col(actuated_v_[c]);
+    const Eigen::Index rows = A.rows(), columns = A.cols();
+    const Matrix pinv_dot =
+      -A_pinv * A_dot * A_pinv
+      + A_pinv * A_pinv.transpose() * A_dot.transpose() * (Matrix::Identity(rows, rows) - A * A_pinv)
+      + (Matrix::Identity(columns, columns) - A_pinv * A) * A_dot.transpose() * A_pinv.transpose() * A_pinv;
+    const Matrix S0_dot_dependent = -(pinv_dot * B + A_pinv * B_dot);
+    const Matrix N_dot_dependent = -A_pinv * A_dot * null_basis;
+    Matrix S0_dot = Matrix::Zero(nv, n), N_dot = Matrix::Zero(nv, idle_dof_);
+    for (Eigen::Index r = 0; r < nd; ++r)
+    {
+      S0_dot.row(dependent_v_[r]) = S0_dot_dependent.row(r);
+      N_dot.row(dependent_v_[r]) = N_dot_dependent.row(r);
+    }
+    C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    const Matrix M_dot = C_tree + C_tree.transpose();
+    const Matrix W_dot = N_dot.transpose() * M * N + N.transpose() * M_dot * N + N.transpose() * M * N_dot;
+    const Matrix K_dot = W_lu.solve(N_dot.transpose() * M + N.transpose() * M_dot - W_dot * K);
+    const Matrix P_dot = -(N_dot * K + N * K_dot);
+    S_dot = P_dot * S0 + P * S0_dot;
+  }
+
+  void ClosedChainModel::reduced_terms(
+    const Vector & q, const Vector & alpha_dot, Matrix & M_red, Matrix & C_red, Vector & G_red, Vector & C_alpha_dot)
+  {
+    check_size(q, model_.nq, "q");
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    Matrix S, S_dot, M, C_tree;
+    Vector v, rate;
+    if (idle_dof_ > 0)
+    {
+      idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
+      rate = S_dot * alpha_dot;
+    }
+    else
+    {
+      S = velocity_map(q);  // J_c at q stays in jacobian_
+      v = S * alpha_dot;
+      const Matrix J_dot = closure_jacobian_derivative(q, v);
+      S_dot = Matrix::Zero(model_.nv, S.cols());
+      const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
+      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+        S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
+      rate = dependent_rate(q, v);  // S_dot alpha_dot, from the drift
+      M = mass_matrix(q);
+      C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    }
     const Vector gravity = computeGeneralizedGravity(model_, data_, q);
     const Vector nle = nonLinearEffects(model_, data_, q, v);
     const Matrix M_projected = S.transpose() * M * S;
@@ -452,6 +664,13 @@ namespace delta_pin
       if (closure.size == 6)
         drift.segment<3>(row + 3) = a1.angular() - a2.angular();
       row += closure.size;
+    }
+    if (!couplings_.empty())
+    {
+      Vector r, coupling_drift;
+      Matrix J;
+      coupling_terms(q, v, r, J, coupling_drift);
+      drift.tail(coupling_drift.size()) = coupling_drift;
     }
     return drift;
   }
@@ -483,8 +702,18 @@ namespace delta_pin
   Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
   {
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
-    const Vector v = velocity_map(q) * alpha_dot;
-    const Vector rate = dependent_rate(q, v);
+    Vector v, rate;
+    if (idle_dof_ > 0)
+    {
+      Matrix S, S_dot, M, C_tree;
+      idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
+      rate = S_dot * alpha_dot;
+    }
+    else
+    {
+      v = velocity_map(q) * alpha_dot;
+      rate = dependent_rate(q, v);
+    }
     forwardKinematics(model_, data_, q, v, rate);
     return getFrameClassicalAcceleration(model_, data_, frame, LOCAL_WORLD_ALIGNED).linear();
   }
@@ -589,14 +818,40 @@ namespace delta_pin
         spring_k_[i] * (q[spring_q_[i]] - spring_ref_[i]) + spring_d_[i] * v[spring_v_[i]];
     for (Eigen::Index i = 0; i < damper_v_.size(); ++i)
       tau_[damper_v_[i]] -= damper_d_[i] * v[damper_v_[i]];
+    constrained(q, v, tau_);
+    if (chain_.couplings().empty())
+      return ddq_;
+    // the joint couplings' multipliers (ClosedChainPlant._coupled): ddq is affine in the joint
+    // torques, so one more solve per coupling gives its response D_k to a unit multiplier along
+    // its row J_k; the multipliers make J ddq + J_dot v = -kd J v - kp r (Baumgarte)
+    chain_.coupling_terms(q, v, coupling_r_, coupling_J_, coupling_drift_);
+    free_ = ddq_;
+    const Eigen::Index k = coupling_r_.size();
+    responses_.resize(model_.nv, k);
+    for (Eigen::Index c = 0; c < k; ++c)
+    {
+      constrained(q, v, tau_ + coupling_J_.row(c).transpose());
+      responses_.col(c) = ddq_ - free_;
+    }
+    target_ = -(coupling_J_ * free_ + coupling_drift_) - baumgarte_kd_ * (coupling_J_ * v) - baumgarte_kp_ * coupling_r_;
+    const Matrix system = coupling_J_ * responses_;
+    const Eigen::FullPivLU<Matrix> lu(system);
+    // a coupling the closures already imply (redundant rows): the least-squares multipliers
+    const Vector multipliers = lu.isInvertible() ? Vector(lu.solve(target_))
+                                                 : Vector(system.completeOrthogonalDecomposition().solve(target_));
+    ddq_ = free_ + responses_ * multipliers;
+    return ddq_;
+  }
+
+  void ClosedChainPlant::constrained(const Vector & q, const Vector & v, const Vector & joint_torques)
+  {
     if (axis_)
     {
-      if (axis_->dynamics(q.data(), v.data(), tau_.data(), 0.0, nullptr, ddq_.data()))
-        return ddq_;
+      if (axis_->dynamics(q.data(), v.data(), joint_torques.data(), 0.0, nullptr, ddq_.data()))
+        return;
       axis_.reset();  // M or the Delassus matrix not positive definite: Pinocchio's from now on
     }
-    return constraintDynamics(
-      model_, data_, q, v, tau_, constraint_models_, constraint_datas_, settings_);
+    ddq_ = constraintDynamics(model_, data_, q, v, joint_torques, constraint_models_, constraint_datas_, settings_);
   }
 
   void ClosedChainPlant::configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const
@@ -647,45 +902,76 @@ namespace delta_pin
     dx.tail(nv) = accelerations(q, v, tau, u);
   }
 
-  void ClosedChainPlant::finish(Vector & x)
-  {
-    if (coefficient_rates_)
-    {
-      Vector q = x.head(model_.nq);
-      normalize(model_, q);
-      x.head(model_.nq) = q;
-    }
-  }
-
   double ClosedChainPlant::step(Vector & x, const Vector & tau, long stage, double h)
   {
     check_size(x, model_.nq + model_.nv, "x");
     rk4_step(
       x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
       k3_, k4_, y_);
-    finish(x);
+    return settle(x);
+  }
+
+  double ClosedChainPlant::settle(Vector & x)
+  {
     const int nq = model_.nq, nv = model_.nv;
+    if (coefficient_rates_)
+    {
+      Vector q = x.head(nq);
+      normalize(model_, q);
+      x.head(nq) = q;
+    }
     const double gap = chain_.closure_gap(x.head(nq));
     if (gap <= projection_tolerance_)
       return gap;
     if (!(std::isfinite(gap) && x.allFinite()))
       throw SimulationFailure("the loop-closure gap is nan: the state is no longer finite");
-    // project: q from the actuated coordinates (Newton from x's own q), v = S alpha_dot
     last_q_ = x.head(nq);
-    Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size()), q;
-    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
-      alpha[i] = x[actuated_q_[i]];
-    for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
-      alpha_dot[i] = x[nq + actuated_v_[i]];
-    if (!chain_.configuration(alpha, last_q_, q))
-      throw SimulationFailure(
-        "cannot close the loops: Newton from the drifted state does not converge (largest residual "
-        + std::to_string(largest(chain_.residual(q))) + ")");
+    Vector q = last_q_, v = x.tail(nv);
+    bool closed;
+    if (chain_.unactuated())  // idle and passive state of its own: keep it
+      closed = chain_.project_state(q, v);
+    else  // q from the actuated coordinates (Newton from x's own q), v = S alpha_dot
+    {
+      Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size());
+      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+        alpha[i] = x[actuated_q_[i]];
+      for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+        alpha_dot[i] = x[nq + actuated_v_[i]];
+      closed = chain_.configuration(alpha, last_q_, q);
+      if (closed)
+        v = chain_.velocity_map(q) * alpha_dot;
+    }
+    if (!closed)
+    {
+      // ClosedChainPlant.finish_step's message
+      Vector alpha(actuated_q_.size());
+      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+        alpha[i] = x[actuated_q_[i]];
+      std::ostringstream text;
+      text.precision(3);
+      text << std::scientific << "the loops cannot be re-assembled after a closure gap of " << gap
+           << " (m or rad): Newton from the drifted state is still " << largest(chain_.residual(q))
+           << " apart at alpha=" << joint_values(alpha);
+      throw SimulationFailure(text.str());
+    }
     x.head(nq) = q;
-    x.tail(nv) = chain_.velocity_map(q) * alpha_dot;
+    x.tail(nv) = v;
     last_q_ = q;
     ++projections_;
+    largest_projected_gap_ = std::max(largest_projected_gap_, gap);
     return chain_.closure_gap(q);
+  }
+
+  bool ClosedChainPlant::project(Vector & x)
+  {
+    check_size(x, model_.nq + model_.nv, "x");
+    const long before = projections_;
+    Vector settled = x;
+    settle(settled);
+    if (projections_ == before)
+      return false;  // within the tolerance: x as it was (not even renormalised)
+    x = settled;
+    return true;
   }
 
   bool ClosedChainPlant::complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v)

@@ -7,10 +7,14 @@
 // dampers, a payload point mass at a frame read from a table of the RK4 stage times, the
 // configuration coefficients of ball, free and continuous joints integrated at their rates and
 // renormalised; a step whose closure gap exceeds the projection tolerance is projected back onto
-// the loops (Newton from the actuated coordinates, velocities through S = dq/dalpha).
+// the loops (Newton from the actuated coordinates, velocities through S = dq/dalpha; where the
+// robot has idle motions or passive joints, the nearest state that keeps them: minimum-norm
+// corrections of the dependent joints, ClosedChainRobot.project_state).
 //
-// Only robots whose actuated joints carry the whole motion (no idle motions, no passive joints)
-// are built here; the others keep the Python plant.
+// Any robot of the one robot model is built here: idle motions (a rod spinning between two ball
+// joints), passive joints (underactuated, a free base) and joint couplings (MuJoCo's <equality
+// joint>: closure rows of their own, whose multipliers the plant adds to constraintDynamics'
+// solution, as the Python plant does).
 #pragma once
 
 #include <pinocchio/algorithm/constrained-dynamics.hpp>
@@ -46,6 +50,36 @@ namespace delta_pin
     int reference_frame;  // pinocchio::ReferenceFrame
   };
 
+  // One joint coupling (JointCoupling, delta_pin/model/closed_chain.py): q1 - reference1 =
+  // p(q2 - reference2) with p(x) = sum_k coefficients[k] x^k, a closure row r = q1 - reference1 - p,
+  // the velocity row e1 - p' e2 and the drift -p'' v2^2 (joint 2's entries -1: none, p(0) held).
+  struct JointCouplingSpec
+  {
+    int q1, v1, q2, v2;
+    double reference1, reference2;
+    Vector coefficients;
+    // (p, p', p'') at joint 2's coordinate
+    void polynomial(double q2_value, double & value, double & slope, double & curvature) const;
+  };
+
+  // What the core needs of a closed-chain robot (ClosedChainRobot, delta_pin/model/closed_chain.py;
+  // delta_pin/model/core_model.py builds it): its Pinocchio model as text
+  // (pinocchio::Model::saveToString(), closure frames included), the closures' frames, the actuated
+  // joints' entries in q and v, the dependent joints' entries in v (neither actuated nor passive:
+  // the closures determine them up to the idle motions), the number of idle motions (motions of
+  // the dependent joints that move no independent joint, docs/architecture.md section 10) and
+  // the end-effector frame, and its joint couplings (rows after the closures'). Passive joints
+  // are the entries of v in neither list.
+  struct ChainDescription
+  {
+    std::string model_text;
+    std::vector<ClosureFrames> closures;
+    std::vector<JointCouplingSpec> couplings;
+    Indices actuated_q, actuated_v, dependent_v;
+    int idle_dof = 0;
+    pinocchio::FrameIndex end_effector = 0;
+  };
+
   // Stribeck friction on the actuated joints (eq. 12): r_a, v_s, mu_s, mu_d, mu_v, the normal
   // force per joint [N] and the sign's smoothing scale [rad/s].
   struct FrictionSpec : StribeckFriction
@@ -53,24 +87,27 @@ namespace delta_pin
     Vector normal_force;
   };
 
-  // The kinematics and projected dynamics of a closed-chain robot whose actuated joints carry the
-  // whole motion: the same arithmetic as ClosedChainRobot (delta_pin/model/closed_chain.py).
+  // The kinematics and projected dynamics of a closed-chain robot: the same arithmetic as
+  // ClosedChainRobot (delta_pin/model/closed_chain.py). With idle motions the dependent joints'
+  // closure Jacobian A has a null space N: Newton and the velocity corrections take minimum-norm
+  // steps (A's pseudo-inverse), and S is the map of least kinetic energy, S = P S0 with
+  // P = I - N (N^T M N)^-1 N^T M (docs/architecture.md section 10).
   class ClosedChainModel
   {
   public:
-    // model_text: pinocchio::Model::saveToString() of the robot's model (closure frames included)
-    ClosedChainModel(
-      const std::string & model_text,
-      const std::vector<ClosureFrames> & closures,
-      const Indices & actuated_q,
-      const Indices & actuated_v,
-      const Indices & dependent_v,
-      pinocchio::FrameIndex end_effector);
+    explicit ClosedChainModel(const ChainDescription & chain);
 
     const pinocchio::Model & model() const { return model_; }
     int dof() const { return (int)actuated_v_.size(); }
     const Indices & actuated_q() const { return actuated_q_; }
     const Indices & actuated_v() const { return actuated_v_; }
+    int idle_dof() const { return idle_dof_; }
+    const std::vector<JointCouplingSpec> & couplings() const { return couplings_; }
+    // the joint couplings' rows at (q, v): r (k), J (k, nv), J_dot v (k)
+    void coupling_terms(const Vector & q, const Vector & v, Vector & r, Matrix & J, Vector & drift) const;
+    // whether the robot moves in ways the actuated joints do not determine (idle motions, passive
+    // joints): its state is then (q, v) whole, never (alpha, alpha_dot)
+    bool unactuated() const { return idle_dof_ > 0 || actuated_v_.size() + dependent_v_.size() < model_.nv; }
 
     // closure residual r(q) [m, rad] and its largest entry (NaN where q holds one)
     const Vector & residual(const Vector & q);
@@ -78,8 +115,14 @@ namespace delta_pin
     // a closure-consistent q with the actuated joints at alpha (Newton from `guess`, steps of at
     // most 0.5); false where it does not converge to `tolerance`
     bool configuration(const Vector & alpha, const Vector & guess, Vector & q, double tolerance = 1e-12, int iterations = 60);
-    // S = dq/dalpha (nv, dof) at a closed q
+    // S = dq/dalpha (nv, dof) at a closed q (named passive joints at rest; with idle motions the
+    // map of least kinetic energy)
     Matrix velocity_map(const Vector & q);
+    // The nearest closure-consistent (q, v) that keeps the actuated and passive joints' values and
+    // the idle motions' state (ClosedChainRobot.project_state): Newton from q over the dependent
+    // joints, then v's dependent part less the minimum-norm velocity that closes the loops; false
+    // where Newton does not converge (q then holds its last iterate)
+    bool project_state(Vector & q, Vector & v);
     // M (dof, dof), C (dof, dof), G (dof), C alpha_dot (dof) on the actuated joints by projection
     // (ClosedChainRobot.reduced_terms) at a closed q
     void reduced_terms(const Vector & q, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G, Vector & C_alpha_dot);
@@ -105,7 +148,27 @@ namespace delta_pin
 
   private:
     const Matrix & closure_jacobian(const Vector & q);  // after the frame placements at q
-    Matrix solve_dependent(const Matrix & rhs);  // least squares on J_c's dependent columns
+    // J_c_dot (closure rows, nv) at (q, v): Pinocchio's LOCAL_WORLD_ALIGNED dJ, the time derivative of J
+    Matrix closure_jacobian_derivative(const Vector & q, const Vector & v);
+    // J_c's dependent columns (after closure_jacobian)
+    Matrix dependent_columns() const;
+    // x minimising |A x - rhs| for A = J_c's dependent columns: least squares, or with idle
+    // motions the minimum-norm solution A^+ rhs
+    Matrix solve_dependent(const Matrix & rhs);
+    // A^+ and an orthonormal basis (columns) of A's null space, of dimension idle_dof (by SVD,
+    // A's rank taken as its columns less the idle motions: ClosedChainRobot._pseudo_inverse)
+    void pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const;
+    // S0 = the minimum-norm map (nv, dof): the actuated joints' identity, -A^+ B on the dependent
+    // joints (B: J_c's actuated columns), zero on passive joints (after closure_jacobian)
+    Matrix minimum_norm_map(const Matrix & pinv) const;
+    // The idle motions' projection at a closed q along v = S alpha_dot
+    // (ClosedChainRobot._idle_projection): S, its time derivative S_dot, the tree's M and
+    // C_tree(q, v), and v; S_dot from the pseudo-inverse's derivative, N_dot = -A^+ A_dot N and
+    // M_dot = C_tree + C_tree^T
+    void idle_projection(
+      const Vector & q, const Vector & alpha_dot, Matrix & S, Matrix & S_dot, Matrix & M, Matrix & C_tree, Vector & v);
+    // the tree's joint-space inertia at q, both triangles filled
+    Matrix mass_matrix(const Vector & q);
     // J_c_dot v: the closures' relative classical accelerations at zero joint acceleration
     Vector closure_drift(const Vector & q, const Vector & v);
     // S_dot alpha_dot (nv): -J_dep^+ J_c_dot v on the dependent coordinates, zero elsewhere
@@ -114,7 +177,10 @@ namespace delta_pin
     pinocchio::Model model_;
     pinocchio::Data data_;
     std::vector<ClosureFrames> closures_;
+    std::vector<JointCouplingSpec> couplings_;
+    Eigen::Index closure_rows_ = 0;  // the frame closures' rows; the couplings' follow
     Indices actuated_q_, actuated_v_, dependent_v_;
+    int idle_dof_;
     pinocchio::FrameIndex end_effector_;
     Vector residual_;
     Matrix jacobian_, frame_jacobian1_, frame_jacobian2_;
@@ -123,21 +189,15 @@ namespace delta_pin
   class ClosedChainPlant : public CorePlant
   {
   public:
-    // model_text: pinocchio::Model::saveToString() of the robot's model (closure frames included).
     ClosedChainPlant(
-      const std::string & model_text,
-      const std::vector<ClosureFrames> & closures,
+      const ChainDescription & chain,
       const std::vector<ConstraintSpec> & constraints,
-      const Indices & actuated_q,
-      const Indices & actuated_v,
-      const Indices & dependent_v,
       double baumgarte_kp,
       double baumgarte_kd,
       double proximal_accuracy,
       double proximal_mu,
       int proximal_iterations,
-      double projection_tolerance,
-      pinocchio::FrameIndex end_effector);
+      double projection_tolerance);
 
     // springs on 1-DOF joints: tau -= k (q - q_ref) + d v; dampers on the others: tau -= d v
     void set_springs(
@@ -172,9 +232,19 @@ namespace delta_pin
     const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, double u);
     // dx/dt at x
     void derivative(const Vector & x, const Vector & tau, double u, Vector & dx);
-    // one RK4 step (CorePlant::step), then renormalisation, the gap, a projection where it
-    // exceeds the tolerance
+    // one RK4 step (CorePlant::step), then settle()
     double step(Vector & x, const Vector & tau, long stage, double h) override;
+    // x's configuration coefficients renormalised and, where its closure gap exceeds the
+    // projection tolerance, x projected back onto the loops (from the actuated coordinates, or
+    // keeping the idle and passive state); returns the gap of the result. Throws
+    // SimulationFailure where x is not finite or the loops cannot be closed again.
+    double settle(Vector & x);
+    bool integrates_full_state() const override { return chain_.unactuated(); }
+    void full_derivative(double t, const Vector & x, const Vector & tau, Vector & dx) override
+    {
+      derivative(x, tau, truth_.position(t), dx);
+    }
+    bool project(Vector & x) override;
     Eigen::Vector3d end_effector_position(const Vector & q) override { return chain_.end_effector_position(q); }
     double closure_gap(const Vector & q) override { return chain_.closure_gap(q); }
     // q(alpha) by Newton from q's own value, v = S alpha_dot
@@ -182,9 +252,11 @@ namespace delta_pin
     void active_accelerations(double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot) override;
 
   private:
+    // ddq of the tree closed by the frame closures under the joint torques tau_ (the axis-tree
+    // stage or constraintDynamics), into ddq_
+    void constrained(const Vector & q, const Vector & v, const Vector & joint_torques);
     void set_body(double u);
     void configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const;
-    void finish(Vector & x);
 
     ClosedChainModel chain_;  // the kinematics: closures, assembly, S
     pinocchio::Model model_;  // the dynamics (its payload inertia rewritten in time)
@@ -207,6 +279,9 @@ namespace delta_pin
     double baumgarte_kp_, baumgarte_kd_;
     std::unique_ptr<dpn::AxisTree> axis_;
     Vector ddq_;
+    // the joint couplings' multipliers (accelerations): their rows and the responses to them
+    Vector coupling_r_, coupling_drift_, free_, target_;
+    Matrix coupling_J_, responses_;
     // scratch
     Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_;
   };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -39,32 +40,80 @@ namespace delta_pin
     a_ddot = hermite(alpha_ddot, alpha_dddot);
   }
 
+  namespace
+  {
+    void add(RadauCounters & total, const RadauCounters & part)
+    {
+      total.steps += part.steps;
+      total.rejected += part.rejected;
+      total.evaluations += part.evaluations;
+      total.jacobians += part.jacobians;
+      total.factorizations += part.factorizations;
+    }
+
+    void add(Bdf2Counters & total, const Bdf2Counters & part)
+    {
+      total.steps += part.steps;
+      total.evaluations += part.evaluations;
+      total.split_steps += part.split_steps;
+      total.jacobians += part.jacobians;
+    }
+  } // namespace
+
   void run_continuous(
     CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start,
     const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples,
-    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps)
+    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps,
+    long projection_interval)
   {
     const int n = (int)alpha0.size(), nz = (int)z0.size();
     if (plant.dof() != n || alpha_dot0.size() != n)
       throw std::invalid_argument("alpha0 and alpha_dot0 need one value per actuated joint");
     if (!(dt > 0.0) || samples < 1)
       throw std::invalid_argument("run_continuous needs dt > 0 and at least one sample");
+    const bool full = plant.integrates_full_state();
+    const int nq = plant.nq(), nv = plant.nv(), nx = full ? nq + nv : 2 * n;
+    const Indices & actuated_q = plant.actuated_q();
+    const Indices & actuated_v = plant.actuated_v();
     Vector q_last = q_start, v;
     if (!plant.complete(alpha0, alpha_dot0, q_last, v))
       throw failure_at("cannot close the loops at alpha0=" + joint_values(alpha0), 0.0);
-    Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(plant.nq()), alpha_ddot(n);
-    // (q, v, tau, z_dot) at (t, y): the completion, the law
+    Vector ref_a(n), ref_ad(n), ref_add(n), tau(n), z_dot(nz), q(nq), alpha(n), alpha_dot(n), alpha_ddot(n), dx;
+    // the actuated joints of a state y (its first nx entries: [alpha, alpha_dot] or [q, v])
+    auto joints = [&](const Vector & y)
+    {
+      if (!full)
+      {
+        alpha = y.head(n);
+        alpha_dot = y.segment(n, n);
+        return;
+      }
+      for (int i = 0; i < n; ++i)
+      {
+        alpha[i] = y[actuated_q[i]];
+        alpha_dot[i] = y[nq + actuated_v[i]];
+      }
+    };
+    // (q, v, tau, z_dot) at (t, y): the completion (active coordinates) or y's own (q, v), the law
     auto complete = [&](double t, const Vector & y)
     {
-      const Vector alpha = y.head(n);
-      q = q_last;  // the warm start
-      if (!plant.complete(alpha, y.segment(n, n), q, v))
-        throw failure_at("cannot close the loops at alpha=" + joint_values(alpha), t);
-      q_last = q;
+      joints(y);
+      if (full)
+      {
+        q = y.head(nq);
+        v = y.segment(nq, nv);
+      }
+      else
+      {
+        q = q_last;  // the warm start
+        if (!plant.complete(alpha, alpha_dot, q, v))
+          throw failure_at("cannot close the loops at alpha=" + joint_values(alpha), t);
+        q_last = q;
+      }
       reference.at(t, ref_a, ref_ad, ref_add);
       try
       {
-        law.evaluate(t, q, alpha, y.segment(n, n), ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);
+        law.evaluate(t, q, alpha, alpha_dot, ref_a, ref_ad, ref_add, y.tail(nz), tau, z_dot);
       }
       catch (SimulationFailure & error)
       {
@@ -85,11 +134,25 @@ namespace delta_pin
     auto rhs = [&](double t, const Vector & y, Vector & dy)
     {
       if (!y.allFinite())
-        throw failure_at("the state became non-finite (alpha=" + joint_values(y.head(n)) + ")", t);
+      {
+        joints(y);
+        throw failure_at("the state became non-finite (alpha=" + joint_values(alpha) + ")", t);
+      }
       complete(t, y);
+      dy.resize(y.size());
       try
       {
-        plant.active_accelerations(t, q, v, tau, alpha_ddot);
+        if (full)
+        {
+          plant.full_derivative(t, y.head(nx), tau, dx);
+          dy.head(nx) = dx;
+        }
+        else
+        {
+          plant.active_accelerations(t, q, v, tau, alpha_ddot);
+          dy.head(n) = alpha_dot;
+          dy.segment(n, n) = alpha_ddot;
+        }
       }
       catch (SimulationFailure & error)
       {
@@ -97,29 +160,34 @@ namespace delta_pin
           error.time = t;
         throw;
       }
-      dy.resize(y.size());
-      dy.head(n) = y.segment(n, n);
-      dy.segment(n, n) = alpha_ddot;
       dy.tail(nz) = z_dot;
     };
-    Vector y(2 * n + nz);
-    y << alpha0, alpha_dot0, z0;
+    Vector y(nx + nz);
+    if (full)
+      y << q_last, v, z0;
+    else
+      y << alpha0, alpha_dot0, z0;
     run.alpha.setZero(samples, n);
     run.alpha_dot.setZero(samples, n);
     run.tau.setZero(samples, n);
     run.state.setZero(samples, nz);
-    run.q.setZero(samples, plant.nq());
-    run.v.setZero(samples, plant.nv());
+    run.q.setZero(samples, nq);
+    run.v.setZero(samples, nv);
     run.xyz.setZero(samples, 3);
     run.gap.setZero(samples);
     run.samples = 0;
+    auto check = [&](const Vector & yk, double t)
+    {
+      joints(yk);
+      check_sample(yk.allFinite(), alpha, alpha_dot, max_joint_speed, t);
+    };
     auto record = [&](long k, const Vector & yk)
     {
       const double t = (double)k * dt;
-      check_sample(yk.allFinite(), yk.head(n), yk.segment(n, n), max_joint_speed, t);
+      check(yk, t);
       complete(t, yk);
-      run.alpha.row(k) = yk.head(n).transpose();
-      run.alpha_dot.row(k) = yk.segment(n, n).transpose();
+      run.alpha.row(k) = alpha.transpose();
+      run.alpha_dot.row(k) = alpha_dot.transpose();
       run.tau.row(k) = tau.transpose();
       run.state.row(k) = yk.tail(nz).transpose();
       law.keep(k, tau, yk.tail(nz));
@@ -129,61 +197,95 @@ namespace delta_pin
       run.gap[k] = plant.closure_gap(q);
       run.samples = k + 1;
     };
+    // A whole state drifts off the loops under the integrator's error (Baumgarte pulls it back):
+    // every projection_interval samples it is projected back where its gap exceeds the plant's
+    // tolerance, and the integrator starts again from there (the Python loop's finish_step
+    // between its LSODA chunks, delta_pin.sim.integrators.integrate_lsoda).
+    auto projected = [&](long k, Vector & yk)
+    {
+      if (!full || projection_interval <= 0 || k % projection_interval != 0 || k == samples - 1)
+        return false;
+      Vector x = yk.head(nx);
+      try
+      {
+        if (!plant.project(x))
+          return false;
+      }
+      catch (SimulationFailure & error)
+      {
+        if (std::isnan(error.time))
+          error.time = (double)k * dt;
+        throw;
+      }
+      yk.head(nx) = x;
+      return true;
+    };
     try
     {
       record(0, y);
       if (bdf2_substeps > 0)  // fixed steps dt / bdf2_substeps, every stage on the tables' grid
       {
-        Bdf2 bdf2(rhs, y, 0.0, dt / bdf2_substeps);
+        auto bdf2 = std::make_unique<Bdf2>(rhs, y, 0.0, dt / bdf2_substeps);
         try
         {
           for (long k = 1; k < samples; ++k)
           {
             for (int j = 0; j < bdf2_substeps; ++j)
             {
-              bdf2.step();
-              check_sample(
-                bdf2.y().allFinite(), bdf2.y().head(n), bdf2.y().segment(n, n), max_joint_speed, bdf2.t());
+              bdf2->step();
+              check(bdf2->y(), bdf2->t());
             }
-            record(k, bdf2.y());
+            Vector yk = bdf2->y();
+            record(k, yk);
+            if (projected(k, yk))
+            {
+              add(run.bdf2_counters, bdf2->counters);
+              bdf2 = std::make_unique<Bdf2>(rhs, yk, (double)k * dt, dt / bdf2_substeps);
+            }
           }
         }
         catch (...)
         {
-          run.bdf2_counters = bdf2.counters;
+          add(run.bdf2_counters, bdf2->counters);
           throw;
         }
-        run.bdf2_counters = bdf2.counters;
+        add(run.bdf2_counters, bdf2->counters);
         return;
       }
       RadauOptions bounded = options;
       bounded.t_bound = (double)(samples - 1) * dt;  // the reference ends there
-      RadauIIA radau(rhs, y, 0.0, bounded);
+      auto radau = std::make_unique<RadauIIA>(rhs, y, 0.0, bounded);
       for (long k = 1; k < samples; ++k)
       {
         const double t = (double)k * dt;
         try
         {
-          radau.advance_past(t);
+          radau->advance_past(t);
         }
         catch (const SimulationFailure &)
         {
-          run.counters = radau.counters;
+          add(run.counters, radau->counters);
           throw;
         }
         catch (const CallbackError &)
         {
-          run.counters = radau.counters;
+          add(run.counters, radau->counters);
           throw;
         }
         catch (const std::exception & error)  // the step size collapsed, a non-finite derivative
         {
-          run.counters = radau.counters;
-          throw failure_at(std::string("radau: ") + error.what(), radau.t());
+          add(run.counters, radau->counters);
+          throw failure_at(std::string("radau: ") + error.what(), radau->t());
         }
-        record(k, radau.at(t));
+        Vector yk = radau->at(t);
+        record(k, yk);
+        if (projected(k, yk))
+        {
+          add(run.counters, radau->counters);
+          radau = std::make_unique<RadauIIA>(rhs, yk, t, bounded);
+        }
       }
-      run.counters = radau.counters;
+      add(run.counters, radau->counters);
     }
     catch (const SimulationFailure & error)
     {

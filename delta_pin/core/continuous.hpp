@@ -7,7 +7,9 @@
 // by Newton, warm-started, and v = S alpha_dot: the loops closed by construction, as
 // delta_pin.sim.closed_chain_plant's active coordinates for LSODA; for the reduced Delta q =
 // alpha), the law gives (tau, z_dot) at the reference of that time (eqs. 23-26, 30-33 for designs
-// I/II), and the plant's dynamics give alpha_ddot with its truth interpolated at t.
+// I/II), and the plant's dynamics give alpha_ddot with its truth interpolated at t. A plant with
+// motion the actuated joints do not determine (idle motions, passive joints) is integrated in
+// its whole state instead, y = [q, v, z] (CorePlant::integrates_full_state).
 #pragma once
 
 #include "bdf2.hpp"
@@ -81,12 +83,18 @@ namespace delta_pin
 
   // Integrate from (alpha0, alpha_dot0, z0) at t = 0 (a closed chain's loops assembled from
   // q_start) over `samples` - 1 periods dt and record the samples: by Radau IIA with `options`,
-  // or with bdf2_substeps > 0 by BDF2 (bdf2.hpp) with fixed steps dt / bdf2_substeps. A failure (the loops cannot be closed, a non-finite state or torque, a torque
-  // or state rate of the wrong size, |alpha_dot| above max_joint_speed, the step size collapsing)
-  // throws SimulationFailure with its time; a CallbackError of the law passes unchanged; `run`
-  // keeps the samples recorded before.
+  // or with bdf2_substeps > 0 by BDF2 (bdf2.hpp) with fixed steps dt / bdf2_substeps. A plant
+  // that integrates_full_state (idle motions, passive joints) is integrated as y = [q, v, z]
+  // with its whole derivative, started from its completion at (alpha0, alpha_dot0), and
+  // projected back onto the loops every projection_interval samples where its gap exceeds the
+  // plant's tolerance (the integrator then starts again there; <= 0: never). A failure (the
+  // loops cannot be closed, a non-finite state or torque, a torque or state rate of the wrong
+  // size, |alpha_dot| above max_joint_speed, the step size collapsing) throws SimulationFailure
+  // with its time; a CallbackError of the law passes unchanged; `run` keeps the samples recorded
+  // before.
   void run_continuous(
-    CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start, const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt,
-    long samples,
-    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps = 0);
+    CorePlant & plant, ContinuousLaw & law, const HermiteReference & reference, const Vector & q_start,
+    const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples,
+    const RadauOptions & options, double max_joint_speed, ContinuousRun & run, int bdf2_substeps = 0,
+    long projection_interval = 0);
 } // namespace delta_pin

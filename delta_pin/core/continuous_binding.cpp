@@ -104,7 +104,7 @@ void bind_continuous(nb::module_ & m)
        const RowMatrix & alpha_ddot, const RowMatrix & alpha_dddot, const Vector & q_start,
        const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples, double rtol,
        double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run,
-       int bdf2_substeps)
+       int bdf2_substeps, long projection_interval)
     {
       HermiteReference reference{step, alpha, alpha_dot, alpha_ddot, alpha_dddot, bdf2_substeps > 0};
       RadauOptions options;
@@ -119,7 +119,7 @@ void bind_continuous(nb::module_ & m)
         nb::gil_scoped_release release;  // nothing in the loop touches Python
         run_continuous(
           plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
-          max_joint_speed, run, bdf2_substeps);
+          max_joint_speed, run, bdf2_substeps, projection_interval);
         return;
       }
       // a law in Python: (evaluate, keep), called with the GIL held
@@ -129,7 +129,7 @@ void bind_continuous(nb::module_ & m)
         nb::gil_scoped_release release;
         run_continuous(
           plant, adapter, reference, q_start, alpha0, alpha_dot0, z0, dt, samples, options,
-          max_joint_speed, run, bdf2_substeps);
+          max_joint_speed, run, bdf2_substeps, projection_interval);
       }
       catch (const CallbackError &)
       {
@@ -140,8 +140,10 @@ void bind_continuous(nb::module_ & m)
     nb::arg("alpha_dddot"), nb::arg("q_start"), nb::arg("alpha0"), nb::arg("alpha_dot0"),
     nb::arg("z0"), nb::arg("dt"), nb::arg("samples"), nb::arg("rtol"), nb::arg("atol"), nb::arg("first_step"),
     nb::arg("max_step"), nb::arg("max_joint_speed"), nb::arg("run"), nb::arg("bdf2_substeps") = 0,
+    nb::arg("projection_interval") = 0,
     "Continuous mode: a plant (ClosedChainPlant, AnalyticDeltaPlant) and a law integrated by Radau IIA, or with "
-    "bdf2_substeps > 0 by BDF2 with fixed steps dt / bdf2_substeps (continuous.hpp); the law is a compiled "
+    "bdf2_substeps > 0 by BDF2 with fixed steps dt / bdf2_substeps (continuous.hpp); a plant with idle motions or "
+    "passive joints in its whole state, projected back onto the loops every projection_interval samples; the law is a compiled "
     "ProjectedLaw, or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, "
     "z) -> (tau, z_dot) and keep(k, tau, z) called from the loop (what it raises passes through "
     "unchanged). The records go to `run` (kept up to a SimulationFailure).");

@@ -12,10 +12,8 @@
 namespace delta_pin
 {
   ProjectedLaw::ProjectedLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name)
-  : nominal_(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector)
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name)
+  : nominal_(chain)
   , q_(reference_configuration)
   , disturbance_(disturbance)
   , name_(name)
@@ -231,11 +229,9 @@ namespace delta_pin
   }
 
   ComputedTorqueLaw::ComputedTorqueLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
     const Vector & T_p, const Vector & T_v)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , D_(D)
   , T_p_(T_p)
@@ -256,11 +252,9 @@ namespace delta_pin
   }
 
   PDGravityLaw::PDGravityLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
     const Vector & K_d)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , K_p_(K_p)
   , K_d_(K_d)
@@ -279,11 +273,9 @@ namespace delta_pin
   }
 
   AdaptiveRobust::AdaptiveRobust(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
     const AdaptiveRobustGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , gains_(gains)
   {
@@ -325,11 +317,9 @@ namespace delta_pin
   }
 
   TimeDelayControlLaw::TimeDelayControlLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
     const TimeDelayGains & gains)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , gains_(gains)
   {
@@ -359,11 +349,9 @@ namespace delta_pin
   void TimeDelayControlLaw::record(long k) { lumped_estimate.row(k) = lumped_.transpose(); }
 
   DigitalRobustLaw::DigitalRobustLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
     const DigitalRobustGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , gains_(gains)
   {
@@ -416,11 +404,9 @@ namespace delta_pin
   }
 
   LqrLaw::LqrLaw(
-    const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-    const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-    const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
     const LqrGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(model_text, closures, actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+  : ProjectedLaw(chain, reference_configuration,
                  disturbance, name)
   , gains_(gains)
   {

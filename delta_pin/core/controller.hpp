@@ -55,9 +55,7 @@ namespace delta_pin
   {
   public:
     ProjectedLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name);
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name);
     virtual ~ProjectedLaw() = default;
 
     // the nominal friction compensated (eq. 23's M̄_f; not called: none)
@@ -150,9 +148,7 @@ namespace delta_pin
   {
   public:
     ComputedTorqueLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
       const Vector & T_p, const Vector & T_v);
 
   protected:
@@ -169,9 +165,7 @@ namespace delta_pin
   {
   public:
     PDGravityLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
       const Vector & K_d);
 
   protected:
@@ -189,9 +183,7 @@ namespace delta_pin
   {
   public:
     AdaptiveRobust(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
       const AdaptiveRobustGains<Eigen::Dynamic> & gains);
 
     RowMatrix robust_torque;  // records, with the state (rho_hat) and the torque
@@ -215,9 +207,7 @@ namespace delta_pin
   {
   public:
     TimeDelayControlLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
       const TimeDelayGains & gains);
 
     RowMatrix lumped_estimate;  // records [N m]
@@ -241,9 +231,7 @@ namespace delta_pin
   {
   public:
     DigitalRobustLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
       const DigitalRobustGains<Eigen::Dynamic> & gains);
 
     // records: rho_hat (samples x 1) [N m], the robust torque and M̄ f̂ [N m], the velocity
@@ -267,9 +255,7 @@ namespace delta_pin
   {
   public:
     LqrLaw(
-      const std::string & model_text, const std::vector<ClosureFrames> & closures, const Indices & actuated_q,
-      const Indices & actuated_v, const Indices & dependent_v, pinocchio::FrameIndex end_effector,
-      const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
       const LqrGains<Eigen::Dynamic> & gains);
 
   protected:

@@ -99,20 +99,36 @@ NB_MODULE(_core, m)
   m.attr("pinocchio_version") = DELTA_PIN_PINOCCHIO_VERSION;
   using delta_pin::ClosedChainModel;
   using delta_pin::ClosedChainPlant;
-  nb::class_<ClosedChainModel>(m, "ClosedChainModel")
+  using delta_pin::ChainDescription;
+  nb::class_<ChainDescription>(m, "ChainDescription", "What the core needs of a closed-chain robot (closed_chain.hpp).")
     .def(
       "__init__",
       [](
-        ClosedChainModel * self, const std::string & model_text,
-        const std::vector<std::tuple<size_t, size_t, int>> & closures, const Eigen::VectorXi & actuated_q,
-        const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v, size_t end_effector)
+        ChainDescription * self, const std::string & model_text,
+        const std::vector<std::tuple<size_t, size_t, int>> & closures,
+        const std::vector<std::tuple<int, int, int, int, double, double, Eigen::VectorXd>> & couplings,
+        const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+        int idle_dof, size_t end_effector)
       {
-        const std::vector<delta_pin::ClosureFrames> frames = frames_of(closures);
-        new (self) ClosedChainModel(model_text, frames, actuated_q, actuated_v, dependent_v, end_effector);
+        std::vector<delta_pin::JointCouplingSpec> specs;
+        for (const auto & [q1, v1, q2, v2, reference1, reference2, coefficients] : couplings)
+          specs.push_back({q1, v1, q2, v2, reference1, reference2, coefficients});
+        new (self) ChainDescription{
+          model_text, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector};
       },
-      nb::arg("model_text"), nb::arg("closures"), nb::arg("actuated_q"), nb::arg("actuated_v"),
-      nb::arg("dependent_v"), nb::arg("end_effector"))
+      nb::arg("model_text"), nb::arg("closures"), nb::arg("couplings"), nb::arg("actuated_q"), nb::arg("actuated_v"),
+      nb::arg("dependent_v"), nb::arg("idle_dof"), nb::arg("end_effector"),
+      "The robot's Pinocchio model as text (closure frames included), its closures (frame 1, frame 2, 3 or 6 "
+      "rows), its joint couplings (q1, v1, q2, v2 entries -- -1 without joint 2 --, reference1, reference2, the "
+      "polynomial's coefficients), the actuated joints' entries in q and v, the dependent joints' entries in v, "
+      "the number of idle motions and the end-effector frame.")
+    .def_ro("idle_dof", &ChainDescription::idle_dof)
+    .def_ro("end_effector", &ChainDescription::end_effector);
+  nb::class_<ClosedChainModel>(m, "ClosedChainModel")
+    .def(nb::init<const ChainDescription &>(), nb::arg("chain"))
     .def_prop_ro("dof", &ClosedChainModel::dof)
+    .def_prop_ro("unactuated", &ClosedChainModel::unactuated,
+                 "Whether the robot moves in ways the actuated joints do not determine (idle motions, passive joints).")
     .def("closure_gap", &ClosedChainModel::closure_gap)
     .def(
       "configuration",
@@ -126,6 +142,17 @@ NB_MODULE(_core, m)
       nb::arg("alpha"), nb::arg("guess"), nb::arg("tolerance") = 1e-12, nb::arg("iterations") = 60,
       "(closed, q): Newton on the closures from guess with the actuated joints at alpha.")
     .def("velocity_map", &ClosedChainModel::velocity_map)
+    .def(
+      "project_state",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v)
+      {
+        Eigen::VectorXd q_out = q, v_out = v;
+        const bool closed = self.project_state(q_out, v_out);
+        return std::make_tuple(closed, q_out, v_out);
+      },
+      nb::arg("q"), nb::arg("v"),
+      "(closed, q, v): the nearest closure-consistent state keeping the actuated and passive joints and the idle "
+      "motions (ClosedChainRobot.project_state).")
     .def(
       "reduced_terms",
       [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot)
@@ -192,7 +219,11 @@ NB_MODULE(_core, m)
     .def_prop_ro("actuated_v", &CorePlant::actuated_v, "The actuated joints' entries in v.")
     .def_prop_ro("has_configuration", &CorePlant::has_configuration,
                  "Whether x's q and v are a multibody configuration (a run records them).")
+    .def_prop_ro("integrates_full_state", &CorePlant::integrates_full_state,
+                 "Whether the continuous loop integrates x = [q, v] whole (idle motions, passive joints).")
     .def_prop_ro("projections", &CorePlant::projections)
+    .def_prop_ro("largest_projected_gap", &CorePlant::largest_projected_gap,
+                 "The largest closure gap a projection brought back [m or rad] (0 before one).")
     .def_prop_ro("failure_time", &CorePlant::failure_time)
     .def("closure_gap", &CorePlant::closure_gap)
     .def("end_effector_position", &CorePlant::end_effector_position)
@@ -234,25 +265,18 @@ NB_MODULE(_core, m)
     .def(
       "__init__",
       [](
-        ClosedChainPlant * self, const std::string & model_text,
-        const std::vector<std::tuple<size_t, size_t, int>> & closures,
+        ClosedChainPlant * self, const ChainDescription & chain,
         const std::vector<std::tuple<int, size_t, Eigen::Matrix4d, size_t, Eigen::Matrix4d, int>> & constraints,
-        const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-        double kp, double kd, double accuracy, double mu, int iterations, double projection_tolerance,
-        size_t end_effector)
+        double kp, double kd, double accuracy, double mu, int iterations, double projection_tolerance)
       {
-        const std::vector<delta_pin::ClosureFrames> frames = frames_of(closures);
         std::vector<delta_pin::ConstraintSpec> specs;
         for (const auto & [size, j1, p1, j2, p2, reference] : constraints)
           specs.push_back({size, j1, j2, placement(p1), placement(p2), reference});
-        new (self) ClosedChainPlant(
-          model_text, frames, specs, actuated_q, actuated_v, dependent_v, kp, kd, accuracy, mu, iterations,
-          projection_tolerance, end_effector);
+        new (self) ClosedChainPlant(chain, specs, kp, kd, accuracy, mu, iterations, projection_tolerance);
       },
-      nb::arg("model_text"), nb::arg("closures"), nb::arg("constraints"), nb::arg("actuated_q"),
-      nb::arg("actuated_v"), nb::arg("dependent_v"), nb::arg("baumgarte_kp"), nb::arg("baumgarte_kd"),
+      nb::arg("chain"), nb::arg("constraints"), nb::arg("baumgarte_kp"), nb::arg("baumgarte_kd"),
       nb::arg("proximal_accuracy"), nb::arg("proximal_mu"), nb::arg("proximal_iterations"),
-      nb::arg("projection_tolerance"), nb::arg("end_effector"))
+      nb::arg("projection_tolerance"))
     .def("set_springs", &ClosedChainPlant::set_springs)
     .def(
       "set_friction",
@@ -344,37 +368,30 @@ NB_MODULE(_core, m)
     .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
     .def_ro("hits", &delta_pin::ProjectedLaw::hits)
     .def_ro("state", &delta_pin::ProjectedLaw::state);
-  typedef std::vector<std::tuple<size_t, size_t, int>> Closures;
   nb::class_<delta_pin::ComputedTorqueLaw, delta_pin::ProjectedLaw>(m, "ComputedTorque")
     .def(
       "__init__",
-      [](delta_pin::ComputedTorqueLaw * self, const std::string & model_text, const Closures & closures,
-         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+      [](delta_pin::ComputedTorqueLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
          const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v)
       {
         new (self) delta_pin::ComputedTorqueLaw(
-          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          chain, reference_configuration,
           disturbance, name, D, T_p, T_v);
       });
   nb::class_<delta_pin::PDGravityLaw, delta_pin::ProjectedLaw>(m, "PDGravity")
     .def(
       "__init__",
-      [](delta_pin::PDGravityLaw * self, const std::string & model_text, const Closures & closures,
-         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+      [](delta_pin::PDGravityLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
          const std::string & name, const Eigen::VectorXd & K_p, const Eigen::VectorXd & K_d)
       {
         new (self) delta_pin::PDGravityLaw(
-          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          chain, reference_configuration,
           disturbance, name, K_p, K_d);
       });
   nb::class_<delta_pin::AdaptiveRobust, delta_pin::ProjectedLaw>(m, "AdaptiveRobust")
     .def(
       "__init__",
-      [](delta_pin::AdaptiveRobust * self, const std::string & model_text, const Closures & closures,
-         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+      [](delta_pin::AdaptiveRobust * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
          const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v,
          double beta, double xi, double epsilon, double b1, double b2, double b3, bool design_two, bool vector_rho,
          double sampling_period, double sampling_margin)
@@ -394,7 +411,7 @@ NB_MODULE(_core, m)
         g.sampling_period = sampling_period;
         g.sampling_margin = sampling_margin;
         new (self) delta_pin::AdaptiveRobust(
-          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          chain, reference_configuration,
           disturbance, name, g);
       })
     .def_ro("robust_torque", &delta_pin::AdaptiveRobust::robust_torque)
@@ -405,9 +422,7 @@ NB_MODULE(_core, m)
   nb::class_<delta_pin::TimeDelayControlLaw, delta_pin::ProjectedLaw>(m, "TimeDelayControl")
     .def(
       "__init__",
-      [](delta_pin::TimeDelayControlLaw * self, const std::string & model_text, const Closures & closures,
-         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+      [](delta_pin::TimeDelayControlLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
          const std::string & name, double dt, double K_p, double K_v, int delay, bool mean_pairing)
       {
         delta_pin::TimeDelayGains g;
@@ -417,16 +432,14 @@ NB_MODULE(_core, m)
         g.delay = delay;
         g.mean_pairing = mean_pairing;
         new (self) delta_pin::TimeDelayControlLaw(
-          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          chain, reference_configuration,
           disturbance, name, g);
       })
     .def_ro("lumped_estimate", &delta_pin::TimeDelayControlLaw::lumped_estimate);
   nb::class_<delta_pin::DigitalRobustLaw, delta_pin::ProjectedLaw>(m, "DigitalRobust")
     .def(
       "__init__",
-      [](delta_pin::DigitalRobustLaw * self, const std::string & model_text, const Closures & closures,
-         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-         size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+      [](delta_pin::DigitalRobustLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
          const std::string & name, double dt, int delay, double K_p, double K_v, double D, double beta, double b1,
          double b2, double b3, double epsilon, double layer_samples, const Eigen::VectorXd & torque_limit,
          const Eigen::MatrixXd & transition, const Eigen::VectorXd & input_gain, const Eigen::VectorXd & observer_gain)
@@ -452,7 +465,7 @@ NB_MODULE(_core, m)
         g.input_gain = input_gain;
         g.observer_gain = observer_gain;
         new (self) delta_pin::DigitalRobustLaw(
-          model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+          chain, reference_configuration,
           disturbance, name, g);
       })
     .def_ro("rho_hat", &delta_pin::DigitalRobustLaw::rho_hat)
@@ -462,9 +475,7 @@ NB_MODULE(_core, m)
     .def_ro("s", &delta_pin::DigitalRobustLaw::s);
   nb::class_<delta_pin::LqrLaw, delta_pin::ProjectedLaw>(m, "LQR").def(
     "__init__",
-    [](delta_pin::LqrLaw * self, const std::string & model_text, const Closures & closures,
-       const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-       size_t end_effector, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
+    [](delta_pin::LqrLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
        const std::string & name, const Eigen::VectorXd & alpha0, const Eigen::VectorXd & gravity,
        const Eigen::MatrixXd & gravity_slope, const Eigen::MatrixXd & inertia, const Eigen::MatrixXd & gain)
     {
@@ -475,7 +486,7 @@ NB_MODULE(_core, m)
       g.inertia = inertia;
       g.gain = gain;
       new (self) delta_pin::LqrLaw(
-        model_text, frames_of(closures), actuated_q, actuated_v, dependent_v, end_effector, reference_configuration,
+        chain, reference_configuration,
         disturbance, name, g);
     });
 }

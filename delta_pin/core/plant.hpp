@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 
 #include <limits>
+#include <stdexcept>
 
 namespace delta_pin
 {
@@ -117,10 +118,25 @@ namespace delta_pin
     // the actuated joints' accelerations at (q, v) under tau [N m] with the truth at time t [s]
     virtual void active_accelerations(double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot) = 0;
 
+    // Whether the continuous loop integrates the whole state x = [q, v] instead of (alpha,
+    // alpha_dot): the plant moves in ways the actuated joints do not determine (idle motions,
+    // passive joints), so completing (q, v) from them would lose that motion.
+    virtual bool integrates_full_state() const { return false; }
+    // dx/dt at the whole state x under tau with the truth at time t [s] (integrates_full_state)
+    virtual void full_derivative(double /*t*/, const Vector & /*x*/, const Vector & /*tau*/, Vector & /*dx*/)
+    {
+      throw std::logic_error("this plant is integrated in active coordinates");
+    }
+    // x brought back onto the loops where its closure gap exceeds the plant's projection
+    // tolerance (integrates_full_state); whether it changed x. May throw SimulationFailure.
+    virtual bool project(Vector & /*x*/) { return false; }
+
     // the truth of the run (TruthTable); rows of normal forces and disturbances have dof() columns
     virtual void set_truth_table(const TruthTable & truth) = 0;
 
     long projections() const { return projections_; }
+    // the largest closure gap a projection brought back [m, rad] (0 before one)
+    double largest_projected_gap() const { return largest_projected_gap_; }
     // the simulated time [s] of the last SimulationFailure of run_sampled (NaN before one)
     double failure_time() const { return failure_time_; }
 
@@ -135,6 +151,7 @@ namespace delta_pin
   protected:
     Indices actuated_q_, actuated_v_;
     long projections_ = 0;
+    double largest_projected_gap_ = 0.0;
     double failure_time_ = std::numeric_limits<double>::quiet_NaN();
   };
 } // namespace delta_pin

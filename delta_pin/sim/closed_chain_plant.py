@@ -59,7 +59,7 @@ from delta_pin.errors import (
     SimulationError,
 )
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
-from delta_pin.model.core_model import core_model, core_supports
+from delta_pin.model.core_model import core_model
 from delta_pin.model.delta_robot import as_closed_chain
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
@@ -439,11 +439,8 @@ class ClosedChainPlant(Plant):
 
     def core_plant(self, step: float = 0.0, count: int = 0):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where it does not apply: idle motions, passive joints or joint couplings
-        (:func:`~delta_pin.model.core_model.core_supports`), a joint without a configuration rate
-        there, or the core turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
-        if not core_supports(self.robot):
-            return None
+        ``None`` where it does not apply: a joint without a configuration rate there, or the core
+        turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
         from delta_pin.sim.compiled_plant import build_core_plant
 
         return self._built_in_core(build_core_plant, step, count)

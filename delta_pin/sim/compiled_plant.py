@@ -26,13 +26,15 @@ import pinocchio as pin
 
 from delta_pin.compiled.core import core
 from delta_pin.errors import NativeUnavailableError, SimulationError
-from delta_pin.model.core_model import core_arguments
+from delta_pin.model.core_model import core_chain
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = [
     "CompiledSampledRun",
     "build_core_analytic_plant",
     "build_core_plant",
+    "core_unavailable",
+    "keep_core_projections",
     "run_core_sampled",
     "set_core_truth",
 ]
@@ -85,12 +87,10 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         for cm in plant.constraint_models
     ]
     settings = plant.settings
-    text, frames, actuated_q, actuated_v, dependent_v = core_arguments(robot)
     try:
         compiled = module.ClosedChainPlant(
-            text, frames, constraints, actuated_q, actuated_v, dependent_v, *plant.baumgarte_gains,
-            settings.absolute_accuracy, settings.mu, settings.max_iter, plant.projection_tolerance,
-            int(robot.end_effector),
+            core_chain(robot), constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
+            settings.max_iter, plant.projection_tolerance,
         )  # fmt: skip
     except (ValueError, RuntimeError) as exc:
         raise NativeUnavailableError(f"the compiled plant does not take {robot.name!r}: {exc}") from None
@@ -185,3 +185,21 @@ def run_core_sampled(
         time = compiled.failure_time
         raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
     return CompiledSampledRun(q, v, xyz, gap, compiled)
+
+
+def keep_core_projections(plant, compiled) -> None:
+    """Add the projections the core's copy of ``plant`` made during a run to the Python plant's
+    own counters, which the run's metadata reads: how many, and the largest gap brought back."""
+    if compiled.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
+        plant.projections += compiled.projections
+        plant.largest_projected_gap = max(plant.largest_projected_gap, compiled.largest_projected_gap)
+
+
+def core_unavailable() -> str | None:
+    """Why the compiled core cannot run here (``DELTA_PIN_NATIVE=0``, not built, built against
+    another Pinocchio), or ``None`` where it can: for the messages that refuse ``compiled=True``."""
+    try:
+        core()
+    except NativeUnavailableError as exc:
+        return str(exc)
+    return None

@@ -13,9 +13,12 @@ every evaluation assembles q(alpha) by Newton, v = S alpha_dot (a closed chain's
 torque and state rate at the reference of that time, and the plant's dynamics with its truth
 (uncertainty profile, payload) interpolated linearly between the rows of a table on the
 reference's grid -- the arithmetic of the Python plant in active coordinates with LSODA
-(:mod:`delta_pin.sim.loop`), which the tests hold it to. The samples t_k = k dt are read from the
-collocation polynomial of the step that covers them. Python is not called during the run unless
-the controller is a Python one.
+(:mod:`delta_pin.sim.loop`), which the tests hold it to. A closed chain with idle motions or
+passive joints is integrated in its whole state instead, y = [q, v, z] with the constrained
+dynamics (Baumgarte-stabilised) and the configuration coefficients' rates, projected back onto
+the loops every :data:`~delta_pin.sim.integrators.LSODA_CHUNK` samples as the Python loop does
+between its LSODA chunks. The samples t_k = k dt are read from the collocation polynomial of the
+step that covers them. Python is not called during the run unless the controller is a Python one.
 """
 
 from __future__ import annotations
@@ -27,8 +30,8 @@ import numpy as np
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Reference
 from delta_pin.errors import NativeUnavailableError, SimulationError
-from delta_pin.sim.compiled_plant import set_core_truth
-from delta_pin.sim.integrators import MAX_JOINT_SPEED
+from delta_pin.sim.compiled_plant import keep_core_projections, set_core_truth
+from delta_pin.sim.integrators import LSODA_CHUNK, MAX_JOINT_SPEED
 from delta_pin.sim.loop import ControlLoop, LoopRecord
 
 __all__ = ["RADAU_FIRST_STEP", "RADAU_MAX_STEP", "PythonLaw", "continuous_core", "run_core_continuous"]
@@ -66,7 +69,7 @@ def continuous_core(plant, controller) -> tuple[object, object] | None:
     <delta_pin.control.base.Controller.sampled_core_law>`) or, for any other continuous-time
     controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
     no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: a
-    closed chain's idle motions, passive joints or joint couplings, the core off with
+    closed chain's joint couplings, the core off with
     ``DELTA_PIN_NATIVE=0`` or not importable) or the controller is a discrete-time law. The
     plant's truth is tabulated when the run starts (:func:`run_core_continuous`)."""
     if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
@@ -128,6 +131,7 @@ def run_core_continuous(
         module.run_continuous(
             core_plant, law, table.step, *arrays, *start, float(t[1] - t[0]),
             len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run, bdf2_substeps,
+            LSODA_CHUNK,
         )  # fmt: skip
     except module.SimulationFailure as exc:
         time = run.failure_time
@@ -145,15 +149,17 @@ def run_core_continuous(
         record.internals = {name: np.array(values) for name, values in law.internals.items()}
     else:
         record.internals = controller.core_law_internals(law)
+    keep_core_projections(plant, core_plant)
+    counters = {}
     if bdf2_substeps > 0:
         steps, evaluations, split_steps, jacobians = run.bdf2_counters
-        counters = {
+        counters |= {
             "bdf2_steps": int(steps), "rhs_evaluations": int(evaluations), "split_steps": int(split_steps),
             "jacobians": int(jacobians),
         }  # fmt: skip
     else:
         steps, rejected, evaluations, jacobians, factorizations = run.counters
-        counters = {
+        counters |= {
             "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
             "jacobians": int(jacobians), "factorizations": int(factorizations),
         }  # fmt: skip

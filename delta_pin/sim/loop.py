@@ -9,7 +9,7 @@ import numpy as np
 
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
-from delta_pin.sim.compiled_plant import run_core_sampled
+from delta_pin.sim.compiled_plant import core_unavailable, keep_core_projections, run_core_sampled
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import MAX_JOINT_SPEED, all_finite, check_state, integrate_lsoda, rk4_step
 from delta_pin.sim.plants import Plant
@@ -185,9 +185,10 @@ def run_python_loop(
     wants_core = mode == "sampled" and compiled is not False
     core = plant.sampled_core(h, 2 * steps * substeps + 3) if wants_core else None
     if compiled and core is None:
+        why = core_unavailable() or "the core runs sampled mode in full coordinates"
         raise InvalidParameterError(
-            f"compiled=True: plant {plant.name!r} has no compiled sampled loop here (sampled mode, full "
-            "coordinates, no idle motions or passive joints); use compiled=None or False"
+            f"compiled=True: plant {plant.name!r} has no compiled sampled loop here ({why}); use "
+            "compiled=None or False"
         )
     law = controller.sampled_core_law() if core is not None else None
     own_velocity = type(controller).estimate_velocity is not Controller.estimate_velocity
@@ -204,8 +205,7 @@ def run_python_loop(
             reference_alpha, reference_alpha_dot, reference_alpha_ddot, dt, z, steps + 1, MAX_JOINT_SPEED
         )
         recorded = run_core_sampled(core, x, steps, substeps, dt, law)
-        if core.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
-            plant.projections += core.projections
+        keep_core_projections(plant, core)
         record.alpha, record.alpha_dot = recorded.alpha, recorded.alpha_dot
         record.tau = np.array(law.tau)
         record.take_plant_records(recorded)
@@ -232,8 +232,7 @@ def run_python_loop(
             return tau
 
         recorded = run_core_sampled(core, x, steps, substeps, dt, compiled_control)
-        if core.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
-            plant.projections += core.projections
+        keep_core_projections(plant, core)
         record.take_plant_records(recorded)
         bar.close()
         record.internals = _stacked(internals)

@@ -31,6 +31,7 @@ from delta_pin.model.frame_path import FramePath
 from delta_pin.model.robot import Delta
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
+from delta_pin.sim.compiled_plant import core_unavailable
 from delta_pin.sim.continuous_core import continuous_core, run_core_continuous
 from delta_pin.sim.drive import Drive, Encoder, check_delay
 from delta_pin.sim.integrators import INTEGRATORS
@@ -107,11 +108,11 @@ def _core_integrator(
         return ("bdf2" if integrator == "bdf2" else "radau"), in_core
     if integrator != "auto" or compiled:
         asked = f"integrator={integrator!r}" if integrator != "auto" else "compiled=True"
+        why = core_unavailable() or "a discrete-time controller, or a plant without a compiled copy"
         raise InvalidParameterError(
             f"{asked}: the compiled core runs continuous with a continuous-time controller on a plant "
-            "with a compiled copy (not a closed chain's idle motions, passive joints or joint couplings), "
-            f"the core on; plant {getattr(plant, 'name', plant)!r} here takes integrator='lsoda' "
-            "(compiled=None or False)"
+            f"with a compiled copy ({why}); plant {getattr(plant, 'name', plant)!r} here takes "
+            "integrator='lsoda' (compiled=None or False)"
         )
     return "lsoda", None
 
@@ -309,8 +310,6 @@ def simulate(
         metadata["closure_projections"] = plant.projections
     if getattr(plant, "stepped_in_core", False) or in_core is not None:
         metadata["core_plant"] = True  # the plant stepped in the compiled core
-        # the core counts its projections but does not keep the largest gap it projected back
-        metadata.pop("closure_gap_projected_max", None)
     metadata.update(counters)
     if drive is not None:
         metadata.update(sensor=None if sensor is None else sensor.metadata(), **drive.metadata())

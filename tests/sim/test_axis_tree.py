@@ -52,10 +52,10 @@ def _core_plant(module, model, closures, gains):
         (3, j1, p1.homogeneous, j2, p2.homogeneous, int(pin.ReferenceFrame.LOCAL))
         for j1, p1, j2, p2 in closures
     ]
-    return module.ClosedChainPlant(
-        model.saveToString(), [], constraints, everything, everything, np.zeros(0, dtype=np.int32), *gains,
-        1e-12, 0.0, 1, 1.0, 0,
-    )  # fmt: skip
+    chain = module.ChainDescription(
+        model.saveToString(), [], [], everything, everything, np.zeros(0, dtype=np.int32), 0, 0
+    )
+    return module.ClosedChainPlant(chain, constraints, *gains, 1e-12, 0.0, 1, 1.0)
 
 
 def test_the_axis_tree_stage_on_random_trees_of_every_axis_joint(rng):

@@ -115,16 +115,27 @@ def test_a_python_law_that_fails_inside_the_core_loop():
         dp.simulate(robot, wide_law, None, **options)
 
 
-def test_radau_names_why_a_plant_has_no_core_loop():
-    """A plant the core does not hold (the ball-ball Delta's idle rod spins here) takes LSODA by
-    default; asking for the core's Radau is refused in one line that says what works;
-    compiled=False is the Python route."""
+def test_radau_names_why_a_plant_has_no_core_loop(monkeypatch):
+    """The ball-ball Delta's idle rod spins run in the core's Radau (its whole state); with the
+    core turned off the default is LSODA, and asking for the core's Radau is refused in one line
+    that says why and what works; compiled=False is the Python route."""
+    from delta_pin.compiled import core as core_module
+
     robot = dp.load_robot("delta_ballrods")
     path = dp.JointSinusoid(robot.home, amplitude=0.05, frequency=0.5)
     ctc = dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
     options = {"t_end": 0.01, "mode": "continuous"}
-    assert dp.simulate(robot, ctc, path, **options).metadata["integrator"] == "lsoda"
-    with pytest.raises(InvalidParameterError, match=r"integrator='radau'.*takes integrator='lsoda'") as info:
-        dp.simulate(robot, ctc, path, integrator="radau", **options)
-    assert "\n" not in str(info.value)
+    assert dp.simulate(robot, ctc, path, **options).metadata["integrator"] == "radau"
     assert dp.simulate(robot, ctc, path, compiled=False, **options).metadata["integrator"] == "lsoda"
+    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
+    core_module.core.cache_clear()  # the core is looked up once per process
+    try:
+        assert dp.simulate(robot, ctc, path, **options).metadata["integrator"] == "lsoda"
+        with pytest.raises(
+            InvalidParameterError, match=r"integrator='radau'.*NATIVE=0.*takes integrator='lsoda'"
+        ) as info:
+            dp.simulate(robot, ctc, path, integrator="radau", **options)
+        assert "\n" not in str(info.value)
+    finally:
+        monkeypatch.delenv("DELTA_PIN_NATIVE")
+        core_module.core.cache_clear()

@@ -126,12 +126,28 @@ def test_a_controller_that_fails_inside_the_compiled_loop_is_named():
         dp.simulate(robot, wrong_shape, None, t_end=0.02, mode="sampled", alpha0=robot.home)
 
 
-def test_compiled_true_names_why_a_robot_has_no_compiled_plant():
-    robot = dp.load_robot("delta_ballrods")  # idle spins of the rods: state the core does not carry
+def test_compiled_true_names_why_a_robot_has_no_compiled_plant(monkeypatch):
+    """Every robot has a compiled plant now (the ball-ball Delta's idle rod spins included); with
+    the core turned off, compiled=True says so in one line, and the default takes the Python loop."""
+    from delta_pin.compiled import core as core_module
+
+    robot = dp.load_robot("delta_ballrods")
     assert robot.idle_dof > 0
-    with pytest.raises(InvalidParameterError, match=r"compiled=True.*no compiled sampled loop"):
-        options = {"t_end": 0.01, "mode": "sampled", "alpha0": robot.home, "compiled": True}
-        dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options)
+    options = {"t_end": 0.01, "mode": "sampled", "alpha0": robot.home}
+    assert dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options).metadata["core_plant"]
+    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
+    core_module.core.cache_clear()  # the core is looked up once per process
+    try:
+        with pytest.raises(
+            InvalidParameterError, match=r"compiled=True.*no compiled sampled loop.*NATIVE=0"
+        ) as info:
+            dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, compiled=True, **options)
+        assert "\n" not in str(info.value)
+        run = dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options)
+        assert not run.metadata.get("core_plant")
+    finally:
+        monkeypatch.delenv("DELTA_PIN_NATIVE")
+        core_module.core.cache_clear()
 
 
 def test_wrong_sizes_are_refused_by_the_core_not_read_past():
@@ -223,7 +239,9 @@ def test_a_compiled_law_that_diverges_stops_at_the_sample_with_its_time():
     robot = dp.load_robot("five_bar")
     nominal = dp.ClosedChainNominalModel(robot)
     controller = dp.design1(nominal, T_p=1e9, T_v=1e9)  # far beyond what 1 ms sampling holds
-    with pytest.raises(SimulationError, match=r"(non-finite|diverged|cannot close).*at t=0\.0[0-9]+ s"):
+    with pytest.raises(
+        SimulationError, match=r"(non-finite|diverged|cannot close|cannot be re-assembled).*at t=0\.0[0-9]+ s"
+    ):
         dp.simulate(robot, controller, None, t_end=0.2, mode="sampled", alpha0=robot.home + 0.05)
 
 

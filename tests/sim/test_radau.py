@@ -79,7 +79,7 @@ def _lqr_run(robot, plant, t_end, **options):
 @pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
 def test_the_lqr_runs_compiled_within_1e6_rad_of_a_tight_reference(robot, plant):
     """The LQR baseline's continuous runs take the compiled Radau IIA too (its compiled law,
-    delta_pin.compiled.lqr). Reference: LSODA at rtol 1e-11 with the readable LQR.evaluate in the
+    the core's LqrLaw). Reference: LSODA at rtol 1e-11 with the readable LQR.evaluate in the
     loop. Measured over 2 s: 7e-9 rad on the analytic plant; over the study's 15 s on the Pinocchio
     plant 3.4e-8 rad against LSODA at rtol 1e-10 (LSODA at its default rtol 1e-6: 4.2e-7)."""
     fast = _lqr_run(robot, plant, 2.0)
