@@ -357,12 +357,12 @@ namespace delta_pin
   const Vector & ClosedChainModel::residual(const Vector & q)
   {
     check_size(q, model_.nq, "q");
-    framesForwardKinematics(model_, data_, q);
+    forwardKinematics(model_, data_, q);  // the joints; of the frames, the closures' only
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
-      const SE3 & M1 = data_.oMf[closure.frame1];
-      const SE3 & M2 = data_.oMf[closure.frame2];
+      const SE3 & M1 = updateFramePlacement(model_, data_, closure.frame1);
+      const SE3 & M2 = updateFramePlacement(model_, data_, closure.frame2);
       residual_.segment<3>(row) = M1.translation() - M2.translation();
       if (closure.size == 6)
         residual_.segment<3>(row + 3) =
@@ -388,7 +388,14 @@ namespace delta_pin
 
   const Matrix & ClosedChainModel::closure_jacobian(const Vector & q)
   {
-    computeJointJacobians(model_, data_, q);
+    forwardKinematics(model_, data_, q);
+    return closure_jacobian_at_placements(q);
+  }
+
+  const Matrix & ClosedChainModel::closure_jacobian_at_placements(const Vector & q)
+  {
+    computeJointJacobians(model_, data_);  // from the joint placements already in data_
+    dependent_factored_ = false;
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
@@ -424,7 +431,7 @@ namespace delta_pin
       const Vector r = residual(q);
       if (largest(r) <= tolerance)
         return true;
-      closure_jacobian(q);
+      closure_jacobian_at_placements(q);
       Vector step = solve_dependent(r);
       const double biggest = step.cwiseAbs().maxCoeff();
       if (biggest > 0.5)
@@ -461,12 +468,25 @@ namespace delta_pin
 
   Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
   {
-    const Matrix A = dependent_columns();
-    if (idle_dof_ == 0)
-      return least_squares(A, rhs);
-    Matrix pinv, null_basis;
-    pseudo_inverse(A, pinv, null_basis);
-    return pinv * rhs;
+    if (!dependent_factored_)  // once per Jacobian: LU of A (square) or of A^T A (tall), or A^+
+    {
+      dependent_A_ = dependent_columns();
+      if (idle_dof_ > 0)
+      {
+        Matrix null_basis;
+        pseudo_inverse(dependent_A_, dependent_pinv_, null_basis);
+      }
+      else if (dependent_A_.rows() == dependent_A_.cols())
+        dependent_lu_.compute(dependent_A_);
+      else
+        dependent_lu_.compute(dependent_A_.transpose() * dependent_A_);
+      dependent_factored_ = true;
+    }
+    if (idle_dof_ > 0)
+      return dependent_pinv_ * rhs;
+    if (dependent_A_.rows() == dependent_A_.cols())
+      return dependent_lu_.solve(rhs);
+    return dependent_lu_.solve(dependent_A_.transpose() * rhs);  // least_squares' normal equations
   }
 
   Matrix ClosedChainModel::minimum_norm_map(const Matrix & pinv) const
@@ -493,7 +513,6 @@ namespace delta_pin
 
   Matrix ClosedChainModel::velocity_map(const Vector & q)
   {
-    residual(q);  // the frame placements at q, which the Jacobians read
     const Matrix & J = closure_jacobian(q);
     const Eigen::Index n = actuated_v_.size();
     if (idle_dof_ > 0)
@@ -531,7 +550,6 @@ namespace delta_pin
     q = closed;
     if (!converged)
       return false;
-    residual(q);
     closure_jacobian(q);
     const Vector correction = solve_dependent(jacobian_ * v);
     for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
@@ -541,8 +559,7 @@ namespace delta_pin
 
   Matrix ClosedChainModel::closure_jacobian_derivative(const Vector & q, const Vector & v)
   {
-    computeJointJacobiansTimeVariation(model_, data_, q, v);
-    updateFramePlacements(model_, data_);
+    computeJointJacobiansTimeVariation(model_, data_, q, v);  // getFrameJacobianTimeVariation places the frames
     Matrix J_dot(jacobian_.rows(), model_.nv);
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
@@ -571,7 +588,6 @@ namespace delta_pin
     const Vector & q, const Vector & alpha_dot, Matrix & S, Matrix & S_dot, Matrix & M, Matrix & C_tree, Vector & v)
   {
     const Eigen::Index nv = model_.nv, n = actuated_v_.size(), nd = dependent_v_.size();
-    residual(q);
     closure_jacobian(q);
     const Matrix A = dependent_columns();
     Matrix B(jacobian_.rows(), n);
@@ -638,17 +654,18 @@ namespace delta_pin
       const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
       for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
         S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
-      rate = dependent_rate(q, v);  // S_dot alpha_dot, from the drift
+      rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
       M = mass_matrix(q);
       C_tree = computeCoriolisMatrix(model_, data_, q, v);
     }
     const Vector gravity = computeGeneralizedGravity(model_, data_, q);
-    const Vector nle = nonLinearEffects(model_, data_, q, v);
-    const Matrix M_projected = S.transpose() * M * S;
+    const Matrix MS = M * S;
+    const Matrix M_projected = S.transpose() * MS;
     M_red = 0.5 * (M_projected + M_projected.transpose());
-    C_red = S.transpose() * C_tree * S + S.transpose() * M * S_dot;
+    C_red = S.transpose() * (C_tree * S + M * S_dot);
     G_red = S.transpose() * gravity;
-    C_alpha_dot = S.transpose() * (nle - gravity) + S.transpose() * (M * rate);
+    // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass
+    C_alpha_dot = S.transpose() * (C_tree * v + M * rate);
   }
 
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)

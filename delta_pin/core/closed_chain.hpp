@@ -147,13 +147,15 @@ namespace delta_pin
       RowMatrix & alpha_dot, RowMatrix & alpha_ddot, RowMatrix & actual);
 
   private:
-    const Matrix & closure_jacobian(const Vector & q);  // after the frame placements at q
+    const Matrix & closure_jacobian(const Vector & q);
+    // J_c from the joint placements already in data_ (after residual(q) or forwardKinematics)
+    const Matrix & closure_jacobian_at_placements(const Vector & q);
     // J_c_dot (closure rows, nv) at (q, v): Pinocchio's LOCAL_WORLD_ALIGNED dJ, the time derivative of J
     Matrix closure_jacobian_derivative(const Vector & q, const Vector & v);
     // J_c's dependent columns (after closure_jacobian)
     Matrix dependent_columns() const;
     // x minimising |A x - rhs| for A = J_c's dependent columns: least squares, or with idle
-    // motions the minimum-norm solution A^+ rhs
+    // motions the minimum-norm solution A^+ rhs (A factorised once per Jacobian)
     Matrix solve_dependent(const Matrix & rhs);
     // A^+ and an orthonormal basis (columns) of A's null space, of dimension idle_dof (by SVD,
     // A's rank taken as its columns less the idle motions: ClosedChainRobot._pseudo_inverse)
@@ -184,6 +186,10 @@ namespace delta_pin
     pinocchio::FrameIndex end_effector_;
     Vector residual_;
     Matrix jacobian_, frame_jacobian1_, frame_jacobian2_;
+    // J_c's dependent columns and their factorisation (solve_dependent), valid until the next Jacobian
+    bool dependent_factored_ = false;
+    Matrix dependent_A_, dependent_pinv_;
+    Eigen::PartialPivLU<Matrix> dependent_lu_;
   };
 
   class ClosedChainPlant : public CorePlant
