@@ -457,13 +457,20 @@ namespace delta_pin
 
   void ClosedChainModel::pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const
   {
+    // A full-rank factorisation from the pivoted QR of A^T (a few times cheaper than an SVD):
+    // A^T P = Q R, so A = P R^T Q^T = B Q_r^T with B = P R_r^T (rows x r, full column rank) and
+    // Q_r the first r columns of Q; then A^+ = Q_r (B^T B)^-1 B^T and the last columns of Q span
+    // A's null space. r = the columns less the idle motions (ClosedChainRobot._pseudo_inverse's
+    // rank, fixed by the classification).
     const Eigen::Index columns = A.cols(), rank = columns - idle_dof_;
-    const Eigen::JacobiSVD<Matrix> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
-    if (rank > svd.singularValues().size())
+    if (rank > A.rows())
       throw SimulationFailure("the closures' Jacobian has fewer rows than its rank with the idle motions");
-    pinv = svd.matrixV().leftCols(rank) * svd.singularValues().head(rank).cwiseInverse().asDiagonal()
-           * svd.matrixU().leftCols(rank).transpose();
-    null_basis = svd.matrixV().rightCols(idle_dof_);
+    const Eigen::ColPivHouseholderQR<Matrix> qr(A.transpose());
+    const Matrix Q = qr.householderQ();
+    const Matrix R = qr.matrixR().topRows(rank).triangularView<Eigen::Upper>();
+    const Matrix B = qr.colsPermutation() * R.transpose();
+    pinv = Q.leftCols(rank) * (B.transpose() * B).llt().solve(B.transpose());
+    null_basis = Q.rightCols(idle_dof_);
   }
 
   Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)

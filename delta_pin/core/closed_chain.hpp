@@ -157,8 +157,9 @@ namespace delta_pin
     // x minimising |A x - rhs| for A = J_c's dependent columns: least squares, or with idle
     // motions the minimum-norm solution A^+ rhs (A factorised once per Jacobian)
     Matrix solve_dependent(const Matrix & rhs);
-    // A^+ and an orthonormal basis (columns) of A's null space, of dimension idle_dof (by SVD,
-    // A's rank taken as its columns less the idle motions: ClosedChainRobot._pseudo_inverse)
+    // A^+ and an orthonormal basis (columns) of A's null space, of dimension idle_dof (a full-rank
+    // factorisation by the pivoted QR of A^T, A's rank taken as its columns less the idle motions,
+    // as ClosedChainRobot._pseudo_inverse takes it for its SVD)
     void pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const;
     // S0 = the minimum-norm map (nv, dof): the actuated joints' identity, -A^+ B on the dependent
     // joints (B: J_c's actuated columns), zero on passive joints (after closure_jacobian)

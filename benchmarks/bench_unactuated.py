@@ -1,0 +1,96 @@
+"""Robots whose motors do not determine their whole motion, in the compiled core (issue 23).
+
+Run: ``python benchmarks/bench_unactuated.py [--repeats 3] [--t-end 1]``
+
+Each case is a whole ``dp.simulate`` call as a user waits for it, the core (the default) against
+the Python loop on the Python plant (``compiled=False``), the reference of the ratio:
+
+* Gepetto's ``5bar_linkage`` and ``robot_delta`` as shipped (tests/data/gepetto: welded coaxial
+  revolutes that spin freely) and the ball-ball Delta (six rod spins): design I on the projected
+  nominal model along a 0.02 rad, 1 Hz joint sinusoid, started on it; sampled at 1 kHz with the
+  sampling-aware gains (robot_delta's gram-weight links put any 1 kHz loop with these gains past
+  stability: it runs continuous only), and continuous (the core's Radau IIA on the whole state
+  [q, v, rho_hat] against LSODA on the Python plant in full coordinates, both at rtol 1e-6);
+* menagerie's Robotiq 2F-85 (two sprung passive links, the drivers tied by a joint coupling) under
+  a constant 1 N tendon force of the user's (a Python function), sampled with 4 RK4 sub-steps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from pathlib import Path
+
+import numpy as np
+from common import machine_info, measure, print_table
+
+import delta_pin as dp
+
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
+
+
+def _load(name: str) -> dp.ClosedChainRobot:
+    if name == "delta_ballrods":
+        return dp.load_robot(name)
+    return dp.load_robot(DATA / "gepetto" / name / "robot.urdf")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--t-end", type=float, default=1.0, help="simulated time [s]")
+    args = parser.parse_args()
+    print(f"machine: {machine_info()}")
+    for name, modes in (
+        ("5bar_linkage", ("sampled", "continuous")),
+        ("robot_delta", ("continuous",)),
+        ("delta_ballrods", ("sampled", "continuous")),
+    ):
+        robot = _load(name)
+        path = dp.JointSinusoid(robot.home, amplitude=0.02, frequency=1.0)
+        nominal = dp.ClosedChainNominalModel(robot)
+        alpha_dot0 = np.full(robot.dof, 0.02 * 2 * np.pi)
+        for mode in modes:
+            period = 1e-3 if mode == "sampled" else None
+
+            def run(
+                compiled, robot=robot, path=path, nominal=nominal, mode=mode, period=period, v0=alpha_dot0
+            ):
+                law = dp.design1(nominal, sampling_period=period)
+                return dp.simulate(
+                    robot, law, path, t_end=args.t_end, mode=mode, alpha_dot0=v0, compiled=compiled
+                )
+
+            core = measure(f"{name}, {mode}: the core", lambda run=run: run(None), args.repeats)
+            python = measure(f"{name}, {mode}: the Python loop", lambda run=run: run(False), 1)
+            print_table(
+                f"{args.t_end:g} s of {name} ({robot.dof} actuated, {robot.idle_dof} idle), design I {mode}",
+                [core, python],
+                python,
+            )
+            meta = run(None).metadata
+            if mode == "continuous":
+                print(
+                    f"  Radau: {meta['radau_steps']} steps ({meta['radau_rejected']} rejected), "
+                    f"{meta['rhs_evaluations']} evaluations, {meta['jacobians']} Jacobians"
+                )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the file's position servo, read as a force source
+        robotiq = dp.load_robot(DATA / "menagerie" / "robotiq_2f85" / "2f85.xml")
+
+    def pull(t, alpha, alpha_dot):
+        return np.array([1.0])
+
+    def gripper(compiled):
+        return dp.simulate(
+            robotiq, pull, None, t_end=args.t_end, mode="sampled", substeps=4, alpha0=robotiq.home,
+            compiled=compiled,
+        )  # fmt: skip
+
+    core = measure("Robotiq, sampled: the core", lambda: gripper(None), args.repeats)
+    python = measure("Robotiq, sampled: the Python loop", lambda: gripper(False), 1)
+    print_table(f"{args.t_end:g} s of the Robotiq 2F-85 (joint coupling, 2 passive)", [core, python], python)
+
+
+if __name__ == "__main__":
+    main()
