@@ -31,6 +31,7 @@ BENCHMARKS = {
     "bench_engine.py": ["--repeats", "3"],
     "bench_drive_cpp.py": ["--repeats", "3"],
     "bench_continuous.py": ["--repeats", "3"],
+    "bench_unactuated.py": ["--repeats", "3"],
     "bench_identification.py": ["--repeats", "3"],
 }
 QUICK = {
@@ -45,6 +46,7 @@ QUICK = {
     "bench_engine.py": ["--repeats", "1", "--t-end", "3"],
     "bench_drive_cpp.py": ["--repeats", "1"],
     "bench_continuous.py": ["--repeats", "1", "--t-end", "3"],
+    "bench_unactuated.py": ["--repeats", "1", "--t-end", "0.2"],
     "bench_identification.py": ["--repeats", "1", "--quick"],
 }
 # targets of issue 7 measured by a script that may not report them (missing, skipped or failed)
