@@ -27,6 +27,7 @@ import numpy as np
 from common import machine_info, measure, print_table, report_target
 
 import delta_pin as dp
+from delta_pin.compiled.core import core
 from delta_pin.model import frame_path
 
 
@@ -117,10 +118,16 @@ def delta_cases(args) -> None:
                 args.repeats),
         measure("the law on the Delta's Pinocchio plant (the Python loop)",
                 lambda: dp.simulate(delta, law, None, **options), 1),
+        measure("a compiled PD + gravity instead (the plant and loop's own cost)",
+                lambda: dp.simulate(delta, dp.PDGravity(dp.DeltaNominalModel(delta), K_p=5.0, K_d=0.5),
+                                    None, plant=dp.ClosedChainPlant(delta), **options),
+                args.repeats),
     ]  # fmt: skip
     print_table(f"{args.t_end:g} s of the Delta holding still under a Python law", python_law, python_law[0])
     report_target("a Python law in the compiled loop, Delta, minus the law's own cost",
                   python_law[1].median - own.median, 0.15)  # fmt: skip
+    report_target("the same, beyond a compiled law's run (the call-back's own cost)",
+                  python_law[1].median - own.median - python_law[3].median, None)  # fmt: skip
     report_target(
         "the Delta through load_robot / through load_delta", cases[0].median / cases[1].median, 1.05, "x"
     )
@@ -145,13 +152,16 @@ def main() -> None:
         "the same run: the Python plant and loop (compiled=False)", lambda: run(False), args.repeats
     )
     os.environ["DELTA_PIN_NATIVE"] = "0"  # no core at all: the Python projection and IK too
+    core.cache_clear()  # the core is looked up once per process
     try:
+        _, _, bare = _five_bar_case(args.t_end)  # a robot and a nominal model built without the core
         before = measure(
-            "the same run without the core (DELTA_PIN_NATIVE=0: as before it)", lambda: run(None), 1
+            "the same run without the core (DELTA_PIN_NATIVE=0: as before it)", lambda: bare(None), 1
         )
-        c = run(None)
+        c = bare(None)
     finally:
         del os.environ["DELTA_PIN_NATIVE"]
+        core.cache_clear()
     cases = [compiled, callback, python, before]
     print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", cases, before)
     a, b, d = run(None), run(False), run(None, False)
