@@ -473,22 +473,29 @@ namespace delta_pin
     null_basis = Q.rightCols(idle_dof_);
   }
 
+  void ClosedChainModel::factor_dependent()
+  {
+    if (dependent_factored_)
+      return;
+    // once per Jacobian: LU of A (square) or of A^T A (tall), or with idle motions A^+ and N
+    dependent_A_ = dependent_columns();
+    if (idle_dof_ > 0)
+    {
+      pseudo_inverse(dependent_A_, dependent_pinv_, dependent_null_basis_);
+      dependent_null_ = Matrix::Zero(model_.nv, idle_dof_);
+      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+        dependent_null_.row(dependent_v_[r]) = dependent_null_basis_.row(r);
+    }
+    else if (dependent_A_.rows() == dependent_A_.cols())
+      dependent_lu_.compute(dependent_A_);
+    else
+      dependent_lu_.compute(dependent_A_.transpose() * dependent_A_);
+    dependent_factored_ = true;
+  }
+
   Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
   {
-    if (!dependent_factored_)  // once per Jacobian: LU of A (square) or of A^T A (tall), or A^+
-    {
-      dependent_A_ = dependent_columns();
-      if (idle_dof_ > 0)
-      {
-        Matrix null_basis;
-        pseudo_inverse(dependent_A_, dependent_pinv_, null_basis);
-      }
-      else if (dependent_A_.rows() == dependent_A_.cols())
-        dependent_lu_.compute(dependent_A_);
-      else
-        dependent_lu_.compute(dependent_A_.transpose() * dependent_A_);
-      dependent_factored_ = true;
-    }
+    factor_dependent();
     if (idle_dof_ > 0)
       return dependent_pinv_ * rhs;
     if (dependent_A_.rows() == dependent_A_.cols())
@@ -496,13 +503,18 @@ namespace delta_pin
     return dependent_lu_.solve(dependent_A_.transpose() * rhs);  // least_squares' normal equations
   }
 
-  Matrix ClosedChainModel::minimum_norm_map(const Matrix & pinv) const
+  Matrix ClosedChainModel::actuated_columns() const
+  {
+    Matrix B(jacobian_.rows(), actuated_v_.size());
+    for (Eigen::Index c = 0; c < actuated_v_.size(); ++c)
+      B.col(c) = jacobian_.col(actuated_v_[c]);
+    return B;
+  }
+
+  Matrix ClosedChainModel::minimum_norm_map()
   {
     const Eigen::Index n = actuated_v_.size();
-    Matrix B(jacobian_.rows(), n);
-    for (Eigen::Index c = 0; c < n; ++c)
-      B.col(c) = jacobian_.col(actuated_v_[c]);
-    const Matrix dependent = -pinv * B;
+    const Matrix dependent = -solve_dependent(actuated_columns());
     Matrix S = Matrix::Zero(model_.nv, n);
     for (Eigen::Index c = 0; c < n; ++c)
       S(actuated_v_[c], c) = 1.0;
@@ -520,30 +532,14 @@ namespace delta_pin
 
   Matrix ClosedChainModel::velocity_map(const Vector & q)
   {
-    const Matrix & J = closure_jacobian(q);
-    const Eigen::Index n = actuated_v_.size();
-    if (idle_dof_ > 0)
-    {
-      Matrix pinv, null_basis;
-      pseudo_inverse(dependent_columns(), pinv, null_basis);
-      const Matrix S0 = minimum_norm_map(pinv);
-      Matrix N = Matrix::Zero(model_.nv, idle_dof_);
-      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
-        N.row(dependent_v_[r]) = null_basis.row(r);
-      const Matrix M = mass_matrix(q);
-      const Matrix NtM = N.transpose() * M;
-      return S0 - N * (NtM * N).partialPivLu().solve(NtM * S0);
-    }
-    Matrix B(J.rows(), n);
-    for (Eigen::Index c = 0; c < n; ++c)
-      B.col(c) = J.col(actuated_v_[c]);
-    const Matrix dependent = -solve_dependent(B);
-    Matrix S = Matrix::Zero(model_.nv, n);
-    for (Eigen::Index c = 0; c < n; ++c)
-      S(actuated_v_[c], c) = 1.0;
-    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
-      S.row(dependent_v_[r]) = dependent.row(r);
-    return S;
+    closure_jacobian(q);
+    const Matrix S0 = minimum_norm_map();
+    if (idle_dof_ == 0)
+      return S0;
+    // the map of least kinetic energy: S0 less its share along the idle motions N
+    const Matrix & N = dependent_null_;
+    const Matrix NtM = N.transpose() * mass_matrix(q);
+    return S0 - N * (NtM * N).partialPivLu().solve(NtM * S0);
   }
 
   bool ClosedChainModel::project_state(Vector & q, Vector & v)
@@ -596,17 +592,12 @@ namespace delta_pin
   {
     const Eigen::Index nv = model_.nv, n = actuated_v_.size(), nd = dependent_v_.size();
     closure_jacobian(q);
-    const Matrix A = dependent_columns();
-    Matrix B(jacobian_.rows(), n);
-    for (Eigen::Index c = 0; c < n; ++c)
-      B.col(c) = jacobian_.col(actuated_v_[c]);
-    Matrix A_pinv, null_basis;
-    pseudo_inverse(A, A_pinv, null_basis);
+    const Matrix S0 = minimum_norm_map();  // factors J_c's dependent columns A
+    const Matrix & A = dependent_A_;
+    const Matrix & A_pinv = dependent_pinv_;
+    const Matrix & N = dependent_null_;
+    const Matrix B = actuated_columns();
     M = mass_matrix(q);
-    const Matrix S0 = minimum_norm_map(A_pinv);
-    Matrix N = Matrix::Zero(nv, idle_dof_);
-    for (Eigen::Index r = 0; r < nd; ++r)
-      N.row(dependent_v_[r]) = null_basis.row(r);
     const Matrix W = N.transpose() * M * N;
     const Eigen::PartialPivLU<Matrix> W_lu(W);
     const Matrix K = W_lu.solve(N.transpose() * M);
@@ -625,7 +616,7 @@ namespace delta_pin
       + A_pinv * A_pinv.transpose() * A_dot.transpose() * (Matrix::Identity(rows, rows) - A * A_pinv)
       + (Matrix::Identity(columns, columns) - A_pinv * A) * A_dot.transpose() * A_pinv.transpose() * A_pinv;
     const Matrix S0_dot_dependent = -(pinv_dot * B + A_pinv * B_dot);
-    const Matrix N_dot_dependent = -A_pinv * A_dot * null_basis;
+    const Matrix N_dot_dependent = -A_pinv * A_dot * dependent_null_basis_;
     Matrix S0_dot = Matrix::Zero(nv, n), N_dot = Matrix::Zero(nv, idle_dof_);
     for (Eigen::Index r = 0; r < nd; ++r)
     {

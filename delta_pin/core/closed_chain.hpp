@@ -161,9 +161,14 @@ namespace delta_pin
     // factorisation by the pivoted QR of A^T, A's rank taken as its columns less the idle motions,
     // as ClosedChainRobot._pseudo_inverse takes it for its SVD)
     void pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const;
+    // J_c's actuated columns B (after closure_jacobian)
+    Matrix actuated_columns() const;
+    // A's factorisation for solve_dependent (and with idle motions A^+ and the idle basis N), once
+    // per Jacobian
+    void factor_dependent();
     // S0 = the minimum-norm map (nv, dof): the actuated joints' identity, -A^+ B on the dependent
-    // joints (B: J_c's actuated columns), zero on passive joints (after closure_jacobian)
-    Matrix minimum_norm_map(const Matrix & pinv) const;
+    // joints, zero on passive joints (after closure_jacobian)
+    Matrix minimum_norm_map();
     // The idle motions' projection at a closed q along v = S alpha_dot
     // (ClosedChainRobot._idle_projection): S, its time derivative S_dot, the tree's M and
     // C_tree(q, v), and v; S_dot from the pseudo-inverse's derivative, N_dot = -A^+ A_dot N and
@@ -190,6 +195,7 @@ namespace delta_pin
     // J_c's dependent columns and their factorisation (solve_dependent), valid until the next Jacobian
     bool dependent_factored_ = false;
     Matrix dependent_A_, dependent_pinv_;
+    Matrix dependent_null_basis_, dependent_null_;  // A's null space: its rows, and N (nv, idle_dof)
     Eigen::PartialPivLU<Matrix> dependent_lu_;
   };
 

@@ -68,9 +68,9 @@ def continuous_core(plant, controller) -> tuple[object, object] | None:
     controller's compiled law (:meth:`Controller.sampled_core_law
     <delta_pin.control.base.Controller.sampled_core_law>`) or, for any other continuous-time
     controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
-    no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: a
-    closed chain's joint couplings, the core off with
-    ``DELTA_PIN_NATIVE=0`` or not importable) or the controller is a discrete-time law. The
+    no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: the
+    core off with ``DELTA_PIN_NATIVE=0`` or not importable, a joint without a configuration
+    rate) or the controller is a discrete-time law. The
     plant's truth is tabulated when the run starts (:func:`run_core_continuous`)."""
     if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
         return None
@@ -150,16 +150,15 @@ def run_core_continuous(
     else:
         record.internals = controller.core_law_internals(law)
     keep_core_projections(plant, core_plant)
-    counters = {}
     if bdf2_substeps > 0:
         steps, evaluations, split_steps, jacobians = run.bdf2_counters
-        counters |= {
+        counters = {
             "bdf2_steps": int(steps), "rhs_evaluations": int(evaluations), "split_steps": int(split_steps),
             "jacobians": int(jacobians),
         }  # fmt: skip
     else:
         steps, rejected, evaluations, jacobians, factorizations = run.counters
-        counters |= {
+        counters = {
             "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
             "jacobians": int(jacobians), "factorizations": int(factorizations),
         }  # fmt: skip

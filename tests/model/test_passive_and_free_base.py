@@ -17,45 +17,11 @@ import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, URDFConventionError
 from delta_pin.model.gepetto_loader import _universal_axes
 from delta_pin.sim.integrators import rk4_step
-from tests.model.closed_chain_fixtures import pinocchio_accelerations
+from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR, pinocchio_accelerations
 
 mujoco = pytest.importorskip("mujoco")
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-
-# a planar five-bar: one motor (with a rotor inertia), one sprung and damped base joint that no
-# motor drives (so passive), a damped elbow; the loop closed at the tips by a connect
-SPRUNG_FIVE_BAR = """<mujoco model="sprung_five_bar">
-  <compiler angle="radian"/>
-  <option gravity="0 0 -9.81"/>
-  <worldbody>
-    <body name="left" pos="-0.1 0 0">
-      <joint name="motor_joint" type="hinge" axis="0 1 0" armature="0.002"/>
-      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
-      <body name="left_distal" pos="0 0 -0.2">
-        <joint name="left_elbow" type="hinge" axis="0 1 0" damping="0.01"/>
-        <geom type="capsule" fromto="0 0 0 0.1 0 -0.2" size="0.01" mass="0.2"/>
-        <site name="tip" pos="0.1 0 -0.2"/>
-      </body>
-    </body>
-    <body name="right" pos="0.1 0 0">
-      <joint name="spring_joint" type="hinge" axis="0 1 0" stiffness="3" springref="0.2" damping="0.05"/>
-      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
-      <body name="right_distal" pos="0 0 -0.2">
-        <joint name="right_elbow" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 -0.1 0 -0.2" size="0.01" mass="0.2"/>
-        <site name="right_tip" pos="-0.1 0 -0.2"/>
-      </body>
-    </body>
-  </worldbody>
-  <equality>
-    <connect site1="tip" site2="right_tip"/>
-  </equality>
-  <actuator>
-    <motor joint="motor_joint"/>
-  </actuator>
-</mujoco>
-"""
 
 
 @pytest.fixture(scope="module")

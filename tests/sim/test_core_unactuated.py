@@ -18,10 +18,10 @@ mass: their share of S is then fixed by N^T M N, and a rounding of M moves it by
 eps |M| / lambda_min(N^T M N) (robot_delta's spinning links weigh grams: 4.5e-10, measured
 8.5e-10 in S), so the bound is the larger of 1e-10 and ten times that estimate; an RK4 step
 and its projection, 1e-10 relative (measured ~1e-13); a sampled closed loop, 1e-9 rad (measured
-~1e-14); a continuous run against
-LSODA at rtol 1e-10, 1e-6 rad, the bound of the core's continuous tests (measured up to ~5e-8,
-LSODA's own error: the core's Radau at rtol 1e-8 is within ~1e-10 of the exact solution, which
-for design I started on its reference with an exact nominal model is the reference itself).
+~1e-14); a continuous run against LSODA at rtol 1e-10, 1e-6 rad, the bound of the core's
+continuous tests (measured up to ~5e-8, LSODA's own error: the core's Radau at rtol 1e-8 is within
+~1e-10 of the exact solution, which for design I started on its reference with an exact nominal
+model is the reference itself).
 """
 
 from __future__ import annotations
@@ -35,43 +35,10 @@ import delta_pin as dp
 from delta_pin.model.core_model import core_model
 from delta_pin.sim.compiled_plant import build_core_plant
 from delta_pin.sim.integrators import rk4_step
+from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 IDLE = ["5bar_linkage", "robot_delta", "delta_ballrods"]
-
-# tests/model/test_passive_and_free_base.py's sprung five-bar: one motor, a sprung and damped base
-# joint no motor drives (passive), a damped elbow
-SPRUNG_FIVE_BAR = """<mujoco model="sprung_five_bar">
-  <compiler angle="radian"/>
-  <option gravity="0 0 -9.81"/>
-  <worldbody>
-    <body name="left" pos="-0.1 0 0">
-      <joint name="motor_joint" type="hinge" axis="0 1 0" armature="0.002"/>
-      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
-      <body name="left_distal" pos="0 0 -0.2">
-        <joint name="left_elbow" type="hinge" axis="0 1 0" damping="0.01"/>
-        <geom type="capsule" fromto="0 0 0 0.1 0 -0.2" size="0.01" mass="0.2"/>
-        <site name="tip" pos="0.1 0 -0.2"/>
-      </body>
-    </body>
-    <body name="right" pos="0.1 0 0">
-      <joint name="spring_joint" type="hinge" axis="0 1 0" stiffness="3" springref="0.2" damping="0.05"/>
-      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
-      <body name="right_distal" pos="0 0 -0.2">
-        <joint name="right_elbow" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 -0.1 0 -0.2" size="0.01" mass="0.2"/>
-        <site name="right_tip" pos="-0.1 0 -0.2"/>
-      </body>
-    </body>
-  </worldbody>
-  <equality>
-    <connect site1="tip" site2="right_tip"/>
-  </equality>
-  <actuator>
-    <motor joint="motor_joint"/>
-  </actuator>
-</mujoco>
-"""
 
 
 def load(name: str) -> dp.ClosedChainRobot:
