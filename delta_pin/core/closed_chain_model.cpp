@@ -1,0 +1,579 @@
+// The kinematics and projected dynamics of a closed-chain robot (ClosedChainModel,
+// closed_chain.hpp): the closure residual and Jacobian, Newton assembly, S and its derivative, the
+// projected M, C, G, a frame's path as a joint reference. A translation unit of its own, apart from
+// the plant's (closed_chain.cpp), so that the two heaviest parts of the core compile in parallel.
+
+#include "closed_chain.hpp"
+
+#include "checks.hpp"
+#include "failure.hpp"
+
+#include <pinocchio/algorithm/crba.hpp>
+#include <pinocchio/algorithm/frames.hpp>
+#include <pinocchio/algorithm/jacobian.hpp>
+#include <pinocchio/algorithm/joint-configuration.hpp>
+#include <pinocchio/algorithm/kinematics.hpp>
+#include <pinocchio/algorithm/rnea.hpp>
+#include <pinocchio/serialization.hpp>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace delta_pin
+{
+  using namespace pinocchio;
+
+  namespace
+  {
+    // x minimising |A x - b| for A of full column rank: LU when square, the normal equations
+    // when tall (delta_pin.model.closed_chain.least_squares)
+    Matrix least_squares(const Matrix & A, const Matrix & b)
+    {
+      if (A.rows() == A.cols())
+        return A.partialPivLu().solve(b);
+      return (A.transpose() * A).partialPivLu().solve(A.transpose() * b);
+    }
+  } // namespace
+
+  void JointCouplingSpec::polynomial(double q2_value, double & value, double & slope, double & curvature) const
+  {
+    const double x = v2 < 0 ? 0.0 : q2_value - reference2;
+    value = slope = curvature = 0.0;
+    double power = 1.0;  // x^k
+    for (Eigen::Index k = 0; k < coefficients.size(); ++k)
+    {
+      value += coefficients[k] * power;
+      if (k + 1 < coefficients.size())
+        slope += (double)(k + 1) * coefficients[k + 1] * power;
+      if (k + 2 < coefficients.size())
+        curvature += (double)((k + 2) * (k + 1)) * coefficients[k + 2] * power;
+      power *= x;
+    }
+  }
+
+  void ClosedChainModel::coupling_terms(const Vector & q, const Vector & v, Vector & r, Matrix & J, Vector & drift) const
+  {
+    const Eigen::Index k = (Eigen::Index)couplings_.size();
+    r.resize(k);
+    J.setZero(k, model_.nv);
+    drift.setZero(k);
+    for (Eigen::Index row = 0; row < k; ++row)
+    {
+      const JointCouplingSpec & c = couplings_[row];
+      double value, slope, curvature;
+      c.polynomial(c.q2 >= 0 ? q[c.q2] : 0.0, value, slope, curvature);
+      r[row] = q[c.q1] - c.reference1 - value;
+      J(row, c.v1) = 1.0;
+      if (c.v2 >= 0)
+      {
+        J(row, c.v2) -= slope;
+        if (v.size())
+          drift[row] = -curvature * v[c.v2] * v[c.v2];
+      }
+    }
+  }
+
+  ClosedChainModel::ClosedChainModel(const ChainDescription & chain)
+  : closures_(chain.closures)
+  , couplings_(chain.couplings)
+  , actuated_q_(chain.actuated_q)
+  , actuated_v_(chain.actuated_v)
+  , dependent_v_(chain.dependent_v)
+  , idle_dof_(chain.idle_dof)
+  , end_effector_(chain.end_effector)
+  {
+    model_.loadFromString(chain.model_text);
+    if (end_effector_ >= (FrameIndex)model_.nframes)
+      throw std::invalid_argument("the end-effector frame is not in the model");
+    if (actuated_q_.size() != actuated_v_.size())
+      throw std::invalid_argument("the actuated joints need one entry in q and one in v each");
+    if (idle_dof_ < 0 || idle_dof_ > dependent_v_.size())
+      throw std::invalid_argument(
+        "idle_dof=" + std::to_string(idle_dof_) + " must lie between 0 and the dependent joints' "
+        + std::to_string(dependent_v_.size()));
+    for (const Indices * indices : {&actuated_v_, &dependent_v_})
+      for (Eigen::Index i = 0; i < indices->size(); ++i)
+        if ((*indices)[i] < 0 || (*indices)[i] >= model_.nv)
+          throw std::invalid_argument("a joint's entry in v lies outside the model's " + std::to_string(model_.nv));
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      if (actuated_q_[i] < 0 || actuated_q_[i] >= model_.nq)
+        throw std::invalid_argument("an actuated joint's entry in q lies outside the model's " + std::to_string(model_.nq));
+    int size = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      if (closure.frame1 >= (FrameIndex)model_.nframes || closure.frame2 >= (FrameIndex)model_.nframes)
+        throw std::invalid_argument("a closure frame is not in the model");
+      size += closure.size;
+    }
+    closure_rows_ = size;
+    for (const JointCouplingSpec & c : couplings_)
+    {
+      const bool inside = c.q1 >= 0 && c.q1 < model_.nq && c.v1 >= 0 && c.v1 < model_.nv && c.q2 < model_.nq
+                          && c.v2 < model_.nv && (c.q2 < 0) == (c.v2 < 0);
+      if (!inside)
+        throw std::invalid_argument("a joint coupling's entries lie outside the model");
+    }
+    size += (int)couplings_.size();
+    data_ = Data(model_);
+    residual_ = Vector::Zero(size);
+    jacobian_ = Matrix::Zero(size, model_.nv);
+    frame_jacobian1_ = Matrix::Zero(6, model_.nv);
+    frame_jacobian2_ = Matrix::Zero(6, model_.nv);
+  }
+
+  const Vector & ClosedChainModel::residual(const Vector & q)
+  {
+    check_size(q, model_.nq, "q");
+    forwardKinematics(model_, data_, q);  // the joints; of the frames, the closures' only
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const SE3 & M1 = updateFramePlacement(model_, data_, closure.frame1);
+      const SE3 & M2 = updateFramePlacement(model_, data_, closure.frame2);
+      residual_.segment<3>(row) = M1.translation() - M2.translation();
+      if (closure.size == 6)
+        residual_.segment<3>(row + 3) =
+          -M1.rotation() * log3(Eigen::Matrix3d(M1.rotation().transpose() * M2.rotation()));
+      row += closure.size;
+    }
+    if (!couplings_.empty())
+    {
+      Vector r, drift;
+      Matrix J;
+      coupling_terms(q, Vector(), r, J, drift);
+      residual_.tail(r.size()) = r;
+    }
+    return residual_;
+  }
+
+  double ClosedChainModel::closure_gap(const Vector & q)
+  {
+    if (!q.allFinite())
+      return std::numeric_limits<double>::quiet_NaN();
+    return largest(residual(q));
+  }
+
+  const Matrix & ClosedChainModel::closure_jacobian(const Vector & q)
+  {
+    forwardKinematics(model_, data_, q);
+    return closure_jacobian_at_placements(q);
+  }
+
+  const Matrix & ClosedChainModel::closure_jacobian_at_placements(const Vector & q)
+  {
+    computeJointJacobians(model_, data_);  // from the joint placements already in data_
+    dependent_factored_ = false;
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      frame_jacobian1_.setZero();
+      frame_jacobian2_.setZero();
+      getFrameJacobian(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobian(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      jacobian_.middleRows(row, closure.size) =
+        (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
+      row += closure.size;
+    }
+    if (!couplings_.empty())
+    {
+      Vector r, drift;
+      Matrix J;
+      coupling_terms(q, Vector(), r, J, drift);
+      jacobian_.bottomRows(J.rows()) = J;
+    }
+    return jacobian_;
+  }
+
+  bool ClosedChainModel::configuration(
+    const Vector & alpha, const Vector & guess, Vector & q, double tolerance, int iterations)
+  {
+    check_size(alpha, actuated_q_.size(), "alpha");
+    check_size(guess, model_.nq, "the initial guess q");
+    q = guess;
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      q[actuated_q_[i]] = alpha[i];
+    Vector dv = Vector::Zero(model_.nv);
+    for (int iteration = 0; iteration < iterations; ++iteration)
+    {
+      const Vector r = residual(q);
+      if (largest(r) <= tolerance)
+        return true;
+      closure_jacobian_at_placements(q);
+      Vector step = solve_dependent(r);
+      const double biggest = step.cwiseAbs().maxCoeff();
+      if (biggest > 0.5)
+        step *= 0.5 / biggest;
+      dv.setZero();
+      for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
+        dv[dependent_v_[c]] = -step[c];
+      q = integrate(model_, q, dv);
+      if (!q.allFinite())
+        return false;
+    }
+    residual(q);
+    return false;
+  }
+
+  Matrix ClosedChainModel::dependent_columns() const
+  {
+    Matrix A(jacobian_.rows(), dependent_v_.size());
+    for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
+      A.col(c) = jacobian_.col(dependent_v_[c]);
+    return A;
+  }
+
+  void ClosedChainModel::pseudo_inverse(const Matrix & A, Matrix & pinv, Matrix & null_basis) const
+  {
+    // A full-rank factorisation from the pivoted QR of A^T (a few times cheaper than an SVD):
+    // A^T P = Q R, so A = P R^T Q^T = B Q_r^T with B = P R_r^T (rows x r, full column rank) and
+    // Q_r the first r columns of Q; then A^+ = Q_r (B^T B)^-1 B^T and the last columns of Q span
+    // A's null space. r = the columns less the idle motions (ClosedChainRobot._pseudo_inverse's
+    // rank, fixed by the classification).
+    const Eigen::Index columns = A.cols(), rank = columns - idle_dof_;
+    if (rank > A.rows())
+      throw SimulationFailure("the closures' Jacobian has fewer rows than its rank with the idle motions");
+    const Eigen::ColPivHouseholderQR<Matrix> qr(A.transpose());
+    const Matrix Q = qr.householderQ();
+    const Matrix R = qr.matrixR().topRows(rank).triangularView<Eigen::Upper>();
+    const Matrix B = qr.colsPermutation() * R.transpose();
+    pinv = Q.leftCols(rank) * (B.transpose() * B).llt().solve(B.transpose());
+    null_basis = Q.rightCols(idle_dof_);
+  }
+
+  void ClosedChainModel::factor_dependent()
+  {
+    if (dependent_factored_)
+      return;
+    // once per Jacobian: LU of A (square) or of A^T A (tall), or with idle motions A^+ and N
+    dependent_A_ = dependent_columns();
+    if (idle_dof_ > 0)
+    {
+      pseudo_inverse(dependent_A_, dependent_pinv_, dependent_null_basis_);
+      dependent_null_ = Matrix::Zero(model_.nv, idle_dof_);
+      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+        dependent_null_.row(dependent_v_[r]) = dependent_null_basis_.row(r);
+    }
+    else if (dependent_A_.rows() == dependent_A_.cols())
+      dependent_lu_.compute(dependent_A_);
+    else
+      dependent_lu_.compute(dependent_A_.transpose() * dependent_A_);
+    dependent_factored_ = true;
+  }
+
+  Matrix ClosedChainModel::solve_dependent(const Matrix & rhs)
+  {
+    factor_dependent();
+    if (idle_dof_ > 0)
+      return dependent_pinv_ * rhs;
+    if (dependent_A_.rows() == dependent_A_.cols())
+      return dependent_lu_.solve(rhs);
+    return dependent_lu_.solve(dependent_A_.transpose() * rhs);  // least_squares' normal equations
+  }
+
+  Matrix ClosedChainModel::actuated_columns() const
+  {
+    Matrix B(jacobian_.rows(), actuated_v_.size());
+    for (Eigen::Index c = 0; c < actuated_v_.size(); ++c)
+      B.col(c) = jacobian_.col(actuated_v_[c]);
+    return B;
+  }
+
+  Matrix ClosedChainModel::minimum_norm_map()
+  {
+    const Eigen::Index n = actuated_v_.size();
+    const Matrix dependent = -solve_dependent(actuated_columns());
+    Matrix S = Matrix::Zero(model_.nv, n);
+    for (Eigen::Index c = 0; c < n; ++c)
+      S(actuated_v_[c], c) = 1.0;
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      S.row(dependent_v_[r]) = dependent.row(r);
+    return S;
+  }
+
+  Matrix ClosedChainModel::mass_matrix(const Vector & q)
+  {
+    crba(model_, data_, q);
+    data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
+    return data_.M;
+  }
+
+  Matrix ClosedChainModel::velocity_map(const Vector & q)
+  {
+    closure_jacobian(q);
+    const Matrix S0 = minimum_norm_map();
+    if (idle_dof_ == 0)
+      return S0;
+    // the map of least kinetic energy: S0 less its share along the idle motions N
+    const Matrix & N = dependent_null_;
+    const Matrix NtM = N.transpose() * mass_matrix(q);
+    return S0 - N * (NtM * N).partialPivLu().solve(NtM * S0);
+  }
+
+  bool ClosedChainModel::project_state(Vector & q, Vector & v)
+  {
+    check_size(q, model_.nq, "q");
+    check_size(v, model_.nv, "v");
+    Vector alpha(actuated_q_.size()), closed;
+    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+      alpha[i] = q[actuated_q_[i]];
+    const bool converged = configuration(alpha, q, closed);
+    q = closed;
+    if (!converged)
+      return false;
+    closure_jacobian(q);
+    const Vector correction = solve_dependent(jacobian_ * v);
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      v[dependent_v_[r]] -= correction[r];
+    return true;
+  }
+
+  Matrix ClosedChainModel::closure_jacobian_derivative(const Vector & q, const Vector & v)
+  {
+    computeJointJacobiansTimeVariation(model_, data_, q, v);  // getFrameJacobianTimeVariation places the frames
+    Matrix J_dot(jacobian_.rows(), model_.nv);
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      frame_jacobian1_.setZero();
+      frame_jacobian2_.setZero();
+      getFrameJacobianTimeVariation(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobianTimeVariation(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
+      row += closure.size;
+    }
+    J_dot.bottomRows((Eigen::Index)couplings_.size()).setZero();
+    for (size_t k = 0; k < couplings_.size(); ++k)  // -p'' v_2 e_2
+    {
+      const JointCouplingSpec & c = couplings_[k];
+      if (c.v2 < 0)
+        continue;
+      double value, slope, curvature;
+      c.polynomial(q[c.q2], value, slope, curvature);
+      J_dot(closure_rows_ + (Eigen::Index)k, c.v2) = -curvature * v[c.v2];
+    }
+    return J_dot;
+  }
+
+  void ClosedChainModel::idle_projection(
+    const Vector & q, const Vector & alpha_dot, Matrix & S, Matrix & S_dot, Matrix & M, Matrix & C_tree, Vector & v)
+  {
+    const Eigen::Index nv = model_.nv, n = actuated_v_.size(), nd = dependent_v_.size();
+    closure_jacobian(q);
+    const Matrix S0 = minimum_norm_map();  // factors J_c's dependent columns A
+    const Matrix & A = dependent_A_;
+    const Matrix & A_pinv = dependent_pinv_;
+    const Matrix & N = dependent_null_;
+    const Matrix B = actuated_columns();
+    M = mass_matrix(q);
+    const Matrix W = N.transpose() * M * N;
+    const Eigen::PartialPivLU<Matrix> W_lu(W);
+    const Matrix K = W_lu.solve(N.transpose() * M);
+    const Matrix P = Matrix::Identity(nv, nv) - N * K;
+    S = P * S0;
+    v = S * alpha_dot;
+    const Matrix J_dot = closure_jacobian_derivative(q, v);
+    Matrix A_dot(J_dot.rows(), nd), B_dot(J_dot.rows(), n);
+    for (Eigen::Index c = 0; c < nd; ++c)
+      A_dot.col(c) = J_dot.col(dependent_v_[c]);
+    for (Eigen::Index c = 0; c < n; ++c)
+      B_dot.col(c) = J_dot.col(actuated_v_[c]);
+    const Eigen::Index rows = A.rows(), columns = A.cols();
+    const Matrix pinv_dot =
+      -A_pinv * A_dot * A_pinv
+      + A_pinv * A_pinv.transpose() * A_dot.transpose() * (Matrix::Identity(rows, rows) - A * A_pinv)
+      + (Matrix::Identity(columns, columns) - A_pinv * A) * A_dot.transpose() * A_pinv.transpose() * A_pinv;
+    const Matrix S0_dot_dependent = -(pinv_dot * B + A_pinv * B_dot);
+    const Matrix N_dot_dependent = -A_pinv * A_dot * dependent_null_basis_;
+    Matrix S0_dot = Matrix::Zero(nv, n), N_dot = Matrix::Zero(nv, idle_dof_);
+    for (Eigen::Index r = 0; r < nd; ++r)
+    {
+      S0_dot.row(dependent_v_[r]) = S0_dot_dependent.row(r);
+      N_dot.row(dependent_v_[r]) = N_dot_dependent.row(r);
+    }
+    C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    const Matrix M_dot = C_tree + C_tree.transpose();
+    const Matrix W_dot = N_dot.transpose() * M * N + N.transpose() * M_dot * N + N.transpose() * M * N_dot;
+    const Matrix K_dot = W_lu.solve(N_dot.transpose() * M + N.transpose() * M_dot - W_dot * K);
+    const Matrix P_dot = -(N_dot * K + N * K_dot);
+    S_dot = P_dot * S0 + P * S0_dot;
+  }
+
+  void ClosedChainModel::reduced_terms(
+    const Vector & q, const Vector & alpha_dot, Matrix & M_red, Matrix & C_red, Vector & G_red, Vector & C_alpha_dot)
+  {
+    check_size(q, model_.nq, "q");
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    Matrix S, S_dot, M, C_tree;
+    Vector v, rate;
+    if (idle_dof_ > 0)
+    {
+      idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
+      rate = S_dot * alpha_dot;
+    }
+    else
+    {
+      S = velocity_map(q);  // J_c at q stays in jacobian_
+      v = S * alpha_dot;
+      const Matrix J_dot = closure_jacobian_derivative(q, v);
+      S_dot = Matrix::Zero(model_.nv, S.cols());
+      const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
+      for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+        S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
+      rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
+      M = mass_matrix(q);
+      C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    }
+    const Vector gravity = computeGeneralizedGravity(model_, data_, q);
+    const Matrix MS = M * S;
+    const Matrix M_projected = S.transpose() * MS;
+    M_red = 0.5 * (M_projected + M_projected.transpose());
+    C_red = S.transpose() * (C_tree * S + M * S_dot);
+    G_red = S.transpose() * gravity;
+    // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass
+    C_alpha_dot = S.transpose() * (C_tree * v + M * rate);
+  }
+
+  Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
+  {
+    forwardKinematics(model_, data_, q, v, Vector::Zero(model_.nv));
+    Vector drift(jacobian_.rows());
+    Eigen::Index row = 0;
+    for (const ClosureFrames & closure : closures_)
+    {
+      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
+      drift.segment<3>(row) = a1.linear() - a2.linear();
+      if (closure.size == 6)
+        drift.segment<3>(row + 3) = a1.angular() - a2.angular();
+      row += closure.size;
+    }
+    if (!couplings_.empty())
+    {
+      Vector r, coupling_drift;
+      Matrix J;
+      coupling_terms(q, v, r, J, coupling_drift);
+      drift.tail(coupling_drift.size()) = coupling_drift;
+    }
+    return drift;
+  }
+
+  Vector ClosedChainModel::dependent_rate(const Vector & q, const Vector & v)
+  {
+    const Vector rate_dependent = -solve_dependent(closure_drift(q, v));  // J_c at q in jacobian_
+    Vector rate = Vector::Zero(model_.nv);
+    for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
+      rate[dependent_v_[r]] = rate_dependent[r];
+    return rate;
+  }
+
+  Eigen::Vector3d ClosedChainModel::end_effector_position(const Vector & q)
+  {
+    check_size(q, model_.nq, "q");
+    forwardKinematics(model_, data_, q);
+    return updateFramePlacement(model_, data_, end_effector_).translation();
+  }
+
+  Matrix ClosedChainModel::frame_jacobian(const Vector & q, FrameIndex frame)
+  {
+    const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in data_
+    frame_jacobian1_.setZero();
+    getFrameJacobian(model_, data_, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+    return frame_jacobian1_ * S;
+  }
+
+  Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
+  {
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    Vector v, rate;
+    if (idle_dof_ > 0)
+    {
+      Matrix S, S_dot, M, C_tree;
+      idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
+      rate = S_dot * alpha_dot;
+    }
+    else
+    {
+      v = velocity_map(q) * alpha_dot;
+      rate = dependent_rate(q, v);
+    }
+    forwardKinematics(model_, data_, q, v, rate);
+    return getFrameClassicalAcceleration(model_, data_, frame, LOCAL_WORLD_ALIGNED).linear();
+  }
+
+  bool ClosedChainModel::inverse_kinematics(
+    const Eigen::Vector3d & target, FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
+    double tolerance, int iterations)
+  {
+    check_size(alpha, actuated_q_.size(), "alpha");
+    Vector assembled;
+    Vector error(rows.size());
+    Matrix J(rows.size(), actuated_v_.size());
+    for (int iteration = 0; iteration < iterations; ++iteration)
+    {
+      if (!configuration(alpha, q, assembled))
+        return false;
+      q = assembled;
+      forwardKinematics(model_, data_, q);
+      const Eigen::Vector3d position = updateFramePlacement(model_, data_, frame).translation();
+      for (Eigen::Index r = 0; r < rows.size(); ++r)
+        error[r] = position[rows[r]] - target[rows[r]];
+      if (error.cwiseAbs().maxCoeff() <= tolerance)
+        return true;
+      const Matrix J_frame = frame_jacobian(q, frame);
+      for (Eigen::Index r = 0; r < rows.size(); ++r)
+        J.row(r) = J_frame.row(rows[r]);
+      Vector step = least_squares(J, error);
+      const double biggest = step.cwiseAbs().maxCoeff();
+      if (biggest > 0.2)
+        step *= 0.2 / biggest;
+      alpha -= step;
+    }
+    return false;
+  }
+
+  long ClosedChainModel::joint_reference(
+    FrameIndex frame, const Indices & rows, const Vector & times, const RowMatrix & xyz, const RowMatrix & xyz_dot,
+    const RowMatrix & xyz_ddot, const Vector & alpha0, Vector & q, RowMatrix & alpha, RowMatrix & alpha_dot,
+    RowMatrix & alpha_ddot, RowMatrix & actual)
+  {
+    const Eigen::Index n = times.size(), dof = actuated_v_.size();
+    if (rows.size() != dof || xyz.rows() != n || xyz_dot.rows() != n || xyz_ddot.rows() != n || xyz.cols() != 3)
+      throw std::invalid_argument("joint_reference: one task coordinate per actuator and one row per time");
+    check_size(q, model_.nq, "q");
+    alpha.resize(n, dof);
+    alpha_dot.resize(n, dof);
+    alpha_ddot.resize(n, dof);
+    actual.resize(n, 3);
+    Vector guess = alpha0;
+    Matrix J(dof, dof);
+    Vector task(dof);
+    for (Eigen::Index k = 0; k < n; ++k)
+    {
+      if (k > 0)
+      {
+        const double step = times[k] - times[k - 1];
+        guess = alpha.row(k - 1).transpose() + step * alpha_dot.row(k - 1).transpose()
+                + 0.5 * step * step * alpha_ddot.row(k - 1).transpose();
+      }
+      if (!inverse_kinematics(xyz.row(k).transpose(), frame, rows, guess, q))
+        return (long)k;
+      const Matrix J_frame = frame_jacobian(q, frame);
+      for (Eigen::Index r = 0; r < dof; ++r)
+        J.row(r) = J_frame.row(rows[r]);
+      Eigen::PartialPivLU<Matrix> lu(J);
+      alpha.row(k) = guess.transpose();
+      for (Eigen::Index r = 0; r < dof; ++r)
+        task[r] = xyz_dot(k, rows[r]);
+      const Vector rates = lu.solve(task);
+      alpha_dot.row(k) = rates.transpose();
+      const Eigen::Vector3d drift = frame_acceleration_drift(q, rates, frame);
+      for (Eigen::Index r = 0; r < dof; ++r)
+        task[r] = xyz_ddot(k, rows[r]) - drift[rows[r]];
+      alpha_ddot.row(k) = lu.solve(task).transpose();
+      forwardKinematics(model_, data_, q);
+      actual.row(k) = updateFramePlacement(model_, data_, frame).translation().transpose();
+    }
+    return -1;
+  }
+} // namespace delta_pin
