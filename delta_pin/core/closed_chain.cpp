@@ -276,11 +276,11 @@ namespace delta_pin
       responses_.col(c) = ddq_ - free_;
     }
     target_ = -(coupling_J_ * free_ + coupling_drift_) - baumgarte_kd_ * (coupling_J_ * v) - baumgarte_kp_ * coupling_r_;
+    // J D = J M_c^-1 J^T is symmetric positive semi-definite: LDLT solves it, and where a coupling
+    // the closures already imply makes it singular (redundant rows), every solution it may give
+    // moves ddq alike (D lambda = 0 for J D lambda = 0)
     const Matrix system = coupling_J_ * responses_;
-    const Eigen::FullPivLU<Matrix> lu(system);
-    // a coupling the closures already imply (redundant rows): the least-squares multipliers
-    const Vector multipliers = lu.isInvertible() ? Vector(lu.solve(target_))
-                                                 : Vector(system.completeOrthogonalDecomposition().solve(target_));
+    const Vector multipliers = system.ldlt().solve(target_);
     ddq_ = free_ + responses_ * multipliers;
     return ddq_;
   }

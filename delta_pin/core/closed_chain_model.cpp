@@ -1,12 +1,14 @@
 // The kinematics and projected dynamics of a closed-chain robot (ClosedChainModel,
 // closed_chain.hpp): the closure residual and Jacobian, Newton assembly, S and its derivative, the
 // projected M, C, G, a frame's path as a joint reference. A translation unit of its own, apart from
-// the plant's (closed_chain.cpp), so that the two heaviest parts of the core compile in parallel.
+// the plant's (closed_chain.cpp) and the model's text archive (model_text.cpp), so that the
+// heaviest parts of the core compile in parallel.
 
 #include "closed_chain.hpp"
 
 #include "checks.hpp"
 #include "failure.hpp"
+#include "model_text.hpp"
 
 #include <pinocchio/algorithm/crba.hpp>
 #include <pinocchio/algorithm/frames.hpp>
@@ -14,7 +16,6 @@
 #include <pinocchio/algorithm/joint-configuration.hpp>
 #include <pinocchio/algorithm/kinematics.hpp>
 #include <pinocchio/algorithm/rnea.hpp>
-#include <pinocchio/serialization.hpp>
 
 #include <cmath>
 #include <limits>
@@ -26,6 +27,14 @@ namespace delta_pin
 
   namespace
   {
+    // a * b. Each distinct Eigen product expression (a transpose, a product of products, ...)
+    // instantiates Eigen's matrix-product kernels anew, and the idle projection's dozens of them
+    // took ~80 s of this unit's compilation; through this function they share one.
+    Matrix mul(const Matrix & a, const Matrix & b)
+    {
+      return a * b;
+    }
+
     // x minimising |A x - b| for A of full column rank: LU when square, the normal equations
     // when tall (delta_pin.model.closed_chain.least_squares)
     Matrix least_squares(const Matrix & A, const Matrix & b)
@@ -83,7 +92,7 @@ namespace delta_pin
   , idle_dof_(chain.idle_dof)
   , end_effector_(chain.end_effector)
   {
-    model_.loadFromString(chain.model_text);
+    model_from_text(chain.model_text, model_);
     if (end_effector_ >= (FrameIndex)model_.nframes)
       throw std::invalid_argument("the end-effector frame is not in the model");
     if (actuated_q_.size() != actuated_v_.size())
@@ -306,8 +315,8 @@ namespace delta_pin
       return S0;
     // the map of least kinetic energy: S0 less its share along the idle motions N
     const Matrix & N = dependent_null_;
-    const Matrix NtM = N.transpose() * mass_matrix(q);
-    return S0 - N * (NtM * N).partialPivLu().solve(NtM * S0);
+    const Matrix NtM = mul(N.transpose(), mass_matrix(q));
+    return S0 - mul(N, mul(NtM, N).partialPivLu().solve(mul(NtM, S0)));
   }
 
   bool ClosedChainModel::project_state(Vector & q, Vector & v)
@@ -366,11 +375,13 @@ namespace delta_pin
     const Matrix & N = dependent_null_;
     const Matrix B = actuated_columns();
     M = mass_matrix(q);
-    const Matrix W = N.transpose() * M * N;
+    // every product through mul() (Matrix * Matrix): see mul's comment
+    const Matrix Nt = N.transpose(), NtM = mul(Nt, M);
+    const Matrix W = mul(NtM, N);
     const Eigen::PartialPivLU<Matrix> W_lu(W);
-    const Matrix K = W_lu.solve(N.transpose() * M);
-    const Matrix P = Matrix::Identity(nv, nv) - N * K;
-    S = P * S0;
+    const Matrix K = W_lu.solve(NtM);
+    const Matrix P = Matrix::Identity(nv, nv) - mul(N, K);
+    S = mul(P, S0);
     v = S * alpha_dot;
     const Matrix J_dot = closure_jacobian_derivative(q, v);
     Matrix A_dot(J_dot.rows(), nd), B_dot(J_dot.rows(), n);
@@ -379,12 +390,13 @@ namespace delta_pin
     for (Eigen::Index c = 0; c < n; ++c)
       B_dot.col(c) = J_dot.col(actuated_v_[c]);
     const Eigen::Index rows = A.rows(), columns = A.cols();
-    const Matrix pinv_dot =
-      -A_pinv * A_dot * A_pinv
-      + A_pinv * A_pinv.transpose() * A_dot.transpose() * (Matrix::Identity(rows, rows) - A * A_pinv)
-      + (Matrix::Identity(columns, columns) - A_pinv * A) * A_dot.transpose() * A_pinv.transpose() * A_pinv;
-    const Matrix S0_dot_dependent = -(pinv_dot * B + A_pinv * B_dot);
-    const Matrix N_dot_dependent = -A_pinv * A_dot * dependent_null_basis_;
+    // d(A^+)/dt = -A^+ A_dot A^+ + A^+ A^+T A_dot^T (I - A A^+) + (I - A^+ A) A_dot^T A^+T A^+
+    const Matrix A_pinv_t = A_pinv.transpose(), A_dot_t = A_dot.transpose();
+    const Matrix pinv_dot = -mul(mul(A_pinv, A_dot), A_pinv)
+                            + mul(mul(A_pinv, A_pinv_t), mul(A_dot_t, Matrix::Identity(rows, rows) - mul(A, A_pinv)))
+                            + mul(mul(Matrix::Identity(columns, columns) - mul(A_pinv, A), A_dot_t), mul(A_pinv_t, A_pinv));
+    const Matrix S0_dot_dependent = -(mul(pinv_dot, B) + mul(A_pinv, B_dot));
+    const Matrix N_dot_dependent = -mul(mul(A_pinv, A_dot), dependent_null_basis_);
     Matrix S0_dot = Matrix::Zero(nv, n), N_dot = Matrix::Zero(nv, idle_dof_);
     for (Eigen::Index r = 0; r < nd; ++r)
     {
@@ -393,10 +405,11 @@ namespace delta_pin
     }
     C_tree = computeCoriolisMatrix(model_, data_, q, v);
     const Matrix M_dot = C_tree + C_tree.transpose();
-    const Matrix W_dot = N_dot.transpose() * M * N + N.transpose() * M_dot * N + N.transpose() * M * N_dot;
-    const Matrix K_dot = W_lu.solve(N_dot.transpose() * M + N.transpose() * M_dot - W_dot * K);
-    const Matrix P_dot = -(N_dot * K + N * K_dot);
-    S_dot = P_dot * S0 + P * S0_dot;
+    const Matrix N_dot_t = N_dot.transpose();
+    const Matrix W_dot = mul(mul(N_dot_t, M), N) + mul(mul(Nt, M_dot), N) + mul(NtM, N_dot);
+    const Matrix K_dot = W_lu.solve(mul(N_dot_t, M) + mul(Nt, M_dot) - mul(W_dot, K));
+    const Matrix P_dot = -(mul(N_dot, K) + mul(N, K_dot));
+    S_dot = mul(P_dot, S0) + mul(P, S0_dot);
   }
 
   void ClosedChainModel::reduced_terms(
@@ -417,7 +430,7 @@ namespace delta_pin
       v = S * alpha_dot;
       const Matrix J_dot = closure_jacobian_derivative(q, v);
       S_dot = Matrix::Zero(model_.nv, S.cols());
-      const Matrix S_dot_dependent = -solve_dependent(J_dot * S);
+      const Matrix S_dot_dependent = -solve_dependent(mul(J_dot, S));
       for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
         S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
       rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
@@ -425,13 +438,13 @@ namespace delta_pin
       C_tree = computeCoriolisMatrix(model_, data_, q, v);
     }
     const Vector gravity = computeGeneralizedGravity(model_, data_, q);
-    const Matrix MS = M * S;
-    const Matrix M_projected = S.transpose() * MS;
+    const Matrix St = S.transpose();
+    const Matrix M_projected = mul(St, mul(M, S));
     M_red = 0.5 * (M_projected + M_projected.transpose());
-    C_red = S.transpose() * (C_tree * S + M * S_dot);
-    G_red = S.transpose() * gravity;
+    C_red = mul(St, mul(C_tree, S) + mul(M, S_dot));
+    G_red = St * gravity;
     // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass
-    C_alpha_dot = S.transpose() * (C_tree * v + M * rate);
+    C_alpha_dot = St * (C_tree * v + M * rate);
   }
 
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
