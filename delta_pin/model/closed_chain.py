@@ -66,8 +66,10 @@ from delta_pin.model.closures import Closure
 from delta_pin.model.dynamics import ReducedDynamics
 
 __all__ = [
+    "CLOSURE_TOLERANCE",
     "ClosedChainRobot",
     "JointCoupling",
+    "assembled_pose",
     "closure_rank",
     "free_motions",
     "independent_joints",
@@ -76,6 +78,11 @@ __all__ = [
 
 _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _RANK_TOLERANCE = 1e-9  # singular values below this fraction of the largest count as zero
+CLOSURE_TOLERANCE = 1e-6  # [m or rad] the largest gap accepted in a file's loops (CAD rounding)
+_EXACT_GAP = 1e-12  # [m or rad] the loops count as closed exactly (Newton's tolerance)
+# an idle spin may move a joint centre by this fraction of what the independent joints move the
+# centres (a spin axis missing the joint centres by CAD offsets); more is a missing actuator
+_IDLE_CENTRE_FRACTION = 1e-2
 
 
 def _rank(matrix: np.ndarray) -> int:
@@ -213,6 +220,20 @@ def _add_closure_frames(model: pin.Model, closures: Sequence[Closure], prefix: s
     return frames
 
 
+def _closure_residual(data: pin.Data, frames: list, couplings: list, nv: int, q: np.ndarray) -> np.ndarray:
+    """r(q) (module docstring) from the frame placements already in ``data`` (and q, for the joint
+    couplings)."""
+    parts = []
+    for f1, f2, size in frames:
+        M1, M2 = data.oMf[f1], data.oMf[f2]
+        parts.append(M1.translation - M2.translation)
+        if size == 6:
+            parts.append(-M1.rotation @ pin.log3(M1.rotation.T @ M2.rotation))
+    if couplings:
+        parts.append(_coupling_terms(couplings, nv, q)[0])
+    return np.concatenate(parts)
+
+
 def _closure_rows(model: pin.Model, data: pin.Data, frames: list) -> np.ndarray:
     """J_c: the closure frames' velocity rows, J_1 - J_2 (LOCAL_WORLD_ALIGNED; linear rows only for
     a point), from the joint Jacobians and frame placements already in ``data``."""
@@ -254,6 +275,46 @@ def free_motions(
     if taken and N.shape[1]:  # the motions left with the held joints still
         N = N @ null_space(N[taken], rcond=_RANK_TOLERANCE)
     return N
+
+
+def assembled_pose(
+    model: pin.Model,
+    closures: Sequence[Closure],
+    q: np.ndarray,
+    couplings: Sequence[JointCoupling] = (),
+    held: Sequence[str] = (),
+) -> np.ndarray:
+    """The configuration the assembly (:mod:`delta_pin.model.assembly`) closes from q, the ``held``
+    joints first at their values in q, then free, as :class:`ClosedChainRobot` assembles; q itself
+    where no start closes the loops (the robot's constructor then says why). For a loader that
+    reads the mechanism's motions before the robot is built."""
+    from delta_pin.model.assembly import assemble
+
+    model = pin.Model(model)
+    frames = _add_closure_frames(model, closures, prefix="_")
+    data = model.createData()
+    indices = _coupling_indices(model, couplings) if couplings else []
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        pin.framesForwardKinematics(model, data, x)
+        return _closure_residual(data, frames, indices, model.nv, x)
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        pin.computeJointJacobians(model, data, x)
+        pin.updateFramePlacements(model, data)
+        rows = _closure_rows(model, data, frames)
+        if indices:
+            rows = np.vstack([rows, _coupling_terms(indices, model.nv, x)[1]])
+        return rows
+
+    rows = [
+        model.idx_vs[model.getJointId(name)] + k
+        for name in held
+        if model.existJointName(name)
+        for k in range(model.nvs[model.getJointId(name)])
+    ]
+    result = assemble(model, residual, jacobian, np.asarray(q, dtype=float), held=rows)
+    return result.q if result.gap <= CLOSURE_TOLERANCE else np.asarray(q, dtype=float)
 
 
 def independent_joints(
@@ -313,6 +374,14 @@ class ClosedChainRobot:
             their own (module docstring, "Joint couplings").
         notes: lines :meth:`summary` shows about how the file was read (e.g. an actuator the file
             writes as a servo, read as a force source).
+        home: the actuated coordinates alpha (``dof``,) [rad or m], or a whole configuration q
+            (nq,) whose actuated coordinates are taken, at which the robot is assembled and which
+            becomes its ``home`` (default: found by the global assembly from
+            ``reference_configuration``, every joint free: module docstring, "Assembly").
+        closure_tolerance: the largest closure gap [m or rad] accepted in the file's geometry
+            (CAD exports round anchors: two ``connect`` on one hinge agree to 1e-8..1e-7 m); a
+            loop consistent to this is re-anchored to close exactly where it assembles, and the
+            gap is reported (``assembly_gap``, :meth:`summary`).
 
     Raises:
         InvalidParameterError: an unknown or multi-DOF actuated joint, or no closure.
@@ -337,6 +406,8 @@ class ClosedChainRobot:
         visual_model: pin.GeometryModel | None = None,
         joint_couplings: Sequence[JointCoupling] = (),
         notes: Sequence[str] = (),
+        home: np.ndarray | Sequence[float] | None = None,
+        closure_tolerance: float = CLOSURE_TOLERANCE,
     ) -> None:
         self.tree = pin.Model(model)  # as given, without the closure frames (for variants)
         self.model = pin.Model(model)
@@ -409,15 +480,7 @@ class ClosedChainRobot:
                 )
             self.joint_springs[joint] = (stiffness, reference, damping)
         self._rates = None  # per joint, how its configuration coefficients move (configuration_rate)
-        self.constraint_models = pin.StdVec_RigidConstraintModel()
-        self.constraint_datas = pin.StdVec_RigidConstraintData()
-        self._frames = _add_closure_frames(self.model, self.closures)  # (frame 1, frame 2, equations)
-        for closure in self.closures:
-            constraint = closure.constraint_model(self.model)
-            self.constraint_models.append(constraint)
-            self.constraint_datas.append(constraint.createData())
-        self.data = self.model.createData()
-        self.closure_size = sum(c.size for c in self.closures) + len(self._couplings)
+        self._set_closures(self.closures)
         q0 = (
             pin.neutral(self.model)
             if reference_configuration is None
@@ -427,9 +490,18 @@ class ClosedChainRobot:
             raise InvalidParameterError(
                 f"{self._label}reference_configuration has shape {q0.shape}, expected ({self.model.nq},)"
             )
+        if not (isinstance(closure_tolerance, int | float) and 0.0 <= closure_tolerance < math.inf):
+            raise InvalidParameterError(
+                f"{self._label}closure_tolerance={closure_tolerance!r} must be a finite number >= 0 [m or "
+                f"rad], e.g. {CLOSURE_TOLERANCE:g}"
+            )
+        self.closure_tolerance = float(closure_tolerance)
+        q0 = self._home_start(q0, home)
+        self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
+        self._end_effector_given = end_effector is not None
+        q0 = self._assemble_globally(q0, given_home=home is not None)
         self.home = q0[self.actuated_q_indices].copy()
         self._last_q = q0.copy()
-        self.end_effector = self._frames[0][0] if end_effector is None else self.frame_id(end_effector)
         try:
             self.reference_configuration = self.configuration(self.home, initial_guess=q0)
         except AssemblyError:
@@ -443,7 +515,106 @@ class ClosedChainRobot:
             "name": name, "source": source, "urdf": urdf, "base_dir": base_dir, "visual_model": visual_model,
             "passive": self.passive_joints, "joint_springs": self.joint_springs,
             "joint_couplings": self.joint_couplings, "notes": self.notes,
+            "closure_tolerance": self.closure_tolerance,
         }  # fmt: skip
+
+    def _set_closures(self, closures: Sequence[Closure]) -> None:
+        """The closures, their frames on ``model`` (a fresh copy of the tree) and Pinocchio's
+        constraint models."""
+        self.closures = tuple(closures)
+        self.model = pin.Model(self.tree)
+        self.constraint_models = pin.StdVec_RigidConstraintModel()
+        self.constraint_datas = pin.StdVec_RigidConstraintData()
+        self._frames = _add_closure_frames(self.model, self.closures)  # (frame 1, frame 2, equations)
+        for closure in self.closures:
+            constraint = closure.constraint_model(self.model)
+            self.constraint_models.append(constraint)
+            self.constraint_datas.append(constraint.createData())
+        self.data = self.model.createData()
+        self.closure_size = sum(c.size for c in self.closures) + len(self._couplings)
+
+    def _home_start(self, q0: np.ndarray, home) -> np.ndarray:
+        """The assembly's start: ``home`` as alpha (``dof``,) puts the actuated joints there, as q
+        (nq,) is the start; none: ``q0``."""
+        if home is None:
+            return q0
+        value = np.asarray(home, dtype=float).reshape(-1)
+        if value.shape == (self.dof,) and np.isfinite(value).all():
+            q0 = q0.copy()
+            q0[self.actuated_q_indices] = value
+        elif value.shape == (self.model.nq,) and np.isfinite(value).all():
+            q0 = pin.normalize(self.model, value)
+        else:
+            raise InvalidParameterError(
+                f"{self._label}home={np.asarray(home).tolist()} must be {self.dof} finite actuated "
+                f"coordinates ({', '.join(self.actuated_joints) or 'none'}) [rad or m], or a whole "
+                f"configuration of {self.model.nq} numbers"
+            )
+        return q0
+
+    def _assemble_globally(self, q0: np.ndarray, given_home: bool) -> np.ndarray:
+        """Close the loops from ``q0`` (module docstring, "Assembly"); re-anchor a file whose loops
+        are consistent only to ``closure_tolerance``. Sets ``assembly_gap``, ``assembly_starts``.
+
+        Raises:
+            AssemblyError: no start closes the loops to ``closure_tolerance`` (the worst closure
+                named), at the given ``home`` or anywhere near the file's pose.
+        """
+        from delta_pin.model.assembly import assemble
+
+        # the file's (or the given) actuated coordinates first, as its author drew them; then, for a
+        # file whose pose is far from any assembly at those, every joint free
+        result = assemble(
+            self.model, self.closure_residual, self.closure_jacobian, q0, held=self.actuated_indices,
+            free_fallback=not given_home,
+        )  # fmt: skip
+        self.assembly_starts = result.starts
+        self.assembly_gap_at_start = self.closure_gap(q0)
+        self.assembly_gap = result.gap
+        if not result.gap <= self.closure_tolerance:
+            residual = self.closure_residual(result.q)
+            at = (
+                f"with the actuated joints at home={np.round(q0[self.actuated_q_indices], 6).tolist()}"
+                if given_home
+                else "anywhere near the file's pose (every joint free)"
+            )
+            raise AssemblyError(
+                f"{self._label}the loops do not close {at}: closure {self._worst_closure(residual)} stays "
+                f"{result.gap:.3e} (m or rad) apart after a global solve from {result.starts} start(s), "
+                f"beyond closure_tolerance={self.closure_tolerance:g}; give a reachable home= (CLI --home) "
+                "or check the closure's frames"
+            )
+        if result.gap > _EXACT_GAP and not self._closes_exactly(result.q):
+            self._reanchor(result.q)
+        return result.q
+
+    def _closes_exactly(self, q: np.ndarray) -> bool:
+        """Whether Newton at q's actuated coordinates closes the loops to ``_EXACT_GAP``."""
+        alpha = q[self.actuated_q_indices]
+        self.idle_dof = None  # the pseudo-inverse by numeric rank while not classified
+        return self._newton(q.copy(), alpha, _EXACT_GAP, 20)[0] is not None
+
+    def _reanchor(self, q: np.ndarray) -> None:
+        """Move each closure's second frame onto its first at q (the file's rounding), so that the
+        loops close exactly there; the largest move is ``assembly_gap``."""
+        import dataclasses
+
+        pin.framesForwardKinematics(self.model, self.data, q)
+        closures = []
+        for closure, (f1, _, size) in zip(self.closures, self._frames, strict=True):
+            joint_placement = self.data.oMi[closure.joint2]
+            target = joint_placement.actInv(self.data.oMf[f1])  # frame 1 in joint 2's frame
+            placement2 = pin.SE3(closure.placement2)
+            placement2.translation = target.translation
+            if size == 6:
+                placement2.rotation = target.rotation
+            closures.append(dataclasses.replace(closure, placement2=placement2))
+        self._set_closures(closures)
+        self.notes = (
+            *self.notes,
+            f"the file's loops are consistent to {self.assembly_gap:.2g} (m or rad) only (rounded anchors): "
+            f"re-anchored to close exactly at home (closure_tolerance={self.closure_tolerance:g})",
+        )
 
     def __getattr__(self, name: str):
         """The analytic Delta's attributes (``params``'s siblings: ``pinocchio``, ``description``,
@@ -555,15 +726,7 @@ class ClosedChainRobot:
 
     def _residual(self, q: np.ndarray) -> np.ndarray:
         """r(q) from the frame placements already in ``data`` (and q, for the joint couplings)."""
-        parts = []
-        for f1, f2, size in self._frames:
-            M1, M2 = self.data.oMf[f1], self.data.oMf[f2]
-            parts.append(M1.translation - M2.translation)
-            if size == 6:
-                parts.append(-M1.rotation @ pin.log3(M1.rotation.T @ M2.rotation))
-        if self._couplings:
-            parts.append(_coupling_terms(self._couplings, self.model.nv, q)[0])
-        return np.concatenate(parts)
+        return _closure_residual(self.data, self._frames, self._couplings, self.model.nv, q)
 
     def closure_gap(self, q: np.ndarray) -> float:
         """Largest closure residual max |r(q)| [m or rad] (NaN if q holds one)."""
@@ -733,6 +896,9 @@ class ClosedChainRobot:
             )
         self.idle_dof = len(self.dependent_indices) - dependent_rank
         if self.idle_dof:
+            if not self._end_effector_given:
+                self._missing_actuator_check(q, where, counts)
+                self._choose_end_effector(q)
             moving = self._idle_motions_moving_end_effector(q)
             if moving:
                 raise AssemblyError(
@@ -742,6 +908,53 @@ class ClosedChainRobot:
                     "actuator: name one more actuated (actuated=) or passive (passive=) joint per motion, "
                     "or choose another end effector (end_effector=)"
                 )
+
+    def _missing_actuator_check(self, q: np.ndarray, where: str, counts: str) -> None:
+        """Refuse motions that move no independent joint but carry joint centres along: an idle
+        motion spins bodies about axes through their joints' centres (a rod between two ball
+        joints), a missing actuator moves the linkage. A centre moved by less than
+        ``_IDLE_CENTRE_FRACTION`` of what the independent joints move the centres counts as on
+        the axis (CAD offsets of a fraction of a millimetre on a spinning rod).
+
+        Raises:
+            AssemblyError: a motion that moves joint centres (its joints named).
+        """
+        basis = self.idle_motions(q)
+        S = self._velocity_map(self.closure_jacobian(q), q)
+        pin.computeJointJacobians(self.model, self.data, q)
+        centres = np.vstack(
+            [pin.getJointJacobian(self.model, self.data, j, _WORLD)[:3] for j in range(1, self.model.njoints)]
+        )
+        scale = float(np.abs(centres @ S).max(initial=0.0))
+        moved = np.abs(centres @ basis).max(axis=0, initial=0.0)
+        for column in np.flatnonzero(moved > _IDLE_CENTRE_FRACTION * scale):
+            joints = self._joints_of_motion(basis[:, column])
+            raise AssemblyError(
+                f"{self._label}the mechanism has {self.model.nv - _rank(self.closure_jacobian(q))} degree(s) "
+                f"of freedom {where} {counts}; a motion that moves none of them moves the linkage (joints "
+                f"{', '.join(joints)}): a missing actuator: name one more actuated (actuated=) or passive "
+                "(passive=) joint per motion"
+            )
+
+    def _choose_end_effector(self, q: np.ndarray) -> None:
+        """The default end effector where idle motions move the first closure's first frame (a
+        frame on a rod that spins between two joints): the first closure frame, else the first
+        frame of a leaf body of the tree (a foot, a platform), that no idle motion moves. None
+        such: the first closure frame stays, and the classification names the missing actuator."""
+        leaves = set(range(1, self.model.njoints)) - {
+            self.model.parents[j] for j in range(1, self.model.njoints)
+        }
+        candidates = [f for pair in self._frames for f in pair[:2]] + [
+            f
+            for f, frame in enumerate(self.model.frames)
+            if frame.parentJoint in leaves and frame.type == pin.FrameType.BODY
+        ]
+        first = self.end_effector
+        for frame in candidates:
+            self.end_effector = frame
+            if not self._idle_motions_moving_end_effector(q):
+                return
+        self.end_effector = first
 
     def _idle_motions_moving_end_effector(self, q: np.ndarray) -> list[list[str]]:
         """The joints of each motion that moves no independent joint but moves the end effector's
@@ -1245,6 +1458,12 @@ class ClosedChainRobot:
             f"(joint coupling {c.name!r}{c.where})"
             for c in self.joint_couplings
         ]
+        if self.assembly_gap_at_start > _EXACT_GAP:
+            lines.append(
+                f"  assembly: the file's pose leaves the loops {self.assembly_gap_at_start:.3g} (m or rad) "
+                f"open; closed by the global solve ({self.assembly_starts} start(s)), home = "
+                f"{np.round(self.home, 6).tolist()}"
+            )
         lines += [f"  note: {note}" for note in self.notes]
         return "\n".join(lines)
 

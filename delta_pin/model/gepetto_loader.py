@@ -204,6 +204,7 @@ def read_gepetto(
     free_flyer: bool = False,
     end_effector: str | None = None,
     g: float | None = None,
+    **assembly,
 ) -> ClosedChainRobot:
     """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` from a URDF and its Gepetto
     ``robot.yaml`` (module docstring).
@@ -217,6 +218,8 @@ def read_gepetto(
         free_flyer: a free-flyer root joint (``root_joint``, passive) under the tree.
         end_effector: the frame the runs record (default: the first closure's first frame).
         g: gravity [m/s^2] along -z (default: Pinocchio's 9.81; a URDF has none).
+        **assembly: ``home=``, ``closure_tolerance=`` of
+            :class:`~delta_pin.model.closed_chain.ClosedChainRobot`.
 
     Raises:
         URDFConventionError: bad YAML (with its line), a missing key, lists of different
@@ -300,5 +303,5 @@ def read_gepetto(
     return ClosedChainRobot(
         model, closures, actuated, passive=with_free_base(passive, free_flyer), name=model.name,
         source=f"{urdf_path.name} + {source}", urdf=urdf, base_dir=str(urdf_path.resolve().parent),
-        end_effector=end_effector,
+        end_effector=end_effector, **assembly,
     )  # fmt: skip

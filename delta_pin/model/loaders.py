@@ -24,6 +24,7 @@ silently: an element the loader does not support is an error naming it (and its 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,7 @@ import pinocchio as pin
 from lxml import etree
 
 from delta_pin.errors import DeltaPinError, InvalidParameterError, URDFConventionError
-from delta_pin.model.closed_chain import ClosedChainRobot
+from delta_pin.model.closed_chain import CLOSURE_TOLERANCE, ClosedChainRobot
 from delta_pin.model.closures import read_urdf_constraints
 from delta_pin.model.description import expand_xacro
 from delta_pin.model.urdf_tree import build_urdf_tree, with_free_base
@@ -81,7 +82,14 @@ def _read_text(path: Path) -> str:
 
 
 def _load_urdf(
-    path: Path, text: str, actuated, g: float | None, end_effector: str | None, passive, free_flyer: bool
+    path: Path,
+    text: str,
+    actuated,
+    g: float | None,
+    end_effector: str | None,
+    passive,
+    free_flyer: bool,
+    assembly: dict,
 ) -> ClosedChainRobot:
     source = path.name
     try:
@@ -115,7 +123,7 @@ def _load_urdf(
     return ClosedChainRobot(
         model, closures, actuated, passive=with_free_base(passive, free_flyer), name=model.name,
         source=source, urdf=text, base_dir=str(path.resolve().parent), end_effector=end_effector,
-        reference_configuration=reference,
+        reference_configuration=reference, **assembly,
     )  # fmt: skip
 
 
@@ -150,6 +158,8 @@ def load_robot(
     end_effector: str | None = None,
     g: float | None = None,
     recognise: bool = True,
+    home: Sequence[float] | np.ndarray | None = None,
+    closure_tolerance: float = CLOSURE_TOLERANCE,
     **xacro_args: float | str,
 ) -> ClosedChainRobot:
     """A closed-chain robot from a URDF (with ``<constraint>`` elements, or with a Gepetto
@@ -170,6 +180,12 @@ def load_robot(
             closure's first frame).
         g: gravity [m/s^2] along -z (default: the file's; URDF has none: 9.81).
         recognise: look for a Delta (then ``robot.delta`` is its analytic model).
+        home: where to assemble the robot: its actuated coordinates alpha (``dof``,) [rad or m],
+            or a whole configuration q (nq,) (default: the file's pose -- MJCF ``qpos0`` or the
+            keyframe ``home``, URDF zero -- closed by a global solve, first at the file's
+            actuated coordinates, then with every joint free; docs/architecture.md, "Assembly").
+        closure_tolerance: the largest gap [m or rad] accepted in the file's loops (CAD
+            rounding); such loops are re-anchored to close exactly at home (``summary()`` says so).
         **xacro_args: arguments of a ``.xacro`` file.
 
     Raises:
@@ -192,6 +208,7 @@ def load_robot(
         raise InvalidParameterError(
             f"xacro arguments {sorted(xacro_args)} apply to .xacro files only, not to {path.name}"
         )
+    assembly = {"home": home, "closure_tolerance": closure_tolerance}
     if name.endswith(".xml") or name.endswith(".mjcf"):
         from delta_pin.model.mjcf_loader import read_mjcf
 
@@ -199,7 +216,9 @@ def load_robot(
             raise InvalidParameterError(
                 f"free_flyer=True applies to URDF files; {path.name} is MJCF: give its base a <freejoint/>"
             )
-        robot = read_mjcf(path, actuated=actuated, passive=passive, end_effector=end_effector, g=g)
+        robot = read_mjcf(
+            path, actuated=actuated, passive=passive, end_effector=end_effector, g=g, **assembly
+        )
     elif name.endswith(".urdf") or name.endswith(".xacro"):
         if xacro_args:
             text = expand_xacro(path, {k: str(v) for k, v in xacro_args.items()})
@@ -211,10 +230,10 @@ def load_robot(
 
             robot = read_gepetto(
                 path, sidecar, urdf=text, actuated=actuated, passive=passive, free_flyer=free_flyer,
-                end_effector=end_effector, g=g,
+                end_effector=end_effector, g=g, **assembly,
             )  # fmt: skip
         else:
-            robot = _load_urdf(path, text, actuated, g, end_effector, passive, free_flyer)
+            robot = _load_urdf(path, text, actuated, g, end_effector, passive, free_flyer, assembly)
     else:
         raise URDFConventionError(f"{path.name}: unknown robot file type; give {ROBOT_FILE_SHAPES}")
     if recognise and not robot.passive_joints:  # an underactuated robot has no reduced model to compare

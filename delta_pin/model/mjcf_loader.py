@@ -69,7 +69,13 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import OptionalDependencyError, URDFConventionError
-from delta_pin.model.closed_chain import ClosedChainRobot, JointCoupling, free_motions, independent_joints
+from delta_pin.model.closed_chain import (
+    ClosedChainRobot,
+    JointCoupling,
+    assembled_pose,
+    free_motions,
+    independent_joints,
+)
 from delta_pin.model.closures import Closure
 
 __all__ = ["mjcf_to_pinocchio", "read_mjcf"]
@@ -534,6 +540,7 @@ def read_mjcf(
     passive: list[str] | None = None,
     end_effector: str | None = None,
     g: float | None = None,
+    **assembly,
 ) -> ClosedChainRobot:
     """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` from an MJCF file (module docstring).
 
@@ -549,6 +556,8 @@ def read_mjcf(
         end_effector: a frame (body, site or joint name) the runs record (default: the first
             closure's first frame).
         g: gravity [m/s^2] along -z (default: the file's ``<option gravity>``).
+        **assembly: ``home=``, ``closure_tolerance=`` of
+            :class:`~delta_pin.model.closed_chain.ClosedChainRobot`.
 
     Raises:
         OptionalDependencyError: MuJoCo is not installed.
@@ -584,7 +593,11 @@ def read_mjcf(
     keys = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(m.nkey)]
     home = keys.index("home") if "home" in keys else None
     qpos = m.qpos0 if home is None else m.key_qpos[home]
-    reference = _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float))
+    # the file's pose, closed (MuJoCo users leave the loops open for its soft constraints to shut):
+    # the mechanism's motions below are read where it is assembled
+    reference = assembled_pose(
+        model, closures, _to_pinocchio_q(model, q_maps, np.array(qpos, dtype=float)), couplings, held=actuated
+    )
     if passive is None:
         # the sprung joints no motor drives; a file without motors is a passive mechanism whose
         # independent joints are chosen (closed_chain.independent_joints)
@@ -606,4 +619,5 @@ def read_mjcf(
         model, closures, actuated, passive=passive, joint_springs=springs, name=model.name, source=source,
         base_dir=str(path.resolve().parent), end_effector=end_effector, reference_configuration=reference,
         visual_model=_visual_model(mujoco, m, bodies, model), joint_couplings=couplings, notes=notes,
+        **assembly,
     )  # fmt: skip

@@ -248,14 +248,22 @@ def test_five_bar_closure_to_a_missing_link_is_named_with_its_line(tmp_path):
 
 
 def test_five_bar_that_cannot_assemble_names_the_closure(tmp_path):
-    # distal links 0.05 m long cannot bridge the 0.2 m between the elbows
+    # distal links 0.05 m long cannot bridge the 0.2 m between the elbows at alpha = 0 ...
     path = _five_bar_with(tmp_path, '<parent_origin xyz="0 0 -0.3"/>', '<parent_origin xyz="0 0 -0.05"/>')
     text = path.read_text().replace('<child_origin xyz="0 0 -0.3"/>', '<child_origin xyz="0 0 -0.05"/>')
     path.write_text(text)
     with pytest.raises(
-        AssemblyError, match=r"loops do not close .* closure 'distal_tips' \(five_bar.urdf line \d+\)"
+        AssemblyError,
+        match=r"loops do not close with the actuated joints at home=\[0.0, 0.0\]: closure 'distal_tips' "
+        r"\(five_bar.urdf line \d+\) stays .* give a reachable home= \(CLI --home\)",
     ):
-        load_robot(path)
+        load_robot(path, home=[0.0, 0.0])
+    # ... but the global assembly (every joint free) swings the proximal links together: the
+    # loops then close exactly (Newton's 1e-12) and home is where they do
+    robot = load_robot(path)
+    assert robot.closure_gap(robot.reference_configuration) <= 1e-12
+    assert np.abs(robot.home).max() > 0.1
+    assert "the file's pose leaves the loops" in robot.summary()
 
 
 def test_five_bar_actuator_on_an_unknown_joint():

@@ -340,8 +340,12 @@ def test_loop_that_cannot_assemble(tmp_path):
     text = re.sub(
         r'(<site name="closure_2_child" pos=")[^"]*', r"\g<1>0.9 0 0", (ROBOTS / "delta.xml").read_text()
     )
+    # the global solve (every joint free) spreads the broken loop's gap over the platform's three
+    # loops: the message names the worst at the best pose found, with its line
     with pytest.raises(
-        AssemblyError, match=r"loops do not close .* closure 'closure_2' \(robot.xml line \d+\)"
+        AssemblyError,
+        match=r"loops do not close anywhere near the file's pose .* closure 'closure_\d' "
+        r"\(robot.xml line \d+\) stays",
     ):
         load_robot(_write(tmp_path, text))
 
