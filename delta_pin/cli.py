@@ -220,6 +220,21 @@ def _robot_file_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="URDF: put the robot on a free-flyer base (Gepetto's freeflyer=True); controllers refuse it",
     )
+    group.add_argument(
+        "--home",
+        default=None,
+        metavar="A,B,...",
+        help="where to assemble the robot: its actuated coordinates [rad or m], or a whole configuration "
+        "(default: the file's pose, closed by a global solve)",
+    )
+    group.add_argument(
+        "--closure-tolerance",
+        type=float,
+        default=None,
+        metavar="GAP",
+        help="the largest gap [m or rad] accepted in the file's loops, re-anchored to close exactly "
+        "(default: 1e-6; CAD exports round)",
+    )
 
 
 def _closed_chain_robot(args: argparse.Namespace):
@@ -231,10 +246,28 @@ def _closed_chain_robot(args: argparse.Namespace):
     def names(text: str | None) -> list[str] | None:
         return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
+    assembly = {}
+    if getattr(args, "home", None) is not None:
+        assembly["home"] = _numbers("--home", args.home)
+    if getattr(args, "closure_tolerance", None) is not None:
+        assembly["closure_tolerance"] = args.closure_tolerance
     return load_robot(
         args.robot, actuated=names(args.actuated), passive=names(getattr(args, "passive", None)),
         free_flyer=bool(getattr(args, "free_flyer", False)), end_effector=getattr(args, "frame", None),
+        **assembly,
     )  # fmt: skip
+
+
+def _numbers(flag: str, text: str) -> list[float]:
+    """Comma-separated numbers of an option, or one line naming it."""
+    message = f"{flag} {text!r} must be comma-separated numbers, e.g. 0.1,0,-0.2"
+    try:
+        values = [float(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise InvalidParameterError(message) from None
+    if not values:
+        raise InvalidParameterError(message)
+    return values
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:

@@ -279,6 +279,18 @@ class CallableController(Controller):
         return ControlOutput(np.asarray(self.function(t, alpha, alpha_dot), dtype=float))
 
 
+class NoTorque(Controller):
+    """Zero torque on every actuated joint: a free motion (a mechanism without motors, or a robot
+    with its motors off). What :func:`~delta_pin.sim.runner.simulate` runs for ``controller=None``."""
+
+    def __init__(self, dof: int) -> None:
+        self._zeros = np.zeros(int(dof))
+        self.name = "no torque"
+
+    def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
+        return ControlOutput(self._zeros.copy())
+
+
 def as_controller(controller: Controller | Callable) -> Controller:
     """Return ``controller`` itself, or a :class:`CallableController` around a function."""
     if isinstance(controller, Controller):

@@ -70,9 +70,11 @@ def continuous_core(plant, controller) -> tuple[object, object] | None:
     controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
     no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: the
     core off with ``DELTA_PIN_NATIVE=0`` or not importable, a joint without a configuration
-    rate) or the controller is a discrete-time law. The
+    rate), the controller is a discrete-time law or the plant has no actuated joint. The
     plant's truth is tabulated when the run starts (:func:`run_core_continuous`)."""
     if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
+        return None
+    if plant.dof == 0:  # a mechanism without motors: the core's continuous loop takes dof >= 1
         return None
     try:
         compiled_plant = plant.core_plant()  # its truth on the reference's grid, when the run starts

@@ -49,7 +49,7 @@ def check_state(t: float, x: np.ndarray, z: np.ndarray, alpha: np.ndarray, alpha
     finite or a joint turns faster than :data:`MAX_JOINT_SPEED`; (alpha, alpha_dot): x's joints."""
     # once per sample: Python's own sums and max of the few values are a few times faster than
     # numpy's reductions (a sum is finite only if every term is, or overflows: checked below)
-    if all_finite(x) and all_finite(z) and max(map(abs, alpha_dot.tolist())) <= MAX_JOINT_SPEED:
+    if all_finite(x) and all_finite(z) and max(map(abs, alpha_dot.tolist()), default=0.0) <= MAX_JOINT_SPEED:
         return  # a NaN speed is not within the limit (NaN <= limit is False)
     finite = np.isfinite(x).all() and np.isfinite(z).all()
     if finite and (np.abs(alpha_dot) <= MAX_JOINT_SPEED).all():

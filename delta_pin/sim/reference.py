@@ -60,12 +60,14 @@ class ReferenceTable:
 
 def tabulate_reference(robot: Delta, trajectory, alpha0, dof: int, steps: int, dt: float, per_sample: int):
     """(reference table on the grid dt / per_sample, desired xyz at the samples, alpha0): the
-    trajectory's, or a hold of ``alpha0`` when there is no trajectory."""
+    trajectory's, or a hold of ``alpha0`` (default: the robot's ``home``) when there is none."""
     grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
     if trajectory is not None:
         ref = trajectory.joint_reference(robot, grid)
         table = ReferenceTable(dt / per_sample, ref.alpha, ref.alpha_dot, ref.alpha_ddot)
         return table, ref.xyz[::per_sample], ref.alpha[0] if alpha0 is None else alpha0
+    if alpha0 is None:
+        alpha0 = getattr(robot, "home", None)  # a closed chain's assembled home
     if alpha0 is None:
         raise InvalidParameterError("alpha0 is required when no trajectory is given")
     hold = joint_vector(alpha0, "alpha0", dof)

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from delta_pin.choices import INTEGRATOR_CHOICES
-from delta_pin.control.base import as_controller
+from delta_pin.control.base import NoTorque, as_controller
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.delta_robot import analytic_delta
@@ -190,9 +190,10 @@ def simulate(
             (:func:`delta_pin.load_robot`; then the Python loop on its
             :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`, ``friction`` and a
             ``payload_mass`` given to that plant).
-        controller: a :class:`~delta_pin.control.Controller` or any ``f(t, alpha, alpha_dot) -> tau``.
+        controller: a :class:`~delta_pin.control.Controller` or any ``f(t, alpha, alpha_dot) -> tau``;
+            ``None``: no torque (a free motion; a mechanism without motors).
         trajectory: a task-space :class:`~delta_pin.model.trajectory.Trajectory`, or ``None`` to
-            hold ``alpha0`` (then required).
+            hold ``alpha0`` (default: a closed chain's ``home``).
         plant: ``"pinocchio"`` (constrained multibody, the default), ``"analytic"`` (reduced ODE) or
             a :class:`~delta_pin.sim.plants.Plant`.
         t_end: duration [s] (> 0).
@@ -241,6 +242,8 @@ def simulate(
             with the time it happened.
     """
     steps = check_timing(dt, t_end)
+    if controller is None:  # a free motion: a mechanism without motors, or the motors off
+        controller = NoTorque(len(getattr(robot, "actuated_joints", ())) or robot.dof)
     check_mode(mode)
     check_substeps(substeps)
     if not (math.isfinite(rtol) and math.isfinite(atol) and rtol > 0.0 and atol > 0.0):

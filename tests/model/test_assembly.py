@@ -1,0 +1,107 @@
+"""Assembly that finds the robot (docs/architecture.md, "Assembly"): published files whose pose
+leaves the loops open, CAD exports whose loops agree only to rounding, ``home=`` and
+``--home``, and mechanisms without motors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import delta_pin as dp
+from delta_pin.cli import main
+from delta_pin.errors import AssemblyError, InvalidParameterError
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+ROBOTS = Path(dp.__file__).resolve().parent / "robots"
+EXACT = 1e-12  # [m or rad] Newton's tolerance: what "closed exactly" means at load
+
+
+@pytest.mark.parametrize("name", ["cassie_like", "digit_like", "wl16_like"])
+def test_a_gepetto_leg_saved_open_loads_as_shipped(name):
+    """Gepetto's exported legs store every joint at zero, loops metres or radians apart (gap at the
+    file's pose > 1); the assembly closes them from there (Newton with the motors at zero does
+    not: it was refused before), deterministically (the same home twice), and says so."""
+    path = DATA / "gepetto" / name / "robot.urdf"
+    robot = dp.load_robot(path)
+    assert robot.assembly_gap_at_start > 1.0
+    assert robot.closure_gap(robot.reference_configuration) <= EXACT
+    assert "the file's pose leaves the loops" in robot.summary()
+    again = dp.load_robot(path)
+    np.testing.assert_array_equal(again.reference_configuration, robot.reference_configuration)
+
+
+def test_home_puts_the_actuated_joints_there_and_refuses_an_unreachable_one(tmp_path):
+    robot = dp.load_robot("five_bar", home=[0.1, -0.05])
+    np.testing.assert_array_equal(robot.home, [0.1, -0.05])
+    assert robot.closure_gap(robot.reference_configuration) <= EXACT
+    # a whole configuration: its actuated coordinates are home
+    whole = dp.load_robot("five_bar", home=robot.reference_configuration)
+    np.testing.assert_allclose(whole.reference_configuration, robot.reference_configuration, atol=1e-12)
+    with pytest.raises(InvalidParameterError, match=r"home=\[1.0\] must be 2 finite actuated coordinates"):
+        dp.load_robot("five_bar", home=[1.0])
+    # the proximal links (0.3 m) swung 3 rad apart leave the tips too far apart to meet
+    with pytest.raises(AssemblyError, match=r"with the actuated joints at home=\[1.5, -1.5\]: closure"):
+        dp.load_robot("five_bar", home=[1.5, -1.5])
+
+
+def test_home_on_the_command_line(capsys):
+    assert main(["validate", "--robot", "five_bar", "--home", "0.1,-0.05", "--duration", "0.05"]) == 0
+    assert "home = [0.1, -0.05]" in capsys.readouterr().out
+    assert main(["validate", "--robot", "five_bar", "--home", "a,b"]) == 2
+    assert (
+        capsys.readouterr()
+        .err.strip()
+        .endswith("--home 'a,b' must be comma-separated numbers, e.g. 0.1,0,-0.2")
+    )
+
+
+def _five_bar_hinged_by_two_points(tmp_path: Path, rounding: float) -> Path:
+    """The shipped five-bar with its tips closed as a hinge, by two points 20 mm apart along the
+    hinge axis (y), as CAD exports write a hinge; the second point's child anchor is off by
+    ``rounding`` [m] along the rod (the export's rounding)."""
+    text = (ROBOTS / "five_bar.urdf").read_text()
+    second = f"""  <constraint name="distal_tips_b" type="point">
+    <parent link="distal_1"/>
+    <parent_origin xyz="0 0.02 -0.3"/>
+    <child link="distal_2"/>
+    <child_origin xyz="0 0.02 {-0.3 + rounding!r}"/>
+  </constraint>
+  <transmission name="active_1_transmission">"""
+    path = tmp_path / "five_bar_hinge.urdf"
+    path.write_text(text.replace('  <transmission name="active_1_transmission">', second, 1))
+    return path
+
+
+def test_a_cad_rounded_hinge_is_re_anchored_and_said(tmp_path):
+    """Loops consistent to 5e-8 m (< the default closure_tolerance 1e-6 m) load, re-anchored so
+    that they close exactly (1e-12) at home, and summary() names the gap; a tolerance below the
+    rounding refuses them in one line that names the option."""
+    path = _five_bar_hinged_by_two_points(tmp_path, 5e-8)
+    robot = dp.load_robot(path)
+    assert 1e-8 < robot.assembly_gap <= 1e-7  # the least-squares gap: part of the 5e-8 rounding
+    assert robot.closure_gap(robot.reference_configuration) <= EXACT
+    assert "re-anchored to close exactly at home" in robot.summary()
+    assert robot.dof == 2 and robot.idle_dof == 0
+    # the re-anchored robot moves: assembled elsewhere, the loops still close exactly
+    q = robot.configuration(robot.home + 0.2)
+    assert robot.closure_gap(q) <= EXACT
+    with pytest.raises(AssemblyError, match=r"beyond closure_tolerance=1e-09; give a reachable home="):
+        dp.load_robot(path, closure_tolerance=1e-9)
+
+
+def test_a_mechanism_without_motors_simulates_and_controllers_refuse_it():
+    """MuJoCo's own test model (no actuator): a passive mechanism, not an error. A free motion
+    (controller=None) in the sampled loop (RK4 at 1 ms) against LSODA (rtol 1e-6): 1e-5 rad, the
+    RK4 and LSODA error over 0.1 s of a swinging loop (measured 2e-9 rad); a controller refuses
+    it in one line."""
+    robot = dp.load_robot(DATA / "mujoco" / "jdotv_connect_2d.xml")
+    assert robot.dof == 0 and len(robot.passive_joints) == 2
+    sampled = dp.simulate(robot, None, None, t_end=0.1)
+    continuous = dp.simulate(robot, None, None, t_end=0.1, mode="continuous")
+    assert np.ptp(sampled.q[:, 0]) > 0.05  # it swings
+    np.testing.assert_allclose(sampled.q[-1], continuous.q[-1], atol=1e-5, rtol=0)
+    with pytest.raises(InvalidParameterError, match=r"underactuated") as error:
+        dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
+    assert "\n" not in str(error.value)
