@@ -281,6 +281,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
             seed=args.seed,
             tol=args.tol,
             dt=args.dt,
+            frame=args.frame,
             **({} if args.duration is None else {"energy_duration": args.duration}),
         )
         print(report.table())
@@ -291,6 +292,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
                 f"{flag} {value:g} sets the energy check of validate --robot; the packaged Delta's "
                 "validation (analytic model vs Pinocchio) integrates nothing: give --robot or drop it"
             )
+    if args.frame is not None:
+        raise InvalidParameterError(
+            f"--frame {args.frame} picks a frame of validate --robot; the packaged Delta's validation "
+            "checks its platform (IK/FK, J, J_dot): give --robot or drop --frame"
+        )
     from delta_pin.model.validation import validate
 
     tol = 1e-10 if args.tol is None else args.tol
@@ -939,6 +945,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="with --robot: length of the energy check's free motion [s] (None: 0.5)",
+    )
+    validate.add_argument(
+        "--frame",
+        default=None,
+        metavar="NAME",
+        help="with --robot: the end effector (a link, joint, site or closure frame; None: the file's "
+        "default); adds the checks 'frame J' (its closed-loop Jacobian vs its position by differences) "
+        "and 'frame Jdot' (J_dot alpha_dot vs J by differences)",
     )
     _robot_file_arguments(validate)
     validate.set_defaults(func=_cmd_validate)
