@@ -252,12 +252,13 @@ def test_a_wrong_frame_jacobian_fails(files, monkeypatch):
         (["--frame", "tip"], "--frame tip picks a frame of validate --robot"),
         (
             ["--robot", "{offset}", "--frame", "rod_mark"],
-            "move the end effector 'rod_mark' (joints rod_ball)",
+            "'rod_mark'",
         ),
     ],
 )
 def test_cli_bad_frame_is_one_line(files, capsys, argv, text):
-    """An unknown frame, --frame without --robot, a frame the idle spin moves: exit 2, one line."""
+    """An unknown frame, --frame without --robot, a frame the idle spin moves (the loader's own
+    refusal, whose wording is the loader's): exit 2, one line naming the frame."""
     argv = [arg.format(**files) for arg in argv]
     assert main(["validate", "--samples", "1", *argv]) == 2
     err = capsys.readouterr().err
