@@ -26,6 +26,7 @@ from delta_pin.errors import (
     XacroArgumentError,
 )
 from delta_pin.model.closures import Closure, read_urdf_constraints
+from delta_pin.model.inertials import check_urdf_inertials
 
 __all__ = [
     "GRAVITY",
@@ -286,8 +287,9 @@ def read_description(urdf: str, g: float = GRAVITY, base_dir: str | Path | None 
         base_dir: the URDF's folder, from which relative mesh filenames are resolved (drawing only).
 
     Raises:
-        URDFConventionError: a missing joint or link, a closure naming a missing link, or a
-            geometry that does not follow the convention (named in the message).
+        URDFConventionError: a missing joint or link, a closure naming a missing link, a
+            geometry that does not follow the convention (named in the message), or an impossible
+            inertial (:mod:`delta_pin.model.inertials`).
         InvalidParameterError: a non-positive length or mass.
     """
     _require_positive("g", g)
@@ -295,6 +297,7 @@ def read_description(urdf: str, g: float = GRAVITY, base_dir: str | Path | None 
         root = etree.fromstring(urdf.encode())
     except etree.XMLSyntaxError as exc:
         raise URDFConventionError(f"the URDF is not valid XML: {exc}") from None
+    check_urdf_inertials(urdf, "the URDF")  # before urdfdom drops an unreadable one
     try:
         model = pin.buildModelFromXML(urdf)
     except (RuntimeError, ValueError) as exc:

@@ -189,8 +189,11 @@ def load_robot(
         **xacro_args: arguments of a ``.xacro`` file.
 
     Raises:
-        URDFConventionError: the file is missing, unreadable, or holds an element the loader
-            does not support (named, with its line).
+        URDFConventionError: the file is missing, unreadable, holds an element the loader
+            does not support (named, with its line), or a mass or inertia that is unreadable or
+            physically impossible: a mass not finite or < 0 [kg], an inertia [kg m^2] not positive
+            semi-definite or breaking the triangle inequality of its principal moments (the link
+            or body, its line; :mod:`delta_pin.model.inertials`).
         InvalidParameterError, AssemblyError: bad actuated joints, or loops that do not close.
     """
     if isinstance(path, str) and path in SHIPPED_ROBOTS:

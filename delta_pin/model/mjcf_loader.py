@@ -77,6 +77,7 @@ from delta_pin.model.closed_chain import (
     independent_joints,
 )
 from delta_pin.model.closures import Closure
+from delta_pin.model.inertials import check_compiled_inertials, check_mjcf_inertials
 
 __all__ = ["mjcf_to_pinocchio", "read_mjcf"]
 
@@ -561,18 +562,21 @@ def read_mjcf(
 
     Raises:
         OptionalDependencyError: MuJoCo is not installed.
-        URDFConventionError: MuJoCo rejects the file (its message, with the line), or the file
-            holds an equality or actuator delta-pin does not support (named, with its line).
+        URDFConventionError: MuJoCo rejects the file (its message, with the line), the file
+            holds an equality or actuator delta-pin does not support (named, with its line), or an
+            impossible inertial (:mod:`delta_pin.model.inertials`: named, with its line).
         InvalidParameterError, AssemblyError: bad actuated joints, or loops that do not close.
     """
     mujoco = _import_mujoco()
     path = Path(path)
     source = path.name
+    check_mjcf_inertials(path, source)  # before MuJoCo clamps a negative mass of a jointless body to 0
     try:
         m = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:  # MuJoCo's compiler: the message names the element and the line
         message = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
         raise URDFConventionError(f"{source}: MuJoCo cannot compile it: {message}") from None
+    check_compiled_inertials(m, path, source)
     model, bodies, q_maps = mjcf_to_pinocchio(m, source=source)
     springs, sprung = _joint_dynamics(mujoco, m, model, source)
     couplings = _joint_couplings(mujoco, m, path, source)

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import pinocchio as pin
 
 from delta_pin.errors import URDFConventionError
+from delta_pin.model.inertials import check_urdf_inertials
 
 __all__ = ["FREE_FLYER_JOINT", "build_urdf_tree", "with_free_base"]
 
@@ -15,11 +16,15 @@ FREE_FLYER_JOINT = "root_joint"  # the name Pinocchio gives a root joint it adds
 
 
 def build_urdf_tree(text: str, source: str, free_flyer: bool = False) -> pin.Model:
-    """Pinocchio's tree of URDF text, on a free-flyer root joint (``root_joint``) if asked.
+    """Pinocchio's tree of URDF text, on a free-flyer root joint (``root_joint``) if asked; every
+    link's ``<inertial>`` checked first (:func:`~delta_pin.model.inertials.check_urdf_inertials`:
+    urdfdom would drop one it cannot parse and accept a negative mass).
 
     Raises:
-        URDFConventionError: Pinocchio cannot read it (its message, naming the file).
+        URDFConventionError: an impossible or unreadable inertial (file, line, link), or Pinocchio
+            cannot read it (its message, naming the file).
     """
+    check_urdf_inertials(text, source)
     try:
         if free_flyer:
             return pin.buildModelFromXML(text, pin.JointModelFreeFlyer())

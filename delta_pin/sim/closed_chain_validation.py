@@ -68,6 +68,7 @@ import pinocchio as pin
 from delta_pin.errors import AssemblyError, InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.delta_recognition import RELATIVE_TOLERANCE as ANALYTIC_TOLERANCE
+from delta_pin.model.inertials import MASSLESS_RATIO, massless_bodies
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant
 from delta_pin.sim.integrators import rk4_step
 
@@ -539,6 +540,15 @@ def validate_closed_chain(
     plant = ClosedChainPlant(robot, coordinates="full" if robot.has_unactuated_motion else "active")
     report = ClosedChainValidation(robot.name, 0)
     report.notes.append("robot: " + robot.summary().replace("\n", "\n  "))
+    massless = massless_bodies(robot.model)
+    if massless:  # what the checks cannot see (issue 35): a body that weighs nothing
+        report.notes.append(
+            "massless bodies: "
+            + ", ".join(f"{label} ({mass:.3g} kg)" for label, mass in massless)
+            + f" carry no mass (0, or < {MASSLESS_RATIO:g} of the robot's): the plant, gravity, coriolis "
+            "and energy checks test nothing of their dynamics (closure and loop gap still see them), "
+            "and a motion that moves only them has no inertia (a singular M fails the plant check)"
+        )
     reduced = not robot.passive_joints  # an underactuated robot has no reduced model to check
     gaps, plant_errors, conditions = [], [], []
     gravity, coriolis_check = _Worst(), _Worst()
