@@ -7,6 +7,15 @@ express (none so far: see ``why`` where an entry has some). The files are unmodi
 ``tests/model/test_corpus.py`` loads each one, and ``scripts/corpus_table.py`` runs each through
 load, classification, validate and a short free fall and prints a status table.
 
+Why no entry has keyword arguments: the files without motors (MuJoCo's, Pinocchio's and two of
+Genesis' test models) need none by ``load_robot``'s own contract (a motorless MJCF file: its
+passive joints are chosen), so a refusal of one is the loader's to fix, not the user's to work
+around; Genesis' ``four_bar_linkage`` names two motors on a one-degree-of-freedom loop, which an
+``actuated=`` would contradict, not complete; Gepetto's bipeds are loaded on a free flyer by
+Gepetto's ``robot_options.py`` (``battobot_6d``, ``digit_like_2legs*``, ``disney_*``,
+``true_talos_2_legs``), an option of the user's (``free_flyer=True``) that the fixed-base model
+does not need; ``kangaroo_like_2leg`` ships no closures at all, which no keyword can supply.
+
 Kinds: ``planar`` (planar linkage), ``spatial`` (spatial parallel mechanism), ``leg`` (a leg or a
 pair of legs with closed knee/ankle linkages), ``humanoid``, ``gripper`` (an underactuated
 linkage gripper), ``test`` (a physics engine's test model: free or hinged bodies tied by
