@@ -117,7 +117,7 @@ def _newton(
         if gap <= tolerance or not np.isfinite(gap):
             return best_q, best_gap, k + 1
         step = np.linalg.lstsq(jacobian(q)[:, free], r, rcond=None)[0]
-        largest = np.abs(step).max()
+        largest = np.abs(step).max(initial=0.0)
         if largest > 0.5:
             step *= 0.5 / largest
         dv = np.zeros(model.nv)

@@ -657,7 +657,10 @@ class ClosedChainRobot:
             names = sorted({f.name for f in self.model.frames if f.name != "universe"})
             shown = ", ".join(names[:40]) + (" ..." if len(names) > 40 else "")
             raise InvalidParameterError(f"{self._label}has no frame {frame!r} (frames: {shown})")
-        return self.model.getFrameId(frame)
+        matches = [f for f in range(len(self.model.frames)) if self.model.frames[f].name == frame]
+        # a site named like its body (MJCF): the body's own frame
+        bodies = [f for f in matches if self.model.frames[f].type == pin.FrameType.BODY]
+        return (bodies or matches)[0]
 
     def _frame(self, frame: str | int | None) -> int:
         """A frame id from a name, an id, or ``None`` (the end effector)."""
@@ -832,7 +835,7 @@ class ClosedChainRobot:
             J = self.closure_jacobian(q, kinematics_done=True)[:, self.dependent_indices]
             # with idle motions J has a null space: the minimum-norm step leaves them where they are
             step = least_squares(J, residual) if self.idle_dof == 0 else self._pseudo_inverse(J)[0] @ residual
-            largest = np.abs(step).max()
+            largest = np.abs(step).max(initial=0.0)
             if largest > 0.5:
                 step *= 0.5 / largest
             dv = np.zeros(model.nv)
@@ -893,6 +896,11 @@ class ClosedChainRobot:
                 f"{self._label}the mechanism has {mobility} degree(s) of freedom {where} {counts}: the "
                 "actuated joints do not move independently (a singular or redundant actuation); drop an "
                 "actuator or start from another configuration"
+                if self.actuated_joints
+                else f"{self._label}a mechanism without motors with {mobility} degree(s) of freedom {where} "
+                f"{counts}: its free motion is not the motion of whole joints delta-pin could pick as its "
+                "coordinates; name the joints whose coordinates fix its configuration (passive=[...], CLI "
+                "--passive)"
             )
         self.idle_dof = len(self.dependent_indices) - dependent_rank
         if self.idle_dof:
@@ -1239,7 +1247,7 @@ class ClosedChainRobot:
                 return alpha
             J = self.frame_jacobian(q, fid)[:3][rows]
             step = least_squares(J, error)
-            largest = np.abs(step).max()
+            largest = np.abs(step).max(initial=0.0)
             if largest > 0.2:
                 step *= 0.2 / largest
             alpha = alpha - step

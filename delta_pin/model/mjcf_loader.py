@@ -53,8 +53,9 @@ reference-pose semantics of equality anchors mean exactly what they mean in MuJo
 Joint dynamics: armature (rotor inertia) goes into ``model.armature`` (hinge, slide and ball
 joints); stiffness, ``springref`` and damping of hinge and slide joints, and the damping of ball
 joints, become the robot's ``joint_springs`` (the plant applies -k (q - q_ref) - d v), and a
-sprung joint that no motor drives is passive (an underactuated mechanism, e.g. a gripper's
-spring links). A spring on a ball joint or anything on a free joint is refused; friction loss is
+sprung joint that no motor drives and that the loops leave free is passive (an underactuated
+mechanism, e.g. a gripper's spring links); one the loops determine is not. A spring on a ball
+joint or anything on a free joint is refused; friction loss is
 listed in a warning; joint limits and contacts are not modelled.
 
 Units: SI (m, kg, s, rad), as MuJoCo's.
@@ -526,7 +527,8 @@ def _visual_model(mujoco, m, bodies, model: pin.Model) -> pin.GeometryModel:
             continue
         joint, body = bodies[int(m.geom_bodyid[g])]
         name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_GEOM, g, "geom")
-        frame = model.getFrameId(_name(mujoco, m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g]), "body"))
+        body_name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g]), "body")
+        frame = model.getFrameId(body_name, pin.FrameType.BODY)  # a site may share the body's name
         placement = body * _se3(m.geom_pos[g], m.geom_quat[g])
         obj = pin.GeometryObject(f"{name}_{g}", joint, frame, placement, shape)
         obj.meshColor = np.array(m.geom_rgba[g], dtype=float)
@@ -550,7 +552,8 @@ def read_mjcf(
         actuated: the actuated joints in the order of alpha (default: the joints of the file's
             ``<motor>`` actuators, in actuator order).
         passive: the joints no motor drives that the closures leave free (default: the hinge
-            and slide joints with a spring, ``stiffness`` > 0, that no motor drives, and the free
+            and slide joints with a spring, ``stiffness`` > 0, that no motor drives and the loops
+            leave free with the motors held, and the free
             joints whose motion the closures leave free (a floating base); for a file without motors,
             the joints that fix its configuration, chosen by
             :func:`~delta_pin.model.closed_chain.independent_joints`).
@@ -616,7 +619,15 @@ def read_mjcf(
                 and np.abs(motions[_velocity_rows(model, name)]).max(initial=0.0) > 1e-9
             ):
                 free.append(name)
-        passive = free + [name for name in sprung if name not in actuated]
+        # a sprung joint is passive only where the loops leave it free with the motors (and the
+        # passive joints chosen before it) held; one the loops determine is not, sprung or not
+        passive = list(free)
+        for name in sprung:
+            if name in actuated:
+                continue
+            left = free_motions(model, closures, reference, held=[*actuated, *passive], couplings=couplings)
+            if np.abs(left[_velocity_rows(model, name)]).max(initial=0.0) > 1e-9:
+                passive.append(name)
         if not actuated:
             passive += independent_joints(model, closures, reference, exclude=passive, couplings=couplings)
     return ClosedChainRobot(

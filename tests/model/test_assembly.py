@@ -105,3 +105,22 @@ def test_a_mechanism_without_motors_simulates_and_controllers_refuse_it():
     with pytest.raises(InvalidParameterError, match=r"underactuated") as error:
         dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
     assert "\n" not in str(error.value)
+
+
+def test_a_spring_on_a_joint_the_loops_determine_does_not_make_it_passive(tmp_path):
+    """The MJCF Delta with a spring on an elbow (which the loops fix once the three motors are
+    held): it stays a fully actuated robot (before: the elbow was made passive and the robot was
+    refused with "drop an actuator"); the plant keeps the spring (joint_springs)."""
+    text = (
+        (ROBOTS / "delta.xml")
+        .read_text()
+        .replace(
+            '<joint name="elbow_1_pitch" type="hinge" axis="0 1 0"/>',
+            '<joint name="elbow_1_pitch" type="hinge" axis="0 1 0" stiffness="2" damping="0.1"/>',
+        )
+    )
+    path = tmp_path / "delta_sprung_elbow.xml"
+    path.write_text(text)
+    robot = dp.load_robot(path, recognise=False)
+    assert robot.passive_joints == () and robot.dof == 3
+    assert robot.joint_springs["elbow_1_pitch"] == (2.0, 0.0, 0.1)

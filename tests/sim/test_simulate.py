@@ -75,11 +75,12 @@ def test_continuous_and_fast_sampled_runs_agree(robot):
     assert np.abs(runs[0].alpha - runs[0].alpha_d).max() > 0.05  # the loop does real work
 
 
-def test_alpha0_defaults_to_the_path_start_and_is_required_without_one(robot):
+def test_alpha0_defaults_to_the_path_start_and_to_home_without_one(robot):
     run = simulate(robot, ComputedTorque(DeltaNominalModel(robot)), PathI(), plant="analytic", t_end=0.01)
     np.testing.assert_allclose(run.alpha[0], robot.inverse_kinematics(START), atol=1e-12)
-    with pytest.raises(dp.InvalidParameterError, match="alpha0 is required"):
-        simulate(robot, lambda t, a, ad: np.zeros(3), t_end=0.01)
+    # no path: a hold of the robot's assembled home (exactly: the run starts there)
+    held = simulate(robot, lambda t, a, ad: np.zeros(3), t_end=0.01)
+    np.testing.assert_array_equal(held.alpha[0], robot.home)
 
 
 def test_run_round_trips_through_an_atomic_save(robot, tmp_path):
