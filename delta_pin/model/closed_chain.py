@@ -845,6 +845,23 @@ class ClosedChainRobot:
                 break
         return None, residual
 
+    def actuation_conditioning(self, alpha: np.ndarray) -> float:
+        """cond(J_p) (J_p restricted to its rank) at the configuration of least closure residual
+        Newton reaches at ``alpha`` from the last assembled one: large near an actuation (Type II)
+        singularity, where the actuated joints stop fixing the loops; what a failed assembly
+        during a run reports."""
+        from delta_pin.model.assembly import assemble
+
+        start = self._last_q.copy()
+        start[self.actuated_q_indices] = np.asarray(alpha, dtype=float)
+        q = assemble(
+            self.model, self.closure_residual, self.closure_jacobian, start, held=self.independent_indices,
+            free_fallback=False,
+        ).q  # fmt: skip
+        singular = np.linalg.svd(self.closure_jacobian(q)[:, self.dependent_indices], compute_uv=False)
+        rank = len(self.dependent_indices) - (self.idle_dof or 0)
+        return float(singular[0] / singular[rank - 1]) if rank and singular[rank - 1] > 0 else math.inf
+
     def _worst_closure(self, residual: np.ndarray | None) -> str:
         if residual is None or not np.isfinite(residual).all():
             return "(non-finite state)"

@@ -599,7 +599,8 @@ def validate_closed_chain(
     if report.states == 0:
         raise AssemblyError(
             f"{robot.name!r}: none of {samples} random states within {spread} of home={robot.home.tolist()} "
-            "assembles; lower --spread"
+            "assembles; lower spread= (validate_closed_chain), or assemble the robot elsewhere (home=, "
+            "CLI --home)"
         )
     report.checks["closure"] = (max(gaps), 1e-10, "largest closure residual of the states [m or rad]")
     if reduced:

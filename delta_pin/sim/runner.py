@@ -18,13 +18,14 @@ Python loop elsewhere, and wraps the result in a :class:`Run`.
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import numpy as np
 
 from delta_pin.choices import INTEGRATOR_CHOICES
 from delta_pin.control.base import NoTorque, as_controller
-from delta_pin.errors import InvalidParameterError
+from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.frame_path import FramePath
@@ -291,17 +292,20 @@ def simulate(
 
     wall = time.perf_counter()
     counters = {}
-    if in_core is not None:
-        record, counters = run_core_continuous(
-            in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol,
-            substeps if integrator == "bdf2" else 0,
-        )  # fmt: skip
-    else:
-        record = run_python_loop(
-            controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
-            integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
-            sensor=sensor, drive=drive, compiled=core,
-        )  # fmt: skip
+    try:
+        if in_core is not None:
+            record, counters = run_core_continuous(
+                in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol,
+                substeps if integrator == "bdf2" else 0,
+            )  # fmt: skip
+        else:
+            record = run_python_loop(
+                controller, plant, table, per_sample, plant.initial_state(alpha0, alpha_dot0), t, mode=mode,
+                integrator=integrator, substeps=substeps, rtol=rtol, atol=atol, progress=progress,
+                sensor=sensor, drive=drive, compiled=core,
+            )  # fmt: skip
+    except SimulationError as exc:
+        raise _with_singularity(exc, robot) from None
     wall = time.perf_counter() - wall
 
     metadata = run_metadata(
@@ -332,3 +336,33 @@ def simulate(
         v=record.v,
         metadata=metadata,
     )
+
+
+_ASSEMBLY_FAILURES = ("cannot close the loops", "the loops cannot be re-assembled")
+_SINGULAR_CONDITION = 1e6  # cond(J_p) beyond which a failed assembly is called a singularity
+
+
+def _with_singularity(error: SimulationError, robot) -> SimulationError:
+    """A run's failed assembly said as what it is: cond(J_p) where the loops stopped closing
+    (an actuation singularity where it is large), instead of the assembly's advice for a start."""
+    text = str(error).rsplit(" (at t=", 1)[0]
+    if not isinstance(robot, ClosedChainRobot) or not text.startswith(_ASSEMBLY_FAILURES):
+        return error
+    text = text.replace("; start nearer (initial_guess=) or choose reachable actuated coordinates", "")
+    found = re.search(r"alpha0?=\[([^\]]*)\]", text)
+    if found is None:
+        return error
+    alpha = np.array([float(x) for x in found.group(1).split(",")])
+    if alpha.shape != (robot.dof,):
+        return error
+    try:
+        condition = robot.actuation_conditioning(alpha)
+    except Exception:  # the report of a failure must not fail itself
+        return error
+    what = (
+        f"an actuation (Type II) singularity: cond(J_p) = {condition:.3g} there, the actuated joints "
+        "no longer fix the loops"
+        if condition > _SINGULAR_CONDITION
+        else f"cond(J_p) = {condition:.3g} there"
+    )
+    return SimulationError(f"{text}; {what}", error.time)

@@ -124,3 +124,62 @@ def test_a_spring_on_a_joint_the_loops_determine_does_not_make_it_passive(tmp_pa
     robot = dp.load_robot(path, recognise=False)
     assert robot.passive_joints == () and robot.dof == 3
     assert robot.joint_springs["elbow_1_pitch"] == (2.0, 0.0, 0.1)
+
+
+def test_a_fall_into_an_actuation_singularity_is_said_as_one():
+    """Gepetto's battobot_6d falls (no torque) into a pose where its ankle loops stop being fixed
+    by the motors (~0.148 s): the run stops with the singularity and cond(J_p) > 1e6 named, and
+    no advice about a start (initial_guess=) that a run does not take."""
+    robot = dp.load_robot(DATA / "gepetto" / "battobot_6d" / "robot.urdf")
+    with pytest.raises(dp.SimulationError) as error:
+        dp.simulate(robot, None, None, t_end=0.2, mode="continuous")
+    message = str(error.value)
+    assert "actuation (Type II) singularity: cond(J_p) = " in message and "initial_guess" not in message
+    condition = float(message.split("cond(J_p) = ")[1].split(" ")[0])
+    assert condition > 1e6
+    assert "\n" not in message
+
+
+def test_every_option_a_message_suggests_exists():
+    """Messages that tell the user to pass ``name=`` or ``--flag`` name one that exists: every
+    such keyword in delta_pin's source is a parameter of a public entry point, every flag one
+    the CLI defines."""
+    import argparse
+    import inspect
+    import re
+
+    from delta_pin.cli import build_parser
+
+    source = "\n".join(p.read_text() for p in (ROBOTS.parent).rglob("*.py"))
+    flags = set(re.findall(r"(?<![\w-])(--[a-z][a-z0-9-]+)", source))
+    defined = set()
+
+    def walk(parser: argparse.ArgumentParser) -> None:  # every command and subcommand
+        for action in parser._actions:
+            defined.update(action.option_strings)
+            if isinstance(action, argparse._SubParsersAction):
+                for command in action.choices.values():
+                    walk(command)
+
+    walk(build_parser())
+    pip_flags = {"--force-reinstall", "--no-deps", "--upgrade"}  # in messages naming pip commands
+    assert {"--home", "--passive", "--actuated"} <= flags  # the scan finds the flags
+    assert flags - defined - pip_flags == set()
+    # keywords suggested as `name=)` or `(name=[...])` in messages
+    suggested = set(re.findall(r"(\w+)=(?:\)|\[\.\.\.\]|\.\.\.\)|,? \(validate_closed_chain\))", source))
+    from delta_pin.sim.closed_chain_validation import validate_closed_chain
+
+    parameters = set()
+    for entry in (
+        dp.load_robot,
+        dp.simulate,
+        dp.ClosedChainRobot,
+        dp.ClosedChainRobot.configuration,
+        validate_closed_chain,
+    ):
+        parameters |= set(inspect.signature(entry).parameters)
+    from delta_pin.model.description import xacro_arguments
+
+    parameters |= set(xacro_arguments())  # load_delta(**xacro arguments)
+    assert {"actuated", "passive", "home", "spread"} <= suggested  # the scan finds the suggestions
+    assert suggested - parameters == set()
