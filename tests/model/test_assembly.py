@@ -166,7 +166,8 @@ def test_every_option_a_message_suggests_exists():
     assert {"--home", "--passive", "--actuated"} <= flags  # the scan finds the flags
     assert flags - defined - pip_flags == set()
     # keywords suggested as `name=)` or `(name=[...])` in messages
-    suggested = set(re.findall(r"(\w+)=(?:\)|\[\.\.\.\]|\.\.\.\)|,? \(validate_closed_chain\))", source))
+    suggestion = r"(\w+)=(?:\)|\[\.\.\.\]|\.\.\.\)|,? \(validate_closed_chain\)| \(CLI)"
+    suggested = set(re.findall(suggestion, source))
     from delta_pin.sim.closed_chain_validation import validate_closed_chain
 
     parameters = set()
