@@ -593,6 +593,16 @@ def read_mjcf(
             "(see docs/architecture.md section 13)"
         )
     motors, notes, servos = _actuated(mujoco, m, path, source, couplings)
+    for t in range(m.ntendon):  # a tendon's range is a one-sided coupling delta-pin does not model
+        if int(m.tendon_limited[t]):
+            name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_TENDON, t, "tendon")
+            low, high = (float(x) for x in m.tendon_range[t])
+            line = (
+                f"the limit of tendon {name!r} (range {low:g} to {high:g}) is not modelled: delta-pin's plant "
+                "lets the tendon's length leave it (joint limits and contacts are not modelled either)"
+            )
+            notes.append(line)
+            servos.append(line)
     for servo in servos:  # a gain the file gives and the model leaves out: said, not dropped silently
         warnings.warn(servo, stacklevel=3)
     if actuated is None:

@@ -184,3 +184,46 @@ def test_every_option_a_message_suggests_exists():
     parameters |= set(xacro_arguments())  # load_delta(**xacro arguments)
     assert {"actuated", "passive", "home", "spread"} <= suggested  # the scan finds the suggestions
     assert suggested - parameters == set()
+
+
+TENDON_STOP = """<mujoco model="tendon_stop">
+  <worldbody>
+    <body name="a" pos="-0.1 0 0">
+      <joint name="j1" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
+      <body name="a2" pos="0 0 -0.2">
+        <joint name="j2" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.1 0 -0.1" size="0.01" mass="0.2"/>
+        <site name="s1" pos="0.1 0 -0.1"/>
+      </body>
+    </body>
+    <body name="b" pos="0.1 0 0">
+      <joint name="j3" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.01" mass="0.3"/>
+      <body name="b2" pos="0 0 -0.2">
+        <joint name="j4" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 -0.1 0 -0.1" size="0.01" mass="0.2"/>
+        <site name="s2" pos="-0.1 0 -0.1"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="stop" limited="true" range="-0.5 0.5">
+      <joint joint="j1" coef="1"/>
+      <joint joint="j3" coef="-1"/>
+    </fixed>
+  </tendon>
+  <equality><connect site1="s1" site2="s2"/></equality>
+  <actuator><motor joint="j1"/><motor joint="j3"/></actuator>
+</mujoco>
+"""
+
+
+def test_a_tendon_limit_is_said_not_dropped(tmp_path):
+    """A fixed tendon's range (a one-sided coupling of two joints) is not modelled: the load warns
+    and summary() notes it, naming the tendon and its range."""
+    path = tmp_path / "five_bar_tendon_stop.xml"
+    path.write_text(TENDON_STOP)
+    with pytest.warns(UserWarning, match=r"the limit of tendon 'stop' \(range -0.5 to 0.5\) is not modelled"):
+        robot = dp.load_robot(path)
+    assert "note: the limit of tendon 'stop'" in robot.summary()
