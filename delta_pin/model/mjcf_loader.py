@@ -598,8 +598,8 @@ def read_mjcf(
             name = _name(mujoco, m, mujoco.mjtObj.mjOBJ_TENDON, t, "tendon")
             low, high = (float(x) for x in m.tendon_range[t])
             line = (
-                f"the limit of tendon {name!r} (range {low:g} to {high:g}) is not modelled: delta-pin's plant "
-                "lets the tendon's length leave it (joint limits and contacts are not modelled either)"
+                f"the limit of tendon {name!r} (range {low:g} to {high:g}) is not modelled: delta-pin's "
+                "plant lets the tendon's length leave it (joint limits and contacts are not modelled either)"
             )
             notes.append(line)
             servos.append(line)
