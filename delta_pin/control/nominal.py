@@ -248,7 +248,8 @@ class ClosedChainNominalModel(NominalModel):
         self.robot = robot.with_payload(mass, payload_frame) if mass > 0.0 else robot
         self.payload_mass = mass
         self.dof = robot.dof
-        self._core = core_model(self.robot)  # the compiled projection, where it applies
+        # the compiled projection, where it applies: it carries no joint springs or dampers yet
+        self._core = None if self.robot.joint_springs else core_model(self.robot)
         self._last_q = self.robot.reference_configuration.copy()
         self._disturbance = (
             np.zeros(self.dof)

@@ -1286,6 +1286,8 @@ class ClosedChainRobot:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(M, C, G, C alpha_dot) on the actuated joints by projection (module docstring):
         inertia (dof, dof), Coriolis matrix (dof, dof), gravity (dof,), Coriolis torque (dof,).
+        The file's joint springs are in G (with gravity) and its dampers in C
+        (:meth:`joint_spring_forces`), as the plant applies them.
 
         Args:
             q: the closure-consistent configuration of ``alpha`` if already known.
@@ -1314,12 +1316,37 @@ class ClosedChainRobot:
         gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
         nle = pin.nonLinearEffects(self.model, self.data, q, v)
         M_red = S.T @ M @ S
-        return (
-            0.5 * (M_red + M_red.T),
-            S.T @ C_tree @ S + S.T @ M @ S_dot,
-            S.T @ gravity,
-            S.T @ (nle - gravity) + S.T @ (M @ rate),
+        C = S.T @ C_tree @ S + S.T @ M @ S_dot
+        coriolis = S.T @ (nle - gravity) + S.T @ (M @ rate)
+        if self.joint_springs:  # the file's springs and dampers, as the plant applies them
+            stiffness, damping = self.joint_spring_forces(q)
+            gravity = gravity + stiffness
+            damped = S.T @ damping @ S
+            C, coriolis = C + damped, coriolis + damped @ alpha_dot
+        return 0.5 * (M_red + M_red.T), C, S.T @ gravity, coriolis
+
+    def joint_spring_forces(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The joint springs and dampers (``joint_springs``) as generalized forces the model must
+        overcome: (k (q - q_ref) per sprung joint (nv,) [N m or N], the damping matrix D (nv, nv)
+        [N m s/rad or N s/m]); the plant applies -k (q - q_ref) - D v. In the reduced model the
+        first adds to G, S^T D S to C (so C + C^T = M_dot + 2 S^T D S)."""
+        stiffness, damping = np.zeros(self.model.nv), np.zeros(self.model.nv)
+        for joint, (k, reference, d) in self.joint_springs.items():
+            jid = self.model.getJointId(joint)
+            iv, iq, nv = self.model.idx_vs[jid], self.model.idx_qs[jid], self.model.nvs[jid]
+            if k:
+                stiffness[iv] = k * (q[iq] - reference)
+            damping[iv : iv + nv] = d
+        return stiffness, np.diag(damping)
+
+    def potential_energy(self, q: np.ndarray) -> float:
+        """Gravity's and the joint springs' potential energy at q [J]."""
+        springs = sum(
+            0.5 * k * (q[self.model.idx_qs[self.model.getJointId(joint)]] - reference) ** 2
+            for joint, (k, reference, _) in self.joint_springs.items()
+            if k
         )
+        return float(pin.computePotentialEnergy(self.model, self.data, q)) + springs
 
     def require_full_actuation(self) -> None:
         """Raise unless the actuated joints determine the motion (up to idle motions): what every

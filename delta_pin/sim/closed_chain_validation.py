@@ -316,7 +316,7 @@ def _gravity_discrepancy(
     measure of N^T g, which is compared as well)."""
     robot = evaluations.robot
     model, data = robot.model, robot.data
-    V = float(pin.computePotentialEnergy(model, data, q))
+    V = robot.potential_energy(q)
     reference = np.empty(robot.dof)
     tangents = np.zeros((model.nv, robot.dof))  # dq/dalpha_i along the assembly path
     error = tangent_error = 0.0
@@ -328,9 +328,7 @@ def _gravity_discrepancy(
                 states[s] = evaluations.assemble(alpha + s * e, q)
             return states[s]
 
-        d = richardson_derivative(
-            lambda s: float(pin.computePotentialEnergy(model, data, assembled(s))), center=V, noise=noise
-        )
+        d = richardson_derivative(lambda s: robot.potential_energy(assembled(s)), center=V, noise=noise)
         reference[i] = d.value
         error = max(error, d.error)
         if robot.idle_dof:
@@ -351,7 +349,7 @@ def _gravity_discrepancy(
         torque_error = 0.0
         for k, n in enumerate(N.T):
             d = richardson_derivative(
-                lambda s, n=n: float(pin.computePotentialEnergy(model, data, pin.integrate(model, q, s * n))),
+                lambda s, n=n: robot.potential_energy(pin.integrate(model, q, s * n)),
                 center=V,
                 noise=noise,
             )
@@ -589,6 +587,9 @@ def validate_closed_chain(
         gravity.add(*discrepancy, tol)
         if idle is not None:
             idle_states.append((q, idle, float(np.abs(G).max())))
+        if robot.joint_springs:  # the dampers' S^T D S in C is not Coriolis: M_dot = C + C^T without it
+            S = robot.velocity_map(q)
+            C = C - S.T @ robot.joint_spring_forces(q)[1] @ S
         coriolis_check.add(*_coriolis_discrepancy(evaluations, alpha, alpha_dot, q, M, C, noise, idle), tol)
         if fid is not None:
             for name, found in zip(
@@ -705,10 +706,7 @@ def _energy(robot: ClosedChainRobot, q: np.ndarray, v: np.ndarray) -> tuple[floa
     """(kinetic + gravity + spring energy, kinetic energy) [J]; kinetic with every joint's armature
     (:func:`kinetic_energy`)."""
     kinetic = kinetic_energy(robot.model, robot.data, q, v)
-    springs = 0.0
-    for joint, (stiffness, reference, _) in robot.joint_springs.items():
-        springs += 0.5 * stiffness * (q[robot.model.idx_qs[robot.model.getJointId(joint)]] - reference) ** 2
-    return kinetic + pin.computePotentialEnergy(robot.model, robot.data, q) + springs, kinetic
+    return kinetic + robot.potential_energy(q), kinetic
 
 
 @dataclass
