@@ -247,6 +247,18 @@ def _closure_rows(model: pin.Model, data: pin.Data, frames: list) -> np.ndarray:
     )
 
 
+def _closure_jacobian(
+    model: pin.Model, data: pin.Data, frames: list, couplings: list, q: np.ndarray
+) -> np.ndarray:
+    """J_c (module docstring) at q, the frame placements already in ``data``: the closure frames'
+    rows and the joint couplings' rows."""
+    pin.computeJointJacobians(model, data, q)
+    rows = _closure_rows(model, data, frames)
+    if couplings:
+        rows = np.vstack([rows, _coupling_terms(couplings, model.nv, q)[1]])
+    return rows
+
+
 def free_motions(
     model: pin.Model,
     closures: Sequence[Closure],
@@ -261,11 +273,8 @@ def free_motions(
     model = pin.Model(model)
     frames = _add_closure_frames(model, closures, prefix="_")
     data = model.createData()
-    pin.computeJointJacobians(model, data, q)
-    pin.updateFramePlacements(model, data)
-    rows = _closure_rows(model, data, frames)
-    if couplings:
-        rows = np.vstack([rows, _coupling_terms(_coupling_indices(model, couplings), model.nv, q)[1]])
+    pin.framesForwardKinematics(model, data, q)
+    rows = _closure_jacobian(model, data, frames, _coupling_indices(model, couplings) if couplings else [], q)
     N = null_space(rows, rcond=_RANK_TOLERANCE)
     taken = [
         model.idx_vs[model.getJointId(name)] + k
@@ -300,12 +309,8 @@ def assembled_pose(
         return _closure_residual(data, frames, indices, model.nv, x)
 
     def jacobian(x: np.ndarray) -> np.ndarray:
-        pin.computeJointJacobians(model, data, x)
-        pin.updateFramePlacements(model, data)
-        rows = _closure_rows(model, data, frames)
-        if indices:
-            rows = np.vstack([rows, _coupling_terms(indices, model.nv, x)[1]])
-        return rows
+        pin.framesForwardKinematics(model, data, x)
+        return _closure_jacobian(model, data, frames, indices, x)
 
     rows = [
         model.idx_vs[model.getJointId(name)] + k
@@ -741,11 +746,7 @@ class ClosedChainRobot:
         """J_c (``closure_size``, nv): the closures' velocity rows (module docstring)."""
         if not kinematics_done:
             pin.framesForwardKinematics(self.model, self.data, q)
-        pin.computeJointJacobians(self.model, self.data, q)
-        rows = _closure_rows(self.model, self.data, self._frames)
-        if self._couplings:
-            rows = np.vstack([rows, _coupling_terms(self._couplings, self.model.nv, q)[1]])
-        return rows
+        return _closure_jacobian(self.model, self.data, self._frames, self._couplings, q)
 
     def coupling_terms(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(r, J, J_dot v) of the joint couplings alone (the last rows of the closure residual, J_c
@@ -858,9 +859,15 @@ class ClosedChainRobot:
             self.model, self.closure_residual, self.closure_jacobian, start, held=self.independent_indices,
             free_fallback=False,
         ).q  # fmt: skip
-        singular = np.linalg.svd(self.closure_jacobian(q)[:, self.dependent_indices], compute_uv=False)
+        return self._cond_J_p(self.closure_jacobian(q))
+
+    def _cond_J_p(self, J: np.ndarray) -> float:
+        """cond(J_p) of J_c's dependent columns restricted to their rank (less the idle motions)."""
+        singular = np.linalg.svd(J[:, self.dependent_indices], compute_uv=False)
         rank = len(self.dependent_indices) - (self.idle_dof or 0)
-        return float(singular[0] / singular[rank - 1]) if rank and singular[rank - 1] > 0 else math.inf
+        if not rank:
+            return 1.0
+        return float(singular[0] / singular[rank - 1]) if singular[rank - 1] > 0 else math.inf
 
     def _worst_closure(self, residual: np.ndarray | None) -> str:
         if residual is None or not np.isfinite(residual).all():
@@ -1467,8 +1474,6 @@ class ClosedChainRobot:
         and passive joints, each idle motion's joints, and cond(J_p) (J_p restricted to its rank)."""
         q = self.reference_configuration if q is None else np.asarray(q, dtype=float)
         J = self.closure_jacobian(q)
-        singular = np.linalg.svd(J[:, self.dependent_indices], compute_uv=False)
-        rank = len(self.dependent_indices) - self.idle_dof
         return {
             "joint_velocities": self.model.nv,
             "closure_equations": self.closure_size,
@@ -1478,7 +1483,7 @@ class ClosedChainRobot:
             "passive": list(self.passive_joints),
             "idle": [self._joints_of_motion(column) for column in self.idle_motions(q).T],
             "fully_actuated": not self.passive_joints,
-            "cond_J_p": float(singular[0] / singular[rank - 1]) if rank else 1.0,
+            "cond_J_p": self._cond_J_p(J),
         }
 
     def summary(self, q: np.ndarray | None = None) -> str:
