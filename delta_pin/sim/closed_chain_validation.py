@@ -89,6 +89,9 @@ ENERGY_RTOL, ENERGY_ATOL = 1e-10, 1e-12  # DOP853 on [q, v] (rad or m, rad/s or 
 ENERGY_SAMPLES = 100  # the energy is read at least this often along the free motion (max_step)
 MAX_FIXED_STEPS = 1_000_000  # a fixed-step energy run longer than this (and its half-step twin) is refused
 ASSEMBLY_TOL = 1e-14  # [m or rad] the differenced states are assembled this tightly where they can be
+NEARER_DRAWS = (
+    10  # a random state that does not assemble is drawn again this many times, each halfway nearer home
+)
 IDLE_DRIFT_SHOWN = 1e-9  # the idle notes appear where the assembly path moves an idle motion more than
 # this per unit of alpha (a symmetric rod's spin: 1e-22, rounding; an off-axis one: order 1)
 
@@ -502,6 +505,23 @@ def _check_options(samples, seed, spread, energy_duration, tol, dt) -> None:
         )
 
 
+def _random_state(robot: ClosedChainRobot, rng: np.random.Generator, spread: float):
+    """One random state alpha = home + U(-spread, spread), alpha_dot ~ N(0, 0.5^2), and its
+    assembly q; where the loops do not close there, the offset is halved (the same direction) up
+    to :data:`NEARER_DRAWS` times, so that a home near the workspace's edge is still checked
+    around it. Returns (alpha, alpha_dot, q or ``None`` if none assembles, halvings)."""
+    offset = rng.uniform(-spread, spread, robot.dof)
+    alpha_dot = rng.normal(0.0, 0.5, robot.dof)
+    for halvings in range(NEARER_DRAWS + 1):
+        alpha = robot.home + offset
+        try:
+            q = robot.configuration(alpha, initial_guess=robot.reference_configuration)
+            return alpha, alpha_dot, q, halvings
+        except AssemblyError:
+            offset = 0.5 * offset
+    return alpha, alpha_dot, None, NEARER_DRAWS
+
+
 def validate_closed_chain(
     robot: ClosedChainRobot,
     samples: int = 20,
@@ -514,7 +534,9 @@ def validate_closed_chain(
     frame: str | None = None,
 ) -> ClosedChainValidation:
     """Run the five checks (module docstring) at ``samples`` random states alpha = home +
-    U(-spread, spread) [rad or m], alpha_dot ~ N(0, 0.5^2) [rad/s or m/s].
+    U(-spread, spread) [rad or m], alpha_dot ~ N(0, 0.5^2) [rad/s or m/s]; a state whose loops
+    do not close is drawn again halfway nearer home (up to :data:`NEARER_DRAWS` times, said in
+    the report's notes).
 
     Args:
         energy_duration: the free motion's length [s].
@@ -554,13 +576,13 @@ def validate_closed_chain(
     analytic_errors: dict[str, float] = {}  # the analytic Delta's M, C alpha_dot, G (robot.delta)
     evaluations = _Evaluations(robot)
     idle_states: list[tuple[np.ndarray, _Idle, float]] = []  # (q, _Idle, max |G|) with idle motions
+    nearer: list[float] = []  # the spreads of the states drawn nearer home
     for _ in range(samples):
-        alpha = robot.home + rng.uniform(-spread, spread, robot.dof)
-        alpha_dot = rng.normal(0.0, 0.5, robot.dof)
-        try:
-            q = robot.configuration(alpha, initial_guess=robot.reference_configuration)
-        except AssemblyError:
+        alpha, alpha_dot, q, halvings = _random_state(robot, rng, spread)
+        if q is None:
             continue
+        if halvings:
+            nearer.append(float(np.abs(alpha - robot.home).max()))
         report.states += 1
         gaps.append(robot.closure_gap(q))
         condition = passive_conditioning(robot, q)
@@ -600,8 +622,16 @@ def validate_closed_chain(
     if report.states == 0:
         raise AssemblyError(
             f"{robot.name!r}: none of {samples} random states within {spread} of home={robot.home.tolist()} "
-            "assembles; lower spread= (validate_closed_chain), or assemble the robot elsewhere (home=, "
+            f"assembles, nor any drawn {NEARER_DRAWS} times halfway nearer; lower spread= "
+            "(validate_closed_chain), or assemble the robot elsewhere (home=, "
             "CLI --home)"
+        )
+    if nearer:
+        report.notes.append(
+            f"{len(nearer)} of {report.states} states were drawn nearer home (largest offset down to "
+            f"{min(nearer):.2g} [rad or m]) because the loops do not close at their first draw within "
+            f"{spread:g} of it: home lies near the edge of the workspace or a singularity (cond(J_p) "
+            "below), or give a smaller spread"
         )
     report.checks["closure"] = (max(gaps), 1e-10, "largest closure residual of the states [m or rad]")
     if reduced:

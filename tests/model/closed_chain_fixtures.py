@@ -94,6 +94,27 @@ def assert_same_numbers(shipped: str, generated: str, name: str) -> None:
     np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-15, err_msg=name)
 
 
+def configuration_rate(model: pin.Model, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """dq/dt: 0.5 quat * (omega, 0) for ball and free joints (x, y, z, w), R v for a free joint's
+    position, v for the rest (the tests' own)."""
+
+    def quaternion_rate(quat, omega):
+        u, w = quat[:3], quat[3]
+        return 0.5 * np.r_[w * omega + np.cross(u, omega), -u @ omega]
+
+    rate = np.empty(model.nq)
+    for j in range(1, model.njoints):
+        iq, iv, kind = model.idx_qs[j], model.idx_vs[j], model.joints[j].shortname()
+        if kind == "JointModelFreeFlyer":
+            rate[iq : iq + 3] = pin.Quaternion(q[iq + 3 : iq + 7]).matrix() @ v[iv : iv + 3]
+            rate[iq + 3 : iq + 7] = quaternion_rate(q[iq + 3 : iq + 7], v[iv + 3 : iv + 6])
+        elif kind == "JointModelSpherical":
+            rate[iq : iq + 4] = quaternion_rate(q[iq : iq + 4], v[iv : iv + 3])
+        else:
+            rate[iq] = v[iv]
+    return rate
+
+
 def pinocchio_accelerations(robot, settings=None):
     """q_ddot = f(q, v, tau_full) by Pinocchio alone, the tests' reference for the plant:
     ``pin.constraintDynamics`` on the robot's tree and closure models, no Baumgarte correction.

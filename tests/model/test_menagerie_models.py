@@ -32,6 +32,7 @@ import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, URDFConventionError
 from delta_pin.sim.closed_chain_validation import validate_closed_chain
 from delta_pin.sim.integrators import rk4_step
+from tests.model.closed_chain_fixtures import configuration_rate
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -70,27 +71,6 @@ def _mujoco_joints(m, model: pin.Model):
         spring = (float(m.jnt_stiffness[j]), float(m.qpos_spring[m.jnt_qposadr[j]]))
         rows.append((velocities, model.idx_qs[jid], int(m.jnt_dofadr[j]), dofs, *spring, int(m.jnt_type[j])))
     return rows
-
-
-def _configuration_rate(model: pin.Model, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """dq/dt: 0.5 quat * (omega, 0) for ball and free joints (x, y, z, w), R v for a free joint's
-    position, v for the rest (the tests' own)."""
-
-    def quaternion_rate(quat, omega):
-        u, w = quat[:3], quat[3]
-        return 0.5 * np.r_[w * omega + np.cross(u, omega), -u @ omega]
-
-    rate = np.empty(model.nq)
-    for j in range(1, model.njoints):
-        iq, iv, kind = model.idx_qs[j], model.idx_vs[j], model.joints[j].shortname()
-        if kind == "JointModelFreeFlyer":
-            rate[iq : iq + 3] = pin.Quaternion(q[iq + 3 : iq + 7]).matrix() @ v[iv : iv + 3]
-            rate[iq + 3 : iq + 7] = quaternion_rate(q[iq + 3 : iq + 7], v[iv + 3 : iv + 6])
-        elif kind == "JointModelSpherical":
-            rate[iq : iq + 4] = quaternion_rate(q[iq : iq + 4], v[iv : iv + 3])
-        else:
-            rate[iq] = v[iv]
-    return rate
 
 
 def pinocchio_reference(robot, m, x0, t_end, joint_force=None):
@@ -132,7 +112,7 @@ def pinocchio_reference(robot, m, x0, t_end, joint_force=None):
 
     nq = model.nq
     solution = solve_ivp(
-        lambda t, y: np.r_[_configuration_rate(model, y[:nq], y[nq:]), accelerations(y[:nq], y[nq:])],
+        lambda t, y: np.r_[configuration_rate(model, y[:nq], y[nq:]), accelerations(y[:nq], y[nq:])],
         (0.0, t_end), x0, method="DOP853", rtol=1e-11, atol=1e-12,
     )  # fmt: skip
     assert solution.status == 0
