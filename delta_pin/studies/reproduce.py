@@ -25,6 +25,8 @@ import io
 import json
 import math
 import multiprocessing
+import os
+import signal
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -415,7 +417,8 @@ def _write_figures(result: ReproductionResult, figures: Path, workers: int | Non
     """Every figure of the study into ``figures``; with more than one worker and ``fork``
     available, a forked child draws every other figure while this process draws the rest (the
     27 figures of ``--full`` took ~10 s in one process). A child that fails leaves its figures
-    to this process, so the outputs never depend on it."""
+    to this process, so the outputs never depend on it. A Ctrl-C is this process's alone to
+    handle (:func:`_draw_in_child`): it ends the child, which prints nothing, and goes on up."""
     jobs = _figure_jobs(result, figures)
     child = None
     if (
@@ -423,14 +426,36 @@ def _write_figures(result: ReproductionResult, figures: Path, workers: int | Non
         and len(jobs) > 1
         and "fork" in multiprocessing.get_all_start_methods()
     ):
-        child = multiprocessing.get_context("fork").Process(target=_draw, args=(jobs[1::2],), daemon=True)
+        child = multiprocessing.get_context("fork").Process(
+            target=_draw_in_child, args=(jobs[1::2], os.getpid()), daemon=True
+        )
         child.start()
         jobs, theirs = jobs[0::2], jobs[1::2]
+    try:
+        _draw(jobs)
+        if child is not None:
+            child.join()
+    except BaseException:  # Ctrl-C, SIGTERM, a failed figure: the child goes first, silently
+        if child is not None:
+            child.terminate()
+            child.join()
+        raise
+    if child is not None and child.exitcode != 0:
+        _draw(theirs)
+
+
+def _draw_in_child(jobs: list, parent: int) -> None:
+    """:func:`_draw` in the forked figure child. A terminal's Ctrl-C reaches the whole process
+    group: the child ignores it (the parent ends the child, with SIGTERM, and reports the
+    interrupt in its one line), takes SIGTERM's default action instead of the CLI's handler that
+    the fork copied (which would raise KeyboardInterrupt and print a traceback here), and ends
+    with its parent however the parent ends."""
+    from delta_pin.utils.processes import die_with_parent
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent(parent)
     _draw(jobs)
-    if child is not None:
-        child.join()
-        if child.exitcode != 0:
-            _draw(theirs)
 
 
 def _draw(jobs: list) -> None:
