@@ -733,11 +733,148 @@ _DEBUG_HELP = "on an error, show Python's traceback instead of one line"
 # ---------------------------------------------------------------- identify (issue 24) ----------
 # delta-pin identify excite | simulate | fit: closed-chain dynamic identification
 # (delta_pin/identification, docs/identification.md); this block is its whole command.
+#
+# identify never replaces a file it did not write (issue 36): --out is never one of the command's
+# inputs (compared as files: os.path.samefile, through links and '..'); excite and simulate replace
+# an existing --out only if its header proves it their own output (_IDENTIFY_OWN_FILES); fit writes
+# like `run`: its folder claimed (manifest.json, lock, "complete": false until done) with the fixed
+# names of report.OUTPUTS, an earlier `identify fit`'s outputs replaced, anyone else's refused.
+
+# the header lines that make an existing --out provably this command's own output: the file's first
+# line, and a line its header must hold too (a log a drive records in the format of
+# docs/identification.md may start with the same first line; only simulate writes its `source`)
+_IDENTIFY_OWN_FILES = {
+    "excite": ("an excitation trajectory", "# delta-pin excitation trajectory", "# fourier:"),
+    "simulate": (
+        "a simulated log",
+        "# delta-pin identification log",
+        "# source: delta-pin identify simulate",
+    ),
+}
 
 
 def _identify_robot(args: argparse.Namespace):
     """The robot of --robot (any closed chain) or of --urdf/--set (the packaged Delta)."""
     return _closed_chain_robot(args) if args.robot is not None else _load_robot(args)
+
+
+def _identify_inputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """(flag, file) of every existing file the command reads: --robot's file and the robot.yaml
+    beside it, --urdf, --trajectory, --data, --validate."""
+    inputs = []
+    if args.robot is not None and Path(args.robot).is_file():
+        robot = Path(args.robot)
+        inputs.append(("--robot", robot))
+        if robot.with_name("robot.yaml").is_file():
+            inputs.append(("--robot", robot.with_name("robot.yaml")))
+    for flag in ("--urdf", "--trajectory", "--data", "--validate"):
+        path = getattr(args, flag[2:], None)
+        if path is not None and Path(path).is_file():
+            inputs.append((flag, Path(path)))
+    return inputs
+
+
+def _input_at(args: argparse.Namespace, path: Path) -> tuple[str, Path] | None:
+    """The (flag, file) of an input that ``path`` is (the same file: links and '..' resolved)."""
+    for flag, source in _identify_inputs(args):
+        try:
+            if os.path.samefile(path, source):
+                return flag, source
+        except OSError:  # path does not exist (or is a dangling link): no input
+            continue
+    return None
+
+
+def _check_identify_out_file(args: argparse.Namespace, command: str) -> None:
+    """excite/simulate: refuse, before any work, an --out that is one of the inputs, or an existing
+    file whose header does not prove it an earlier output of this command (_IDENTIFY_OWN_FILES)."""
+    out = args.out
+    _check_output_file("--out", out)
+    found = _input_at(args, out)
+    if found is not None:
+        flag, source = found
+        raise InvalidParameterError(
+            f"--out {out} is the file {flag} reads ({source}): identify {command} would write over it; "
+            "give another --out file"
+        )
+    if not out.exists():
+        return
+    what, first, mark = _IDENTIFY_OWN_FILES[command]
+    if not _has_header(out, first, mark):
+        raise InvalidParameterError(
+            f"--out {out} exists and is not {what} delta-pin identify {command} wrote (its header has "
+            f"no '{first}' and '{mark}' lines): it may be anyone's file; move it away, or give another "
+            "--out file"
+        )
+
+
+def _has_header(path: Path, first: str, mark: str) -> bool:
+    """Whether the ``#`` lines that open ``path`` start with ``first`` and hold one starting with
+    ``mark``."""
+    header = []
+    try:
+        with open(path, "rb") as handle:
+            for line in iter(lambda: handle.readline(1 << 20), b""):
+                if not line.startswith(b"#") or len(header) >= 64:
+                    break
+                header.append(line.decode("utf-8", errors="replace").rstrip("\r\n"))
+    except OSError:
+        return False
+    return bool(header) and header[0] == first and any(line.startswith(mark) for line in header[1:])
+
+
+def _check_identify_out_folder(args: argparse.Namespace) -> None:
+    """fit: refuse, before any work, an --out that is one of the inputs or holds one of them under
+    a name the fit writes (report.OUTPUTS: a Gepetto folder's robot.urdf given as --robot)."""
+    from delta_pin.identification.report import OUTPUTS
+
+    out = args.out
+    found = _input_at(args, out)
+    if found is not None:
+        raise InvalidParameterError(
+            f"--out {out} is the file {found[0]} reads; give a folder for the fit's outputs, e.g. "
+            f"--out {out.parent / 'identified'}"
+        )
+    _check_output_dir("--out", out)
+    for name in OUTPUTS:
+        found = _input_at(args, out / name)
+        if found is not None:
+            raise InvalidParameterError(
+                f"--out {out} holds {name}, the file {found[0]} reads ({found[1]}), and identify fit "
+                f"writes its own {name} there; give another folder, e.g. --out {out / 'identified'}"
+            )
+
+
+def _claim_fit_folder(args: argparse.Namespace):
+    """Lock --out for ``identify fit`` (:func:`delta_pin.studies.manifest.claim` with the fixed
+    names of report.OUTPUTS, replacing an earlier ``identify fit`` whatever its options): each of
+    those names present must be an earlier fit's, listed in its manifest.json and unchanged; the
+    folder's other files are left alone. Nothing is removed until the fit is computed."""
+    from delta_pin.identification.report import COMMAND, OUTPUTS
+    from delta_pin.studies.manifest import claim
+
+    def where(path):
+        return None if path is None else str(Path(path).resolve())
+
+    options = {
+        "robot": where(args.robot) if args.robot is not None and Path(args.robot).is_file() else args.robot,
+        "urdf": where(getattr(args, "urdf", None)),
+        **{name: getattr(args, name, None) for name in ("actuated", "passive", "free_flyer", "home")},
+        "data": where(args.data),
+        "validate": where(args.validate),
+        "cutoff": args.cutoff,
+        "consistent": not args.no_consistent,
+        "figures": not args.no_figures,
+    }
+    return claim(
+        args.out,
+        COMMAND,
+        options,
+        robot_args=None if args.robot is not None else _parse_settings(args.settings),
+        command_line=args.command_line,
+        outputs=list(OUTPUTS),
+        replace_same_command=True,
+    )
 
 
 def _identify_excite(args: argparse.Namespace) -> int:
@@ -746,7 +883,7 @@ def _identify_excite(args: argparse.Namespace) -> int:
     from delta_pin.identification.regressor import ClosedChainRegressor
     from delta_pin.identification.workflow import write_trajectory
 
-    _check_output_file("--out", args.out)
+    _check_identify_out_file(args, "excite")
     robot = _identify_robot(args)
     regressor = ClosedChainRegressor(robot)
     base = base_parameters(regressor)
@@ -773,7 +910,7 @@ def _identify_simulate(args: argparse.Namespace) -> int:
     from delta_pin.identification.workflow import perturbed_robot, read_trajectory, simulate_log
     from delta_pin.model.delta_robot import load_delta
 
-    _check_output_file("--out", args.out)
+    _check_identify_out_file(args, "simulate")
     robot = _identify_robot(args)
     trajectory = read_trajectory(args.trajectory, robot)
     if args.true_settings:
@@ -808,13 +945,14 @@ def _identify_fit(args: argparse.Namespace) -> int:
     from delta_pin.identification.report import write_report
     from delta_pin.identification.workflow import identify, validate
 
-    _check_output_dir("--out", args.out)
+    _check_identify_out_folder(args)
     robot = _identify_robot(args)
     log = read_log(args.data, robot.actuated_joints)
     unseen = None if args.validate is None else read_log(args.validate, robot.actuated_joints)
-    result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent)
-    validation = None if unseen is None else validate(result, unseen)
-    written = write_report(result, log, args.out, validation, figures=not args.no_figures)
+    with _claim_fit_folder(args) as folder:
+        result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent)
+        validation = None if unseen is None else validate(result, unseen)
+        written = write_report(result, log, args.out, validation, figures=not args.no_figures, folder=folder)
     relative = ", ".join(f"{x:.3g}" for x in result.residual_rms / result.tau_rms)
     print(f"{result.base.rank} base parameters identified in {result.timings['total']:.2f} s; "
           f"residual {relative} "
@@ -844,7 +982,11 @@ def _add_identify_command(add) -> None:
     excite = action(
         "excite", help="an excitation trajectory (Fourier series optimised for the regressor's condition)"
     )
-    excite.add_argument("--out", type=Path, required=True, help="the trajectory CSV (t, q[J], qd[J], qdd[J])")
+    excite.add_argument(
+        "--out", type=Path, required=True,
+        help="the trajectory CSV (t, q[J], qd[J], qdd[J]); never an input, and an existing file only if "
+        "excite wrote it (its header)",
+    )  # fmt: skip
     excite.add_argument("--duration", type=_seconds, default=20.0, help="length [s]")
     excite.add_argument("--period", type=_seconds, default=5.0, help="the Fourier series' period [s]")
     excite.add_argument("--harmonics", type=_integer(1), default=8, help="harmonics per joint")
@@ -871,7 +1013,11 @@ def _add_identify_command(add) -> None:
     simulate.add_argument(
         "--trajectory", type=Path, required=True, help="a file of delta-pin identify excite"
     )
-    simulate.add_argument("--out", type=Path, required=True, help="the log CSV (t, q[J], tau[J])")
+    simulate.add_argument(
+        "--out", type=Path, required=True,
+        help="the log CSV (t, q[J], tau[J]); never an input, and an existing file only if simulate wrote "
+        "it (its header's '# source: delta-pin identify simulate')",
+    )  # fmt: skip
     simulate.add_argument(
         "--true-set", dest="true_settings", action="append", default=[], metavar="NAME=VALUE",
         help="the simulated (true) Delta's xacro arguments, e.g. m_a=0.26 (repeatable)",
@@ -894,7 +1040,13 @@ def _add_identify_command(add) -> None:
 
     fit = action("fit", help="fit base parameters to a log; write parameters.json, report.md, figures")
     fit.add_argument("--data", type=Path, required=True, help="the log CSV (docs/identification.md)")
-    fit.add_argument("--out", type=Path, required=True, help="output folder")
+    fit.add_argument(
+        "--out", type=Path, required=True,
+        help="output folder, like run's: manifest.json and a lock; parameters.json, xacro_arguments.json, "
+        "robot.urdf, report.md and the PNGs present must be an earlier fit's (its manifest.json lists "
+        "them), and are replaced; a file of those names it did not write is refused, other files are "
+        "left alone",
+    )  # fmt: skip
     fit.add_argument("--validate", type=Path, default=None, help="a second log the fit does not see")
     fit.add_argument("--cutoff", type=float, default=20.0, help="the parallel filter's cut-off [Hz]")
     fit.add_argument("--no-consistent", action="store_true", help="skip the physically consistent estimate")

@@ -12,6 +12,23 @@
 * ``report.md`` and the figures ``torque.png`` (measured vs predicted torque), ``residual.png``
   (residual histogram per joint) and ``condition.png`` (singular values of the column-scaled base
   regressor of the log).
+
+**No file of anyone else's is ever replaced.** These seven names (:data:`OUTPUTS`) are the fit's
+outputs, whichever of them a fit writes (``xacro_arguments.json`` only for a Delta,
+``robot.urdf`` only where identified, the figures only with ``figures=True``); nothing else in
+the folder (a user's notes, a ``figures/`` folder, the log) is read, listed or removed. The rule
+is ``delta-pin run``'s (:func:`delta_pin.studies.manifest.claim` with ``outputs=OUTPUTS``,
+``replace_same_command=True``, command :data:`COMMAND`): each of the names present must be listed
+by the folder's ``manifest.json`` as an earlier ``identify fit``'s output, unchanged since (its
+SHA-256), and is then replaced whatever that fit's options; any other file of those names (a
+Gepetto folder's CAD ``robot.urdf``, a user's ``report.md``) is refused in one line, as is a
+folder another process is writing (its lock) or another command's folder. ``delta-pin identify
+fit`` claims ``--out`` so; :func:`write_report` writes through the claimed folder it is given
+(``folder=``), marking the folder ``"complete": false`` before its first file, listing each file
+as it is written, and complete once the last is. Called without a folder (this layer cannot
+claim one: ``studies`` and ``identification`` are independent layers), it writes only into a
+folder that holds none of the seven names, and writes no manifest; to replace an earlier fit's
+outputs from Python, claim the folder as the command does (docs/identification.md, section 5).
 """
 
 from __future__ import annotations
@@ -21,11 +38,24 @@ from pathlib import Path
 
 import numpy as np
 
+from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.log import IdentificationLog
 from delta_pin.identification.workflow import IdentificationResult
 from delta_pin.utils.atomic import atomic_open, write_text_atomically
 
-__all__ = ["identified_urdf", "parameters_record", "write_report"]
+__all__ = ["COMMAND", "OUTPUTS", "identified_urdf", "parameters_record", "write_report"]
+
+COMMAND = "identify fit"  # the command a fit's manifest.json names
+# every name a fit may write into its folder (module docstring): only these must be its own
+OUTPUTS = (
+    "parameters.json",
+    "xacro_arguments.json",
+    "robot.urdf",
+    "report.md",
+    "torque.png",
+    "residual.png",
+    "condition.png",
+)
 
 
 def _float(x) -> float | None:
@@ -140,8 +170,14 @@ def identified_urdf(result: IdentificationResult) -> str | None:
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8").decode()
 
 
-def _figures(result: IdentificationResult, log: IdentificationLog, out: Path) -> list[Path]:
+def _figures(result: IdentificationResult, log: IdentificationLog, out: Path, wrote=None) -> list[Path]:
+    """The three figures, each passed to ``wrote`` (if given) as soon as it is saved."""
     from matplotlib.figure import Figure
+
+    def saved(path: Path) -> Path:
+        if wrote is not None:
+            wrote(path)
+        return path
 
     predicted, measured = result.predict(log)
     t = log.t[: len(predicted)]
@@ -158,7 +194,7 @@ def _figures(result: IdentificationResult, log: IdentificationLog, out: Path) ->
     axes[0].legend(loc="upper right")
     axes[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    written.append(_save(fig, out / "torque.png"))
+    written.append(saved(_save(fig, out / "torque.png")))
     fig = Figure(figsize=(9, 3))
     ax = fig.subplots()
     for j in range(len(joints)):
@@ -167,7 +203,7 @@ def _figures(result: IdentificationResult, log: IdentificationLog, out: Path) ->
     ax.set_ylabel("samples")
     ax.legend()
     fig.tight_layout()
-    written.append(_save(fig, out / "residual.png"))
+    written.append(saved(_save(fig, out / "residual.png")))
     fig = Figure(figsize=(9, 3))
     ax = fig.subplots()
     ax.semilogy(np.arange(1, len(result.singular_values) + 1), result.singular_values, "o-", ms=3)
@@ -175,7 +211,7 @@ def _figures(result: IdentificationResult, log: IdentificationLog, out: Path) ->
     ax.set_ylabel("sigma_i / sigma_1")
     ax.set_title(f"column-scaled base regressor of the log: cond = {result.condition:.4g}")
     fig.tight_layout()
-    written.append(_save(fig, out / "condition.png"))
+    written.append(saved(_save(fig, out / "condition.png")))
     return written
 
 
@@ -187,26 +223,61 @@ def _save(fig, path: Path) -> Path:
 
 def write_report(
     result: IdentificationResult, log: IdentificationLog, out: str | Path, validation: dict | None = None,
-    figures: bool = True,
+    figures: bool = True, *, folder=None,
 ) -> list[Path]:  # fmt: skip
-    """Write the module docstring's files into the folder ``out``; returns their paths."""
+    """Write the module docstring's files into the folder ``out``; returns their paths.
+
+    Args:
+        folder: ``out`` as :func:`delta_pin.studies.manifest.claim` locked it for :data:`COMMAND`
+            with ``outputs=OUTPUTS`` (what ``delta-pin identify fit`` passes): it is marked
+            incomplete and the earlier fit's outputs removed before the first file, each file is
+            listed as it is written, and the manifest is complete after the last. ``None``: ``out``
+            must hold none of :data:`OUTPUTS` (nothing is replaced, no manifest is written).
+
+    Raises:
+        InvalidParameterError: without ``folder``, ``out`` holds one of :data:`OUTPUTS` (one
+            line naming it); ``folder`` is not ``out``'s.
+    """
     out = Path(out)
+    if folder is None:
+        _refuse_existing_outputs(out)
+    elif Path(folder.out).resolve() != out.resolve():
+        raise InvalidParameterError(f"write_report: folder= is {folder.out}'s claim, not out={out}'s")
     out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+
+    def wrote(*paths: Path) -> None:
+        written.extend(paths)
+        if folder is not None:
+            folder.record(list(paths))  # listed at once: a rerun may replace it if this fit stops here
+
+    if folder is not None:
+        folder.start()  # marked incomplete; the earlier fit's outputs go now
     record = parameters_record(result, validation)
-    written = [write_text_atomically(out / "parameters.json", json.dumps(record, indent=2) + "\n")]
+    wrote(write_text_atomically(out / "parameters.json", json.dumps(record, indent=2) + "\n"))
     if result.xacro_arguments is not None:
-        written.append(
-            write_text_atomically(
-                out / "xacro_arguments.json", json.dumps(result.xacro_arguments, indent=2) + "\n"
-            )
-        )
+        text = json.dumps(result.xacro_arguments, indent=2) + "\n"
+        wrote(write_text_atomically(out / "xacro_arguments.json", text))
     urdf = identified_urdf(result)
     if urdf is not None:
-        written.append(write_text_atomically(out / "robot.urdf", urdf))
+        wrote(write_text_atomically(out / "robot.urdf", urdf))
     if figures:
-        written += _figures(result, log, out)
-    written.append(write_text_atomically(out / "report.md", _markdown(result, record, validation, figures)))
+        _figures(result, log, out, wrote)  # each listed once saved
+    wrote(write_text_atomically(out / "report.md", _markdown(result, record, validation, figures)))
+    if folder is not None:
+        folder.finish(written)
     return written
+
+
+def _refuse_existing_outputs(out: Path) -> None:
+    """:func:`write_report` without a claimed folder: refuse ``out`` if it holds one of
+    :data:`OUTPUTS` (it may be anyone's file; only a claim can prove it is an earlier fit's)."""
+    for name in OUTPUTS:
+        if (out / name).exists() or (out / name).is_symlink():
+            raise InvalidParameterError(
+                f"the output folder {out} holds {name}, which write_report replaces only through a "
+                "claimed folder (folder=, docs/identification.md): move it away, or give another folder"
+            )
 
 
 def _markdown(result: IdentificationResult, record: dict, validation: dict | None, figures: bool) -> str:
