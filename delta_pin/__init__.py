@@ -81,7 +81,7 @@ if TYPE_CHECKING:
         Uncertainty,
     )
 
-__version__ = "0.1.0"
+from delta_pin._version import __version__
 
 # module -> the public names it defines, loaded on first use
 _PUBLIC = {

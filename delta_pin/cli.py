@@ -474,7 +474,7 @@ def _check_page(page: Path | None, out: Path) -> None:
     if page is None:
         return
     _check_output_file("--html", page)
-    from delta_pin.studies.manifest import LOCK, MANIFEST
+    from delta_pin.utils.manifest import LOCK, MANIFEST
 
     where, folder = page.resolve(), out.resolve()
     if where == folder or where in folder.parents:
@@ -501,7 +501,7 @@ def _claim_run_folder(args: argparse.Namespace, out: Path, options: dict, robot_
     """Lock --out for `run` and check that the files it will write there are an earlier run's own
     (listed in its manifest.json, unchanged) or absent; nothing is removed yet (the earlier run
     stays whole until the new one has been computed: :meth:`OutputFolder.start`)."""
-    from delta_pin.studies.manifest import claim
+    from delta_pin.utils.manifest import claim
 
     page = None if args.html is None else _inside(args.html, out)
     names = [*RUN_FILES, *([] if page is None else [page])]
@@ -667,7 +667,7 @@ def _executor_options(args: argparse.Namespace) -> dict:
 
 
 def _folder_options(args: argparse.Namespace) -> dict:
-    """How a study treats its output folder (delta_pin.studies.manifest)."""
+    """How a study treats its output folder (delta_pin.utils.manifest)."""
     return {"overwrite": args.overwrite, "command_line": args.command_line}
 
 
@@ -846,12 +846,12 @@ def _check_identify_out_folder(args: argparse.Namespace) -> None:
 
 
 def _claim_fit_folder(args: argparse.Namespace):
-    """Lock --out for ``identify fit`` (:func:`delta_pin.studies.manifest.claim` with the fixed
+    """Lock --out for ``identify fit`` (:func:`delta_pin.utils.manifest.claim` with the fixed
     names of report.OUTPUTS, replacing an earlier ``identify fit`` whatever its options): each of
     those names present must be an earlier fit's, listed in its manifest.json and unchanged; the
     folder's other files are left alone. Nothing is removed until the fit is computed."""
     from delta_pin.identification.report import COMMAND, OUTPUTS
-    from delta_pin.studies.manifest import claim
+    from delta_pin.utils.manifest import claim
 
     def where(path):
         return None if path is None else str(Path(path).resolve())

@@ -13,8 +13,8 @@ import textwrap
 import pytest
 
 from delta_pin.cli import main
-from delta_pin.studies import manifest
-from delta_pin.studies.manifest import LOCK, MANIFEST, sha256
+from delta_pin.utils import manifest
+from delta_pin.utils.manifest import LOCK, MANIFEST, sha256
 
 RUN = ["run", "--plant", "analytic", "--mode", "sampled", "--sampling-aware", "--t-end", "0.01"]
 SWEEP = ["sweep", "--t-end", "0.01", "--workers", "1", "--param", "delta_m=0,0.3"]
@@ -191,7 +191,7 @@ def test_a_page_outside_the_folder_is_written_and_never_removed(tmp_path):
 _HOLDER = textwrap.dedent(
     """
     import sys, time
-    from delta_pin.studies.manifest import lock
+    from delta_pin.utils.manifest import lock
     held = lock(sys.argv[1])
     print("locked", flush=True)
     time.sleep(60)

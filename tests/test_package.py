@@ -83,3 +83,16 @@ def test_help_loads_no_heavy_module(command):
     )
     assert "HEAVY []" in result.stdout, result.stdout[-300:]
     assert "--help" in result.stdout or "usage:" in result.stdout
+
+
+def test_the_version_has_one_home_that_pyproject_agrees_with():
+    """delta_pin.__version__ (what every manifest records) is pyproject.toml's version."""
+    import re
+    from pathlib import Path
+
+    import delta_pin
+    from delta_pin._version import __version__
+
+    text = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text()
+    (version,) = re.findall(r'(?m)^version = "([^"]+)"$', text)  # [project]'s (tomllib is 3.11+)
+    assert delta_pin.__version__ == __version__ == version

@@ -17,18 +17,16 @@
 outputs, whichever of them a fit writes (``xacro_arguments.json`` only for a Delta,
 ``robot.urdf`` only where identified, the figures only with ``figures=True``); nothing else in
 the folder (a user's notes, a ``figures/`` folder, the log) is read, listed or removed. The rule
-is ``delta-pin run``'s (:func:`delta_pin.studies.manifest.claim` with ``outputs=OUTPUTS``,
+is ``delta-pin run``'s (:func:`delta_pin.utils.manifest.claim` with ``outputs=OUTPUTS``,
 ``replace_same_command=True``, command :data:`COMMAND`): each of the names present must be listed
 by the folder's ``manifest.json`` as an earlier ``identify fit``'s output, unchanged since (its
 SHA-256), and is then replaced whatever that fit's options; any other file of those names (a
 Gepetto folder's CAD ``robot.urdf``, a user's ``report.md``) is refused in one line, as is a
 folder another process is writing (its lock) or another command's folder. ``delta-pin identify
-fit`` claims ``--out`` so; :func:`write_report` writes through the claimed folder it is given
-(``folder=``), marking the folder ``"complete": false`` before its first file, listing each file
-as it is written, and complete once the last is. Called without a folder (this layer cannot
-claim one: ``studies`` and ``identification`` are independent layers), it writes only into a
-folder that holds none of the seven names, and writes no manifest; to replace an earlier fit's
-outputs from Python, claim the folder as the command does (docs/identification.md, section 5).
+fit`` claims ``--out`` so, and :func:`write_report` claims ``out`` the same way when it is not
+given a claimed folder (``folder=``): one rule for the command and for Python. The folder is
+marked ``"complete": false`` before its first file, each file is listed as it is written, and it
+is complete once the last is.
 """
 
 from __future__ import annotations
@@ -42,6 +40,7 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.log import IdentificationLog
 from delta_pin.identification.workflow import IdentificationResult
 from delta_pin.utils.atomic import atomic_open, write_text_atomically
+from delta_pin.utils.manifest import OutputFolder, claim
 
 __all__ = ["COMMAND", "OUTPUTS", "identified_urdf", "parameters_record", "write_report"]
 
@@ -223,36 +222,35 @@ def _save(fig, path: Path) -> Path:
 
 def write_report(
     result: IdentificationResult, log: IdentificationLog, out: str | Path, validation: dict | None = None,
-    figures: bool = True, *, folder=None,
+    figures: bool = True, *, folder: OutputFolder | None = None,
 ) -> list[Path]:  # fmt: skip
     """Write the module docstring's files into the folder ``out``; returns their paths.
 
     Args:
-        folder: ``out`` as :func:`delta_pin.studies.manifest.claim` locked it for :data:`COMMAND`
-            with ``outputs=OUTPUTS`` (what ``delta-pin identify fit`` passes): it is marked
-            incomplete and the earlier fit's outputs removed before the first file, each file is
-            listed as it is written, and the manifest is complete after the last. ``None``: ``out``
-            must hold none of :data:`OUTPUTS` (nothing is replaced, no manifest is written).
+        folder: ``out`` as :func:`delta_pin.utils.manifest.claim` locked it for :data:`COMMAND`
+            with ``outputs=OUTPUTS`` (what ``delta-pin identify fit`` passes, recording its
+            options); ``None``: claimed here the same way (its options: none). Either way it is
+            marked incomplete and the earlier fit's outputs removed before the first file, each
+            file is listed as it is written, and the manifest is complete after the last.
 
     Raises:
-        InvalidParameterError: without ``folder``, ``out`` holds one of :data:`OUTPUTS` (one
-            line naming it); ``folder`` is not ``out``'s.
+        InvalidParameterError: ``out`` holds a file of :data:`OUTPUTS` that no earlier fit's
+            manifest lists, or one changed since, or another command's outputs, or another
+            process writes it (one line each); ``folder`` is not ``out``'s.
     """
     out = Path(out)
     if folder is None:
-        _refuse_existing_outputs(out)
-    elif Path(folder.out).resolve() != out.resolve():
+        with claim(out, COMMAND, {}, outputs=list(OUTPUTS), replace_same_command=True) as claimed:
+            return write_report(result, log, out, validation, figures, folder=claimed)
+    if Path(folder.out).resolve() != out.resolve():
         raise InvalidParameterError(f"write_report: folder= is {folder.out}'s claim, not out={out}'s")
-    out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
 
     def wrote(*paths: Path) -> None:
         written.extend(paths)
-        if folder is not None:
-            folder.record(list(paths))  # listed at once: a rerun may replace it if this fit stops here
+        folder.record(list(paths))  # listed at once: a rerun may replace it if this fit stops here
 
-    if folder is not None:
-        folder.start()  # marked incomplete; the earlier fit's outputs go now
+    folder.start()  # marked incomplete; the earlier fit's outputs go now
     record = parameters_record(result, validation)
     wrote(write_text_atomically(out / "parameters.json", json.dumps(record, indent=2) + "\n"))
     if result.xacro_arguments is not None:
@@ -264,20 +262,8 @@ def write_report(
     if figures:
         _figures(result, log, out, wrote)  # each listed once saved
     wrote(write_text_atomically(out / "report.md", _markdown(result, record, validation, figures)))
-    if folder is not None:
-        folder.finish(written)
+    folder.finish(written)
     return written
-
-
-def _refuse_existing_outputs(out: Path) -> None:
-    """:func:`write_report` without a claimed folder: refuse ``out`` if it holds one of
-    :data:`OUTPUTS` (it may be anyone's file; only a claim can prove it is an earlier fit's)."""
-    for name in OUTPUTS:
-        if (out / name).exists() or (out / name).is_symlink():
-            raise InvalidParameterError(
-                f"the output folder {out} holds {name}, which write_report replaces only through a "
-                "claimed folder (folder=, docs/identification.md): move it away, or give another folder"
-            )
 
 
 def _markdown(result: IdentificationResult, record: dict, validation: dict | None, figures: bool) -> str:

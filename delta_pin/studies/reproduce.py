@@ -36,11 +36,11 @@ import numpy as np
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.delta_robot import load_delta
 from delta_pin.sim.run import Run, load_run
-from delta_pin.studies import manifest
 from delta_pin.studies.digital import DigitalStudy, digital_report_lines, digital_rows, digital_specs
 from delta_pin.studies.experiments import RunSpec, check_specs
 from delta_pin.studies.metrics import METRIC_NAMES, compute_metrics
 from delta_pin.studies.sweep import grid_specs, run_sweep
+from delta_pin.utils import manifest
 from delta_pin.utils.atomic import write_text_atomically
 
 __all__ = [
@@ -196,7 +196,7 @@ def reproduce(
         workers, scheduler: local processes, or a Dask scheduler address (see :func:`run_sweep`).
         robot_args: xacro arguments of the robot (the Table 1 robot by default).
         overwrite: replace the outputs of a different study in ``out`` instead of refusing it
-            (:func:`delta_pin.studies.manifest.begin`).
+            (:func:`delta_pin.utils.manifest.begin`).
         command_line: the command as typed, for ``manifest.json``.
     """
     start = time.perf_counter()

@@ -424,7 +424,7 @@ def claim(
             ``overwrite``), files without a manifest (always: those may be anyone's files), or a
             listed output changed since it was written.
     """
-    from delta_pin import __version__
+    from delta_pin._version import __version__
 
     out = Path(out)
     identity = _plain({"command": command, "options": options, "robot_args": robot_args or {}})

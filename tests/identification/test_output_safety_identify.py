@@ -19,8 +19,8 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.log import read_log
 from delta_pin.identification.report import COMMAND, OUTPUTS, write_report
 from delta_pin.identification.workflow import identify
-from delta_pin.studies import manifest
-from delta_pin.studies.manifest import LOCK, MANIFEST, sha256
+from delta_pin.utils import manifest
+from delta_pin.utils.manifest import LOCK, MANIFEST, sha256
 
 GEPETTO_FIVE_BAR = Path(__file__).parents[1] / "data" / "gepetto" / "5bar_linkage"
 EXCITE = ["--duration", "2", "--period", "2", "--iterations", "0"]
@@ -311,10 +311,10 @@ def test_an_existing_out_file_is_replaced_only_when_its_header_proves_it_delta_p
 
 
 # ------------------------------------------------------------------------------------ Python API
-def test_write_report_replaces_nothing_by_itself_and_its_own_outputs_through_a_claim(case, tmp_path):
-    """write_report(result, log, out) replaced a folder's robot.urdf; now, without a claimed folder,
-    it refuses any of the fit's names in ``out``; through ``claim`` (as the command does) it
-    replaces an earlier fit's outputs, and still refuses a user's file."""
+def test_write_report_claims_its_folder_like_the_command(case, tmp_path):
+    """write_report(result, log, out) replaced a folder's robot.urdf; now it claims ``out`` by the
+    command's rule, given a claimed folder or not: a user's file is refused, an earlier fit's
+    outputs are replaced, and the folder's manifest lists what it wrote."""
     from delta_pin.model.loaders import load_robot
 
     robot = load_robot(str(case["robot"]))
@@ -324,15 +324,19 @@ def test_write_report_replaces_nothing_by_itself_and_its_own_outputs_through_a_c
     folder.mkdir()
     (folder / "robot.urdf").write_text("the user's CAD file\n")
     before = _hashes(folder)
-    with pytest.raises(InvalidParameterError, match=r"holds robot\.urdf, which write_report replaces only"):
+    with pytest.raises(InvalidParameterError, match=r"holds robot\.urdf, which no manifest\.json"):
         write_report(result, log, folder, figures=False)
     with pytest.raises(InvalidParameterError, match=r"holds robot\.urdf, which no manifest\.json"):
         manifest.claim(folder, COMMAND, {}, outputs=list(OUTPUTS), replace_same_command=True)
     assert _hashes(folder) == before
     out = tmp_path / "ident"
     assert {p.name for p in write_report(result, log, out, figures=False)} == FIT_FILES
-    with pytest.raises(InvalidParameterError, match=r"holds parameters\.json"):
-        write_report(result, log, out, figures=False)  # no manifest: not provably its own
+    assert {p.name for p in write_report(result, log, out, figures=False)} == FIT_FILES  # replaced
+    (out / "parameters.json").write_text("edited by hand\n")
+    with pytest.raises(
+        InvalidParameterError, match=r"holds parameters\.json, listed in its manifest\.json but changed since"
+    ):
+        write_report(result, log, out, figures=False)  # changed since: never replaced
     shutil.rmtree(out)
     for _ in range(2):  # the second replaces the first
         with manifest.claim(out, COMMAND, {}, outputs=list(OUTPUTS), replace_same_command=True) as claimed:

@@ -10,8 +10,8 @@ import pytest
 from delta_pin.cli import main
 from delta_pin.errors import InvalidParameterError
 from delta_pin.studies import reproduce as reproduce_module
-from delta_pin.studies.manifest import CACHE, LOCK, MANIFEST, sha256
 from delta_pin.studies.reproduce import ReproduceSettings, reproduce
+from delta_pin.utils.manifest import CACHE, LOCK, MANIFEST, sha256
 
 from .test_reproduce import TINY
 
