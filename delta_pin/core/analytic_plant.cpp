@@ -2,6 +2,7 @@
 
 #include "analytic_plant.hpp"
 
+#include "checks.hpp"
 #include "failure.hpp"
 
 #include <stdexcept>
@@ -21,8 +22,7 @@ namespace delta_pin
 
   void AnalyticDeltaPlant::set_friction(const FrictionSpec & friction)
   {
-    if (friction.normal_force.size() != 3)
-      throw std::invalid_argument("the friction needs one normal force per actuated joint (3)");
+    check_size(friction.normal_force, 3, "normal_force");  // one per actuated joint
     friction_ = friction;
   }
 
@@ -30,11 +30,14 @@ namespace delta_pin
   {
     if ((truth.normal_forces.rows() && truth.normal_forces.cols() != 3)
         || (truth.disturbances.rows() && truth.disturbances.cols() != 3))
-      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint (3)");
+      throw std::invalid_argument(
+        "normal_forces and disturbances have shapes " + shape_text(truth.normal_forces.rows(), truth.normal_forces.cols())
+        + " and " + shape_text(truth.disturbances.rows(), truth.disturbances.cols())
+        + ", expected 3 columns (one per actuated joint) or no rows");
     if (truth.point_masses.size())
       throw std::invalid_argument("the analytic Delta takes the platform mass m_o(t), not a point payload");
     if (!(truth.step >= 0.0))
-      throw std::invalid_argument("the truth table's step must be >= 0 s");
+      throw std::invalid_argument("step is " + std::to_string(truth.step) + ", expected the truth table's step >= 0 s");
     truth_ = truth;
   }
 
@@ -63,6 +66,8 @@ namespace delta_pin
 
   void AnalyticDeltaPlant::derivative(const Vector & x, const Vector & tau, double u, Vector & dx)
   {
+    check_size(x, 6, "x");  // [alpha, alpha_dot]
+    check_size(tau, 3, "tau");
     Vector3 ddq;
     accelerations(x.head<3>(), x.tail<3>(), tau, u, ddq);
     dx.resize(6);
@@ -72,8 +77,8 @@ namespace delta_pin
 
   double AnalyticDeltaPlant::step(Vector & x, const Vector & tau, long stage, double h)
   {
-    if (x.size() != 6 || tau.size() != 3)
-      throw std::invalid_argument("the analytic Delta steps x = [alpha, alpha_dot] (6) under 3 torques");
+    check_size(x, 6, "x");  // [alpha, alpha_dot]
+    check_size(tau, 3, "tau");
     rk4_step(
       x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
       k3_, k4_, y_);
@@ -82,6 +87,7 @@ namespace delta_pin
 
   Eigen::Vector3d AnalyticDeltaPlant::end_effector_position(const Vector & q)
   {
+    check_size(q, 3, "q");  // alpha
     Vector3 xyz;
     Matrix3 J, J_dot;
     if (!delta_kinematics(geometry_, q.head<3>(), Vector3::Zero(), xyz, J, J_dot))
@@ -99,6 +105,9 @@ namespace delta_pin
   void AnalyticDeltaPlant::active_accelerations(
     double t, const Vector & q, const Vector & v, const Vector & tau, Vector & alpha_ddot)
   {
+    check_size(q, 3, "q");  // alpha
+    check_size(v, 3, "v");  // alpha_dot
+    check_size(tau, 3, "tau");
     Vector3 ddq;
     accelerations(q.head<3>(), v.head<3>(), tau, truth_.position(t), ddq);
     alpha_ddot = ddq;

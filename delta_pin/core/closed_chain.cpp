@@ -84,8 +84,19 @@ namespace delta_pin
     for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
       rate_kinds_.push_back(coefficient_rates_ ? rate_kind(model_, j) : AXIS);
     const RigidConstraintModel::BaumgarteCorrectorParameters gains(baumgarte_kp, baumgarte_kd);
-    for (const ConstraintSpec & spec : constraints)
+    const std::string joints = "the model's " + std::to_string(model_.njoints) + " joints";
+    for (size_t k = 0; k < constraints.size(); ++k)
     {
+      const ConstraintSpec & spec = constraints[k];
+      const std::string name = "constraints[" + std::to_string(k) + "]";
+      check_closure_rows(spec.size, name);
+      check_index((long long)spec.joint1, model_.njoints, name + "'s joint 1", joints);
+      check_index((long long)spec.joint2, model_.njoints, name + "'s joint 2", joints);
+      if (spec.reference_frame != LOCAL && spec.reference_frame != LOCAL_WORLD_ALIGNED)
+        throw std::invalid_argument(
+          name + "'s reference frame is " + std::to_string(spec.reference_frame) + ", expected "
+          + std::to_string((int)LOCAL) + " (LOCAL) or " + std::to_string((int)LOCAL_WORLD_ALIGNED)
+          + " (LOCAL_WORLD_ALIGNED)");
       RigidConstraintModel constraint(
         spec.size == 6 ? CONTACT_6D : CONTACT_3D, model_, spec.joint1, spec.placement1, spec.joint2,
         spec.placement2, (ReferenceFrame)spec.reference_frame);
@@ -171,6 +182,20 @@ namespace delta_pin
     const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref, const Vector & d,
     const Indices & damper_v, const Vector & damper_d)
   {
+    const Eigen::Index springs = q_index.size();
+    check_size(k, springs, "k");  // one per entry of q_index
+    check_size(ref, springs, "ref");
+    check_size(d, springs, "d");
+    if (v_index.size() != springs)
+      throw std::invalid_argument(
+        "v_index has " + std::to_string(v_index.size()) + " entries, expected one per entry of q_index ("
+        + std::to_string(springs) + ")");
+    check_size(damper_d, damper_v.size(), "damper_d");  // one per entry of damper_v
+    const std::string q_entries = "the model's " + std::to_string(model_.nq) + " entries of q";
+    const std::string v_entries = "the model's " + std::to_string(model_.nv) + " entries of v";
+    check_indices(q_index, model_.nq, "q_index", q_entries);
+    check_indices(v_index, model_.nv, "v_index", v_entries);
+    check_indices(damper_v, model_.nv, "damper_v", v_entries);
     spring_q_ = q_index;
     spring_v_ = v_index;
     spring_k_ = k;
@@ -182,8 +207,8 @@ namespace delta_pin
 
   void ClosedChainPlant::set_friction(const FrictionSpec & friction)
   {
-    if (friction.enabled && friction.normal_force.size() != dof())
-      throw std::invalid_argument("the friction's normal force needs one value per actuated joint");
+    if (friction.enabled)
+      check_size(friction.normal_force, dof(), "normal_force");  // one per actuated joint
     friction_ = friction;
     if (!friction_.enabled)
       friction_.normal_force = Vector::Zero(dof());
@@ -194,7 +219,9 @@ namespace delta_pin
     const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances)
   {
     if (joint == 0 || joint >= (JointIndex)model_.njoints)
-      throw std::invalid_argument("the truth's body is not a joint of the model");
+      throw std::invalid_argument(
+        "joint is " + std::to_string(joint) + ", expected the truth's body among the model's joints 1 to "
+        + std::to_string(model_.njoints - 1));
     if (payload_joint_ != 0)
       model_.inertias[payload_joint_] = base_inertia_;  // the body of the last call restored
     payload_joint_ = joint;
@@ -209,11 +236,14 @@ namespace delta_pin
   {
     if ((truth.normal_forces.rows() && truth.normal_forces.cols() != dof())
         || (truth.disturbances.rows() && truth.disturbances.cols() != dof()))
-      throw std::invalid_argument("the normal forces and the disturbance need one column per actuated joint");
+      throw std::invalid_argument(
+        "normal_forces and disturbances have shapes " + shape_text(truth.normal_forces.rows(), truth.normal_forces.cols())
+        + " and " + shape_text(truth.disturbances.rows(), truth.disturbances.cols()) + ", expected "
+        + std::to_string(dof()) + " columns (one per actuated joint) or no rows");
     if ((truth.body_masses.size() || truth.point_masses.size()) && payload_joint_ == 0)
       throw std::invalid_argument("a table of masses needs the payload's joint (set_truth)");
     if (!(truth.step >= 0.0))
-      throw std::invalid_argument("the truth table's step must be >= 0 s");
+      throw std::invalid_argument("step is " + std::to_string(truth.step) + ", expected the truth table's step >= 0 s");
     truth_ = truth;
   }
 

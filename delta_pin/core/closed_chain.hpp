@@ -147,6 +147,8 @@ namespace delta_pin
       RowMatrix & alpha_dot, RowMatrix & alpha_ddot, RowMatrix & actual);
 
   private:
+    // std::invalid_argument where frame is not one of the model's
+    void check_frame(pinocchio::FrameIndex frame) const;
     const Matrix & closure_jacobian(const Vector & q);
     // J_c from the joint placements already in data_ (after residual(q) or forwardKinematics)
     const Matrix & closure_jacobian_at_placements(const Vector & q);

@@ -92,36 +92,55 @@ namespace delta_pin
   , idle_dof_(chain.idle_dof)
   , end_effector_(chain.end_effector)
   {
-    model_from_text(chain.model_text, model_);
-    if (end_effector_ >= (FrameIndex)model_.nframes)
-      throw std::invalid_argument("the end-effector frame is not in the model");
+    try
+    {
+      model_from_text(chain.model_text, model_);
+    }
+    catch (const std::exception & error)
+    {
+      throw std::invalid_argument(std::string("model_text is not a Pinocchio model archive (") + error.what() + ")");
+    }
+    // every index the robot's description holds, checked once here for every later call
+    const std::string frames = "the model's " + std::to_string(model_.nframes) + " frames";
+    const std::string q_entries = "the model's " + std::to_string(model_.nq) + " entries of q";
+    const std::string v_entries = "the model's " + std::to_string(model_.nv) + " entries of v";
+    check_index((long long)end_effector_, model_.nframes, "end_effector", frames);
     if (actuated_q_.size() != actuated_v_.size())
-      throw std::invalid_argument("the actuated joints need one entry in q and one in v each");
+      throw std::invalid_argument(
+        "actuated_q has " + std::to_string(actuated_q_.size()) + " entries, expected one per entry of actuated_v ("
+        + std::to_string(actuated_v_.size()) + ")");
+    check_indices(actuated_q_, model_.nq, "actuated_q", q_entries);
+    check_indices(actuated_v_, model_.nv, "actuated_v", v_entries);
+    check_indices(dependent_v_, model_.nv, "dependent_v", v_entries);
     if (idle_dof_ < 0 || idle_dof_ > dependent_v_.size())
       throw std::invalid_argument(
-        "idle_dof=" + std::to_string(idle_dof_) + " must lie between 0 and the dependent joints' "
+        "idle_dof is " + std::to_string(idle_dof_) + ", expected 0 to the dependent joints' "
         + std::to_string(dependent_v_.size()));
-    for (const Indices * indices : {&actuated_v_, &dependent_v_})
-      for (Eigen::Index i = 0; i < indices->size(); ++i)
-        if ((*indices)[i] < 0 || (*indices)[i] >= model_.nv)
-          throw std::invalid_argument("a joint's entry in v lies outside the model's " + std::to_string(model_.nv));
-    for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
-      if (actuated_q_[i] < 0 || actuated_q_[i] >= model_.nq)
-        throw std::invalid_argument("an actuated joint's entry in q lies outside the model's " + std::to_string(model_.nq));
     int size = 0;
-    for (const ClosureFrames & closure : closures_)
+    for (size_t k = 0; k < closures_.size(); ++k)
     {
-      if (closure.frame1 >= (FrameIndex)model_.nframes || closure.frame2 >= (FrameIndex)model_.nframes)
-        throw std::invalid_argument("a closure frame is not in the model");
+      const ClosureFrames & closure = closures_[k];
+      const std::string name = "closures[" + std::to_string(k) + "]";
+      check_index((long long)closure.frame1, model_.nframes, name + "'s frame 1", frames);
+      check_index((long long)closure.frame2, model_.nframes, name + "'s frame 2", frames);
+      check_closure_rows(closure.size, name);
       size += closure.size;
     }
     closure_rows_ = size;
-    for (const JointCouplingSpec & c : couplings_)
+    for (size_t k = 0; k < couplings_.size(); ++k)
     {
-      const bool inside = c.q1 >= 0 && c.q1 < model_.nq && c.v1 >= 0 && c.v1 < model_.nv && c.q2 < model_.nq
-                          && c.v2 < model_.nv && (c.q2 < 0) == (c.v2 < 0);
-      if (!inside)
-        throw std::invalid_argument("a joint coupling's entries lie outside the model");
+      const JointCouplingSpec & c = couplings_[k];
+      const std::string name = "couplings[" + std::to_string(k) + "]";
+      check_index(c.q1, model_.nq, name + "'s q1", q_entries);
+      check_index(c.v1, model_.nv, name + "'s v1", v_entries);
+      if ((c.q2 < 0) != (c.v2 < 0))
+        throw std::invalid_argument(name + " has q2 = " + std::to_string(c.q2) + " and v2 = " + std::to_string(c.v2)
+                                    + ", expected both entries of joint 2 or both -1 (none)");
+      if (c.q2 >= 0)
+      {
+        check_index(c.q2, model_.nq, name + "'s q2", q_entries);
+        check_index(c.v2, model_.nv, name + "'s v2", v_entries);
+      }
     }
     size += (int)couplings_.size();
     data_ = Data(model_);
@@ -210,7 +229,7 @@ namespace delta_pin
         return true;
       closure_jacobian_at_placements(q);
       Vector step = solve_dependent(r);
-      const double biggest = step.cwiseAbs().maxCoeff();
+      const double biggest = step.size() ? step.cwiseAbs().maxCoeff() : 0.0;
       if (biggest > 0.5)
         step *= 0.5 / biggest;
       dv.setZero();
@@ -309,6 +328,7 @@ namespace delta_pin
 
   Matrix ClosedChainModel::velocity_map(const Vector & q)
   {
+    check_size(q, model_.nq, "q");
     closure_jacobian(q);
     const Matrix S0 = minimum_norm_map();
     if (idle_dof_ == 0)
@@ -487,8 +507,14 @@ namespace delta_pin
     return updateFramePlacement(model_, data_, end_effector_).translation();
   }
 
+  void ClosedChainModel::check_frame(FrameIndex frame) const
+  {
+    check_index((long long)frame, model_.nframes, "frame", "the model's " + std::to_string(model_.nframes) + " frames");
+  }
+
   Matrix ClosedChainModel::frame_jacobian(const Vector & q, FrameIndex frame)
   {
+    check_frame(frame);
     const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in data_
     frame_jacobian1_.setZero();
     getFrameJacobian(model_, data_, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
@@ -497,6 +523,8 @@ namespace delta_pin
 
   Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
   {
+    check_frame(frame);
+    check_size(q, model_.nq, "q");
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
     Vector v, rate;
     if (idle_dof_ > 0)
@@ -518,7 +546,10 @@ namespace delta_pin
     const Eigen::Vector3d & target, FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
     double tolerance, int iterations)
   {
+    check_frame(frame);
     check_size(alpha, actuated_q_.size(), "alpha");
+    for (Eigen::Index r = 0; r < rows.size(); ++r)
+      check_index(rows[r], 3, "rows[" + std::to_string(r) + "]", "the task coordinates x, y, z");
     Vector assembled;
     Vector error(rows.size());
     Matrix J(rows.size(), actuated_v_.size());
@@ -531,13 +562,13 @@ namespace delta_pin
       const Eigen::Vector3d position = updateFramePlacement(model_, data_, frame).translation();
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         error[r] = position[rows[r]] - target[rows[r]];
-      if (error.cwiseAbs().maxCoeff() <= tolerance)
+      if (largest(error) <= tolerance)
         return true;
       const Matrix J_frame = frame_jacobian(q, frame);
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         J.row(r) = J_frame.row(rows[r]);
       Vector step = least_squares(J, error);
-      const double biggest = step.cwiseAbs().maxCoeff();
+      const double biggest = step.size() ? step.cwiseAbs().maxCoeff() : 0.0;
       if (biggest > 0.2)
         step *= 0.2 / biggest;
       alpha -= step;
@@ -551,9 +582,27 @@ namespace delta_pin
     RowMatrix & alpha_ddot, RowMatrix & actual)
   {
     const Eigen::Index n = times.size(), dof = actuated_v_.size();
-    if (rows.size() != dof || xyz.rows() != n || xyz_dot.rows() != n || xyz_ddot.rows() != n || xyz.cols() != 3)
-      throw std::invalid_argument("joint_reference: one task coordinate per actuator and one row per time");
-    check_size(q, model_.nq, "q");
+    check_frame(frame);
+    if (rows.size() != dof)
+      throw std::invalid_argument(
+        "rows has " + std::to_string(rows.size()) + " entries, expected one task coordinate per actuator ("
+        + std::to_string(dof) + ")");
+    for (Eigen::Index r = 0; r < rows.size(); ++r)
+      check_index(rows[r], 3, "rows[" + std::to_string(r) + "]", "the task coordinates x, y, z");
+    check_shape(xyz, n, 3, "xyz");
+    check_shape(xyz_dot, n, 3, "xyz_dot");
+    check_shape(xyz_ddot, n, 3, "xyz_ddot");
+    if (xyz.rows() != n || xyz_dot.rows() != n || xyz_ddot.rows() != n)
+      throw std::invalid_argument(
+        "xyz, xyz_dot and xyz_ddot have " + std::to_string(xyz.rows()) + ", " + std::to_string(xyz_dot.rows()) + " and "
+        + std::to_string(xyz_ddot.rows()) + " rows, expected one per time (" + std::to_string(n) + ")");
+    check_finite(times, "times");
+    check_finite(xyz, "xyz");
+    check_finite(xyz_dot, "xyz_dot");
+    check_finite(xyz_ddot, "xyz_ddot");
+    check_size(alpha0, dof, "alpha0");
+    check_finite(alpha0, "alpha0");
+    check_size(q, model_.nq, "q_start");
     alpha.resize(n, dof);
     alpha_dot.resize(n, dof);
     alpha_ddot.resize(n, dof);

@@ -1,5 +1,6 @@
 #include "continuous.hpp"
 
+#include "checks.hpp"
 #include "failure.hpp"
 
 #include <algorithm>
@@ -67,10 +68,22 @@ namespace delta_pin
     long projection_interval)
   {
     const int n = (int)alpha0.size(), nz = (int)z0.size();
-    if (plant.dof() != n || alpha_dot0.size() != n)
-      throw std::invalid_argument("alpha0 and alpha_dot0 need one value per actuated joint");
-    if (!(dt > 0.0) || samples < 1)
-      throw std::invalid_argument("run_continuous needs dt > 0 and at least one sample");
+    if (plant.dof() < 1)
+      throw std::invalid_argument("run_continuous needs a plant with an actuated joint");
+    check_size(alpha0, plant.dof(), "alpha0");  // one value per actuated joint
+    check_size(alpha_dot0, plant.dof(), "alpha_dot0");
+    check_positive(dt, "dt");
+    if (samples < 1)
+      throw std::invalid_argument("samples is " + std::to_string(samples) + ", expected at least one sample");
+    // the reference: at least one row, one column per actuated joint, the four tables alike
+    check_positive(reference.step, "step");
+    check_shape(reference.alpha, 1, n, "alpha");
+    const Eigen::Index rows = reference.alpha.rows();
+    check_shape(reference.alpha_dot, rows, n, "alpha_dot");
+    check_shape(reference.alpha_ddot, rows, n, "alpha_ddot");
+    check_shape(reference.alpha_dddot, rows, n, "alpha_dddot");
+    if (!(options.max_step > 0.0))
+      throw std::invalid_argument("max_step is " + std::to_string(options.max_step) + ", expected > 0 s");
     const bool full = plant.integrates_full_state();
     const int nq = plant.nq(), nv = plant.nv(), nx = full ? nq + nv : 2 * n;
     const Indices & actuated_q = plant.actuated_q();

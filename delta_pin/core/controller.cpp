@@ -3,6 +3,7 @@
 
 #include "controller.hpp"
 
+#include "checks.hpp"
 #include "failure.hpp"
 
 #include <cmath>
@@ -18,17 +19,15 @@ namespace delta_pin
   , disturbance_(disturbance)
   , name_(name)
   {
-    if (disturbance_.size() != nominal_.dof())
-      throw std::invalid_argument("the disturbance needs one value per actuated joint");
-    if (q_.size() != nominal_.model().nq)
-      throw std::invalid_argument("the reference configuration has the wrong size");
+    check_size(disturbance_, nominal_.dof(), "disturbance");  // one per actuated joint
+    check_size(q_, nominal_.model().nq, "reference_configuration");
     friction_.normal_force = Vector::Zero(nominal_.dof());
   }
 
   void ProjectedLaw::set_friction(const FrictionSpec & friction)
   {
-    if (friction.enabled && friction.normal_force.size() != nominal_.dof())
-      throw std::invalid_argument("the nominal friction needs one normal force per actuated joint");
+    if (friction.enabled)
+      check_size(friction.normal_force, nominal_.dof(), "normal_force");  // one per actuated joint
     friction_ = friction;
   }
 
@@ -36,10 +35,12 @@ namespace delta_pin
     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
     const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
   {
-    const Eigen::Index n = nominal_.dof();
-    if (alpha.size() != n || alpha_dot.size() != n || ref_alpha.size() != n || ref_alpha_dot.size() != n
-        || ref_alpha_ddot.size() != n)
-      throw std::invalid_argument("the joint state and the reference need one value per actuated joint");
+    const Eigen::Index n = nominal_.dof();  // one value per actuated joint
+    check_size(alpha, n, "alpha");
+    check_size(alpha_dot, n, "alpha_dot");
+    check_size(ref_alpha, n, "ref_alpha");
+    check_size(ref_alpha_dot, n, "ref_alpha_dot");
+    check_size(ref_alpha_ddot, n, "ref_alpha_ddot");
     compute(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
   }
 
@@ -107,9 +108,11 @@ namespace delta_pin
     if (sensor && !(resolution > 0.0))
       throw std::invalid_argument("the encoder needs a resolution > 0 [rad]");
     if (noise.size() && noise.cols() != n)
-      throw std::invalid_argument("the encoder noise needs one column per actuated joint");
-    if (delay < 0 || (torque_limit.size() && torque_limit.size() != n))
-      throw std::invalid_argument("the drive needs a delay >= 0 and one torque limit per actuated joint (or none)");
+      check_shape(noise, -1, n, "noise");  // one column per actuated joint (or none)
+    if (delay < 0)
+      throw std::invalid_argument("delay is " + std::to_string(delay) + ", expected >= 0 samples");
+    if (torque_limit.size())
+      check_size(torque_limit, n, "torque_limit");  // one per actuated joint (or none)
     sensor_ = sensor;
     resolution_ = resolution;
     noise_ = noise;
@@ -124,9 +127,13 @@ namespace delta_pin
     const Vector & state0, long samples, double max_joint_speed)
   {
     const Eigen::Index n = nominal_.dof();
-    if (alpha_d.rows() < samples || alpha_dot_d.rows() < samples || alpha_ddot_d.rows() < samples
-        || alpha_d.cols() != n || alpha_dot_d.cols() != n || alpha_ddot_d.cols() != n)
-      throw std::invalid_argument("the reference table needs one row per sample and one column per actuated joint");
+    if (samples < 0)
+      throw std::invalid_argument("samples is " + std::to_string(samples) + ", expected >= 0");
+    check_positive(dt, "dt");
+    // the reference: one row per sample, one column per actuated joint
+    check_shape(alpha_d, samples, n, "alpha_d");
+    check_shape(alpha_dot_d, samples, n, "alpha_dot_d");
+    check_shape(alpha_ddot_d, samples, n, "alpha_ddot_d");
     alpha_d_ = alpha_d;
     alpha_dot_d_ = alpha_dot_d;
     alpha_ddot_d_ = alpha_ddot_d;
@@ -134,8 +141,8 @@ namespace delta_pin
     max_joint_speed_ = max_joint_speed;
     z_ = state0;
     z_dot_ = Vector::Zero(state0.size());
-    if (sensor_ && noise_.size() && noise_.rows() < samples)
-      throw std::invalid_argument("the encoder noise needs one row per sample");
+    if (sensor_ && noise_.size())
+      check_shape(noise_, samples, n, "noise");  // one row per sample
     tau.setZero(samples, n);
     state.setZero(samples, state0.size());
     tau_command.setZero(drive_ ? samples : 0, n);
@@ -158,7 +165,7 @@ namespace delta_pin
 
   void ProjectedLaw::keep(long k, const Vector & torque, const Vector & state_k)
   {
-    if (k >= tau.rows() || state.cols() != state_k.size())
+    if (k < 0 || k >= tau.rows() || state.cols() != state_k.size())
       throw std::invalid_argument("ProjectedLaw::keep beyond the samples or the state of start_continuous()");
     tau.row(k) = torque.transpose();
     state.row(k) = state_k.transpose();
@@ -167,8 +174,15 @@ namespace delta_pin
 
   Vector ProjectedLaw::control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot)
   {
-    if (k >= tau.rows())
-      throw std::invalid_argument("ProjectedLaw::control beyond the samples of start()");
+    if (k < 0 || k >= tau.rows())
+      throw std::invalid_argument(
+        "sample " + std::to_string(k) + " lies beyond the " + std::to_string(tau.rows())
+        + " samples of start(): steps + 1 must not exceed them");
+    // the drive as start() sized it (set_drive since then: start() again)
+    if ((sensor_ && noise_.size() && k >= noise_.rows()) || (drive_ && (k >= tau_command.rows() || pending_.rows() != delay_)))
+      throw std::invalid_argument(
+        "set_drive was called after start(): its noise, delay or command records do not match the run's; call "
+        "start() again");
     const double t = k * dt_;
     if (k > 0)
     {
@@ -237,8 +251,9 @@ namespace delta_pin
   , T_p_(T_p)
   , T_v_(T_v)
   {
-    if (D_.size() != dof() || T_p_.size() != dof() || T_v_.size() != dof())
-      throw std::invalid_argument("the gains D, T_p, T_v need one value per actuated joint");
+    check_size(D_, dof(), "D");  // one per actuated joint
+    check_size(T_p_, dof(), "T_p");
+    check_size(T_v_, dof(), "T_v");
   }
 
   void ComputedTorqueLaw::law(
@@ -259,8 +274,8 @@ namespace delta_pin
   , K_p_(K_p)
   , K_d_(K_d)
   {
-    if (K_p_.size() != dof() || K_d_.size() != dof())
-      throw std::invalid_argument("the gains K_p, K_d need one value per actuated joint");
+    check_size(K_p_, dof(), "K_p");  // one per actuated joint
+    check_size(K_d_, dof(), "K_d");
   }
 
   void PDGravityLaw::law(
@@ -279,8 +294,9 @@ namespace delta_pin
                  disturbance, name)
   , gains_(gains)
   {
-    if (gains_.D.size() != dof() || gains_.T_p.size() != dof() || gains_.T_v.size() != dof())
-      throw std::invalid_argument("the gains D, T_p, T_v need one value per actuated joint");
+    check_size(gains_.D, dof(), "D");  // one per actuated joint
+    check_size(gains_.T_p, dof(), "T_p");
+    check_size(gains_.T_v, dof(), "T_v");
     info_.robust_torque = Vector::Zero(dof());
   }
 
@@ -356,13 +372,16 @@ namespace delta_pin
   , gains_(gains)
   {
     const Eigen::Index size = gains_.transition.rows();
-    if (size < 3 || size > observer_max || gains_.transition.cols() != size || gains_.input_gain.size() != size
-        || gains_.observer_gain.size() != size)
-      throw std::invalid_argument("the observer needs Phi (S x S), Gamma (S) and L (S) with 3 <= S <= 6");
+    if (size < 3 || size > observer_max || gains_.transition.cols() != size)
+      throw std::invalid_argument(
+        "transition has shape " + shape_text(gains_.transition.rows(), gains_.transition.cols())
+        + ", expected the observer's Phi (S, S) with 3 <= S <= " + std::to_string(observer_max));
+    check_size(gains_.input_gain, size, "input_gain");  // Gamma (S)
+    check_size(gains_.observer_gain, size, "observer_gain");  // L (S)
     if (!(gains_.period > 0.0) || gains_.delay < 0 || !(gains_.layer_samples >= 1.0))
       throw std::invalid_argument("digital-robust needs a period > 0, a delay >= 0 and layer_samples >= 1");
-    if (gains_.has_limit && gains_.torque_limit.size() != dof())
-      throw std::invalid_argument("the torque limit needs one value per actuated joint");
+    if (gains_.has_limit)
+      check_size(gains_.torque_limit, dof(), "torque_limit");  // one per actuated joint
     set_discrete();
   }
 
@@ -411,10 +430,18 @@ namespace delta_pin
   , gains_(gains)
   {
     const Eigen::Index n = dof();
-    if (gains_.alpha0.size() != n || gains_.gravity.size() != n || gains_.gravity_slope.rows() != n
-        || gains_.gravity_slope.cols() != n || gains_.inertia.rows() != n || gains_.inertia.cols() != n
-        || gains_.gain.rows() != n || gains_.gain.cols() != 2 * n)
-      throw std::invalid_argument("the LQR needs alpha0, G0 (n), dG/dalpha, M0 (n x n) and K (n x 2n)");
+    check_size(gains_.alpha0, n, "alpha0");  // n = the actuated joints
+    check_size(gains_.gravity, n, "gravity");
+    const auto square = [n](const Matrix & value, const char * name, Eigen::Index cols)
+    {
+      if (value.rows() != n || value.cols() != cols)
+        throw std::invalid_argument(
+          std::string(name) + " has shape " + shape_text(value.rows(), value.cols()) + ", expected "
+          + shape_text(n, cols));
+    };
+    square(gains_.gravity_slope, "gravity_slope", n);
+    square(gains_.inertia, "inertia", n);
+    square(gains_.gain, "gain", 2 * n);
   }
 
   void LqrLaw::compute(

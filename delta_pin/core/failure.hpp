@@ -47,7 +47,7 @@ namespace delta_pin
   {
     if (!finite)
       throw failure_at("the state became non-finite (alpha=" + joint_values(alpha) + ")", t);
-    const double speed = alpha_dot.cwiseAbs().maxCoeff();
+    const double speed = alpha_dot.size() ? alpha_dot.cwiseAbs().maxCoeff() : 0.0;  // none: no motor
     if (!(speed <= max_joint_speed))
     {
       std::ostringstream text;

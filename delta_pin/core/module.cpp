@@ -9,6 +9,7 @@
 // is installed (CMakeLists.txt).
 
 #include "analytic_plant.hpp"
+#include "checks.hpp"
 #include "closed_chain.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
@@ -28,6 +29,7 @@ namespace nb = nanobind;
 namespace
 {
   using delta_pin::RowMatrix;
+  using delta_pin::check_finite;
   typedef nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu> Table;
   typedef nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> Column;
 
@@ -141,11 +143,19 @@ NB_MODULE(_core, m)
       },
       nb::arg("alpha"), nb::arg("guess"), nb::arg("tolerance") = 1e-12, nb::arg("iterations") = 60,
       "(closed, q): Newton on the closures from guess with the actuated joints at alpha.")
-    .def("velocity_map", &ClosedChainModel::velocity_map)
+    .def(
+      "velocity_map",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q)
+      {
+        check_finite(q, "q");
+        return self.velocity_map(q);
+      },
+      nb::arg("q"), "S = dq/dalpha (nv, dof) at a closed q.")
     .def(
       "project_state",
       [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v)
       {
+        check_finite(v, "v");  // a non-finite q: Newton does not close (closed False)
         Eigen::VectorXd q_out = q, v_out = v;
         const bool closed = self.project_state(q_out, v_out);
         return std::make_tuple(closed, q_out, v_out);
@@ -157,19 +167,30 @@ NB_MODULE(_core, m)
       "reduced_terms",
       [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot)
       {
+        check_finite(q, "q");
+        check_finite(alpha_dot, "alpha_dot");
         Eigen::MatrixXd M, C;
         Eigen::VectorXd G, C_alpha_dot;
         self.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
         return std::make_tuple(M, C, G, C_alpha_dot);
       },
-      "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
-    .def("end_effector_position", &ClosedChainModel::end_effector_position)
+      nb::arg("q"), nb::arg("alpha_dot"), "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
+    .def(
+      "end_effector_position",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q)
+      {
+        check_finite(q, "q");
+        return self.end_effector_position(q);
+      },
+      nb::arg("q"))
     .def(
       "end_effector_positions",
       [](ClosedChainModel & self, const RowMatrix & alpha, const Eigen::VectorXd & guess)
       {
         // rows assembled in turn, each warm-started from the one before, up to the first that
         // does not close (its index, or -1)
+        delta_pin::check_shape(alpha, -1, self.dof(), "alpha");  // one column per actuated joint
+        delta_pin::check_size(guess, self.model().nq, "guess");
         RowMatrix xyz = RowMatrix::Zero(alpha.rows(), 3);
         Eigen::VectorXd q = guess, next;
         long failed = -1;
@@ -191,8 +212,24 @@ NB_MODULE(_core, m)
       nb::arg("alpha"), nb::arg("guess"),
       "(first row that does not close or -1, the last closed q, end-effector positions (N, 3)) along the "
       "rows of alpha (N, dof), each assembled from the one before.")
-    .def("frame_jacobian", &ClosedChainModel::frame_jacobian)
-    .def("frame_acceleration_drift", &ClosedChainModel::frame_acceleration_drift)
+    .def(
+      "frame_jacobian",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, size_t frame)
+      {
+        check_finite(q, "q");
+        return self.frame_jacobian(q, frame);
+      },
+      nb::arg("q"), nb::arg("frame"), "The closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED).")
+    .def(
+      "frame_acceleration_drift",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot, size_t frame)
+      {
+        check_finite(q, "q");
+        check_finite(alpha_dot, "alpha_dot");
+        return self.frame_acceleration_drift(q, alpha_dot, frame);
+      },
+      nb::arg("q"), nb::arg("alpha_dot"), nb::arg("frame"),
+      "The frame's classical linear acceleration at zero actuated acceleration [m/s^2].")
     .def(
       "joint_reference",
       [](ClosedChainModel & self, size_t frame, const Eigen::VectorXi & rows, const Eigen::VectorXd & times,
@@ -205,6 +242,8 @@ NB_MODULE(_core, m)
           self.joint_reference(frame, rows, times, xyz, xyz_dot, xyz_ddot, alpha0, q, alpha, alpha_dot, alpha_ddot, actual);
         return std::make_tuple(failed, q, alpha, alpha_dot, alpha_ddot, actual);
       },
+      nb::arg("frame"), nb::arg("rows"), nb::arg("times"), nb::arg("xyz"), nb::arg("xyz_dot"), nb::arg("xyz_ddot"),
+      nb::arg("alpha0"), nb::arg("q_start"),
       "(failed sample or -1, last q, alpha, alpha_dot, alpha_ddot, reached xyz) of a frame's path.");
 
   nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
@@ -225,16 +264,29 @@ NB_MODULE(_core, m)
     .def_prop_ro("largest_projected_gap", &CorePlant::largest_projected_gap,
                  "The largest closure gap a projection brought back [m or rad] (0 before one).")
     .def_prop_ro("failure_time", &CorePlant::failure_time)
-    .def("closure_gap", &CorePlant::closure_gap)
-    .def("end_effector_position", &CorePlant::end_effector_position)
+    .def(
+      "closure_gap",
+      [](CorePlant & self, const Eigen::VectorXd & q)
+      {
+        delta_pin::check_size(q, self.nq(), "q");
+        return self.closure_gap(q);
+      },
+      nb::arg("q"), "The largest closure residual at q [m or rad] (NaN where q holds one).")
+    .def("end_effector_position", &CorePlant::end_effector_position, nb::arg("q"))
     .def(
       "step",
       [](CorePlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, long stage, double h)
       {
+        delta_pin::check_size(x, self.nq() + self.nv(), "x");
+        delta_pin::check_size(tau, self.dof(), "tau");
+        check_finite(x, "x");
+        check_finite(tau, "tau");
+        delta_pin::check_positive(h, "h");
         Eigen::VectorXd y = x;
         const double gap = self.step(y, tau, stage, h);
         return std::make_tuple(y, gap);
       },
+      nb::arg("x"), nb::arg("tau"), nb::arg("stage"), nb::arg("h"),
       "One RK4 step of length h [s] under tau from the truth's row `stage`: (x, closure gap).")
     .def(
       "run_sampled",
@@ -293,7 +345,14 @@ NB_MODULE(_core, m)
     .def(
       "accelerations",
       [](ClosedChainPlant & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v, const Eigen::VectorXd & tau,
-         double row) { return Eigen::VectorXd(self.accelerations(q, v, tau, row)); },
+         double row)
+      {
+        check_finite(q, "q");
+        check_finite(v, "v");
+        check_finite(tau, "tau");
+        check_finite(row, "row");
+        return Eigen::VectorXd(self.accelerations(q, v, tau, row));
+      },
       nb::arg("q"), nb::arg("v"), nb::arg("tau"), nb::arg("row"),
       "ddq at (q, v) under the actuated torques, the truth at the table's row position `row`.");
   nb::class_<AnalyticDeltaPlant, CorePlant>(m, "AnalyticDeltaPlant")
@@ -303,6 +362,12 @@ NB_MODULE(_core, m)
          double g, const Eigen::Vector3d & cos_phi, const Eigen::Vector3d & sin_phi, double arm_mass_share,
          double platform_mass)
       {
+        const double constants[] = {R, r, l_a, l_b, arm_inertia, arm_gravity, g, arm_mass_share, platform_mass};
+        const char * names[] = {"R", "r", "l_a", "l_b", "arm_inertia", "arm_gravity", "g", "arm_mass_share", "platform_mass"};
+        for (int i = 0; i < 9; ++i)
+          check_finite(constants[i], names[i]);
+        check_finite(cos_phi, "cos_phi");
+        check_finite(sin_phi, "sin_phi");
         new (self) AnalyticDeltaPlant(
           delta_geometry(R, r, l_a, l_b, arm_inertia, arm_gravity, g, 0.0, cos_phi, sin_phi), arm_mass_share,
           platform_mass);
@@ -327,6 +392,11 @@ NB_MODULE(_core, m)
       "derivative",
       [](AnalyticDeltaPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
       {
+        delta_pin::check_size(x, 6, "x");  // [alpha, alpha_dot]
+        delta_pin::check_size(tau, 3, "tau");
+        check_finite(x, "x");
+        check_finite(tau, "tau");
+        check_finite(row, "row");
         Eigen::VectorXd dx;
         self.derivative(x, tau, row, dx);
         return dx;
@@ -356,11 +426,18 @@ NB_MODULE(_core, m)
          const Eigen::VectorXd & ref_alpha, const Eigen::VectorXd & ref_alpha_dot, const Eigen::VectorXd & ref_alpha_ddot,
          const Eigen::VectorXd & state)
       {
+        check_finite(alpha, "alpha");
+        check_finite(alpha_dot, "alpha_dot");
+        check_finite(ref_alpha, "ref_alpha");
+        check_finite(ref_alpha_dot, "ref_alpha_dot");
+        check_finite(ref_alpha_ddot, "ref_alpha_ddot");
+        check_finite(state, "state");
         Eigen::VectorXd tau, state_dot;
         self.evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, state, tau, state_dot);
         return std::make_tuple(tau, state_dot);
       },
-      "(tau, the state's derivative) at one state.")
+      nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("ref_alpha"), nb::arg("ref_alpha_dot"), nb::arg("ref_alpha_ddot"),
+      nb::arg("state"), "(tau, the state's derivative) at one state.")
     .def("set_drive", &delta_pin::ProjectedLaw::set_drive,
          "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive (delay "
          "[samples], torque limit [N m] or empty) between the plant and the law, before start().")
@@ -445,8 +522,10 @@ NB_MODULE(_core, m)
          const Eigen::MatrixXd & transition, const Eigen::VectorXd & input_gain, const Eigen::VectorXd & observer_gain)
       {
         const Eigen::Index size = transition.rows();
-        if (size < 3 || size > delta_pin::observer_max)
-          throw std::invalid_argument("the observer needs 3 to 6 states per joint");
+        if (size < 3 || size > delta_pin::observer_max || transition.cols() != size)
+          throw std::invalid_argument(
+            "transition has shape " + delta_pin::shape_text(transition.rows(), transition.cols())
+            + ", expected the observer's Phi (S, S) with 3 <= S <= " + std::to_string(delta_pin::observer_max));
         delta_pin::DigitalRobustGains<Eigen::Dynamic> g;
         g.period = dt;
         g.delay = delay;

@@ -2,6 +2,7 @@
 
 #include "plant.hpp"
 
+#include "checks.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
 
@@ -15,10 +16,20 @@ namespace delta_pin
     RowsOut xyz_out, Eigen::Ref<Vector> gap_out)
   {
     const int nq = this->nq(), nv = this->nv();
-    if (
-      x.size() != nq + nv || q_out.rows() < steps + 1 || q_out.cols() != nq || v_out.cols() != nv
-      || xyz_out.rows() < steps + 1 || gap_out.size() < steps + 1)
-      throw std::invalid_argument("run_sampled: the state or the record arrays have the wrong shape");
+    if (steps < 0)
+      throw std::invalid_argument("steps is " + std::to_string(steps) + ", expected >= 0");
+    if (substeps < 1)
+      throw std::invalid_argument("substeps is " + std::to_string(substeps) + ", expected >= 1");
+    check_positive(dt, "dt");
+    check_size(x, nq + nv, "x");  // [q, v]
+    check_finite(x, "x");
+    // the records: steps + 1 rows each, written row by row below
+    check_shape(q_out, steps + 1, nq, "q");
+    check_shape(v_out, steps + 1, nv, "v");
+    check_shape(xyz_out, steps + 1, 3, "xyz");
+    if (gap_out.size() < steps + 1)
+      throw std::invalid_argument(
+        "gap has " + std::to_string(gap_out.size()) + " entries, expected at least " + std::to_string(steps + 1));
     const double h = dt / substeps;
     double gap = closure_gap(x.head(nq));
     Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size());
@@ -41,7 +52,9 @@ namespace delta_pin
         throw;
       }
       if (tau.size() != dof())
-        throw std::invalid_argument("run_sampled: the control returned a torque of the wrong size");
+        throw std::invalid_argument(
+          "the control returned a torque of " + std::to_string(tau.size()) + " entries at sample " + std::to_string(k)
+          + ", expected " + std::to_string(dof()));
       q_out.row(k) = x.head(nq).transpose();
       v_out.row(k) = x.tail(nv).transpose();
       xyz_out.row(k) = end_effector_position(x.head(nq)).transpose();

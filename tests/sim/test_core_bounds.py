@@ -1,0 +1,370 @@
+# ruff: noqa: E501  (the cases are Python source in strings, one case a line)
+"""The compiled core never reads or writes outside an array (issue 36, item 2): every binding of
+``delta_pin.compiled._core`` checks the sizes, indices and ranges it is given before it touches
+memory, and answers a bad call with one ``ValueError`` naming the argument.
+
+Each group of cases runs in a subprocess of its own (a bad call used to kill the process: SIGSEGV,
+SIGBUS, or heap corruption found at exit), one line per case. Every test asserts that the
+process was not killed by a signal, that each case raised the error it names -- ``ValueError``
+from the core's checks, ``TypeError`` from nanobind's own type check where an index is negative
+and the binding takes it unsigned, or where a preallocated output table is not C-contiguous --
+and that the message names the argument. The valid objects the cases start from are the shipped
+five-bar (``dp.load_robot("five_bar")``: nq = nv = 4, one 3-row closure, two actuators) and the
+paper's Delta on its reduced plant (``dp.load_delta()``).
+
+Cases marked ``"ok"`` are calls that must go through with the right answer: a non-contiguous
+view (``a[::2]``) handed to an argument the binding copies (every vector and matrix but the
+sampled loop's output tables) is read as its values, not as the memory under it.
+
+``scripts/asan_core.sh`` runs this file against a core built with AddressSanitizer, where an
+access outside an array fails even when it happens not to crash.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+PRELUDE = """
+import json
+import numpy as np
+import delta_pin as dp
+from delta_pin.compiled.core import core
+from delta_pin.model.core_model import core_chain
+from delta_pin.sim.compiled_plant import build_core_analytic_plant, build_core_plant
+
+m = core()
+robot = dp.load_robot("five_bar")
+TEXT = robot.model.saveToString()
+NQ, NV, NF, NJ = robot.model.nq, robot.model.nv, robot.model.nframes, robot.model.njoints
+FRAMES = [(int(a), int(b), int(s)) for a, b, s in robot._frames]
+AQ = np.asarray(robot.actuated_q_indices, np.int32)
+AV = np.asarray(robot.actuated_indices, np.int32)
+DV = np.asarray(robot.dependent_indices, np.int32)
+EE = int(robot.end_effector)
+DOF = len(AQ)
+q0 = np.array(robot.reference_configuration, float)
+alpha0 = q0[AQ].copy()
+NAN = float("nan")
+chain = core_chain(robot)
+
+
+def describe(closures=FRAMES, couplings=(), aq=AQ, av=AV, dv=DV, idle=0, ee=EE):
+    return m.ChainDescription(
+        TEXT, list(closures), list(couplings), np.asarray(aq, np.int32), np.asarray(av, np.int32),
+        np.asarray(dv, np.int32), idle, ee,
+    )
+
+
+def use(description):  # a model of the description, then a call that reads its closures
+    model = m.ClosedChainModel(description)
+    model.configuration(alpha0 + 0.05, q0)
+    model.closure_gap(q0)
+
+
+def tables(n, cols, rows=None):
+    rows = n + 1 if rows is None else rows
+    return np.zeros((rows, cols)), np.zeros((n + 1, cols)), np.zeros((n + 1, 3)), np.zeros(n + 1)
+
+
+def case(name, arg, call):
+    try:
+        call()
+    except Exception as exc:
+        outcome, message = type(exc).__name__, str(exc)
+    else:
+        outcome, message = "ok", ""
+    print(json.dumps({"case": name, "arg": arg, "outcome": outcome, "message": message[:2000]}), flush=True)
+"""
+
+# (group, code): each group's cases, run after PRELUDE in one subprocess; a case is
+# case(name, "argument[:expected outcome]", call) with the outcome ValueError unless named
+GROUPS = {
+    "chain_description": """
+case("closure of 0 rows", "closures", lambda: use(describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)])))
+case("closure of -3 rows", "closures", lambda: use(describe(closures=[(FRAMES[0][0], FRAMES[0][1], -3)])))
+case("closure of 4 rows", "closures", lambda: use(describe(closures=[(FRAMES[0][0], FRAMES[0][1], 4)])))
+case("closure frame = nframes", "closures", lambda: use(describe(closures=[(NF, FRAMES[0][1], 3)])))
+case("closure frame 10**9", "closures", lambda: use(describe(closures=[(FRAMES[0][0], 10**9, 3)])))
+case("closure frame -1", "closures:TypeError", lambda: use(describe(closures=[(-1, FRAMES[0][1], 3)])))
+case("end effector = nframes", "end_effector", lambda: use(describe(ee=NF)))
+case("end effector -1", "end_effector:TypeError", lambda: use(describe(ee=-1)))
+case("actuated_q entry = nq", "actuated_q", lambda: use(describe(aq=[AQ[0], NQ])))
+case("actuated_q entry -1", "actuated_q", lambda: use(describe(aq=[AQ[0], -1])))
+case("actuated_q shorter than actuated_v", "actuated_q", lambda: use(describe(aq=[AQ[0]])))
+case("actuated_v entry = nv", "actuated_v", lambda: use(describe(av=[AV[0], NV])))
+case("dependent_v entry -1", "dependent_v", lambda: use(describe(dv=[DV[0], -1])))
+case("dependent_v entry = nv", "dependent_v", lambda: use(describe(dv=[DV[0], NV])))
+case("idle_dof -1", "idle_dof", lambda: use(describe(idle=-1)))
+case("idle_dof > dependent joints", "idle_dof", lambda: use(describe(idle=3)))
+case("coupling q1 = nq", "couplings", lambda: use(describe(couplings=[(NQ, 0, -1, -1, 0.0, 0.0, np.zeros(1))])))
+case("coupling v2 = nv", "couplings", lambda: use(describe(couplings=[(0, 0, 1, NV, 0.0, 0.0, np.zeros(2))])))
+case("coupling q2 -1 with v2 = 1", "couplings", lambda: use(describe(couplings=[(0, 0, -1, 1, 0.0, 0.0, np.zeros(2))])))
+case("no dependent joint under a closure", "dependent_v:ok", lambda: use(describe(dv=[])))
+case("model text not an archive", "model_text", lambda: m.ClosedChainModel(m.ChainDescription(
+    "not a model", FRAMES, [], AQ, AV, DV, 0, EE)))
+""",
+    "closed_chain_model": """
+model = m.ClosedChainModel(chain)
+ad = np.zeros(DOF)
+case("closure_gap of an empty q", "q", lambda: model.closure_gap(np.zeros(0)))
+case("configuration: alpha of 3", "alpha", lambda: model.configuration(np.zeros(3), q0))
+case("configuration: empty guess", "guess", lambda: model.configuration(alpha0, np.zeros(0)))
+case("velocity_map of an empty q", "q", lambda: model.velocity_map(np.zeros(0)))
+case("velocity_map of q of nq + 1", "q", lambda: model.velocity_map(np.zeros(NQ + 1)))
+case("velocity_map at NaN", "q", lambda: model.velocity_map(np.full(NQ, NAN)))
+case("project_state: empty v", "v", lambda: model.project_state(q0, np.zeros(0)))
+case("project_state: NaN v", "v", lambda: model.project_state(q0, np.full(NV, NAN)))
+case("reduced_terms: empty q", "q", lambda: model.reduced_terms(np.zeros(0), ad))
+case("reduced_terms: alpha_dot of 3", "alpha_dot", lambda: model.reduced_terms(q0, np.zeros(3)))
+case("reduced_terms: NaN alpha_dot", "alpha_dot", lambda: model.reduced_terms(q0, np.full(DOF, NAN)))
+case("end_effector_position: empty q", "q", lambda: model.end_effector_position(np.zeros(0)))
+case("end_effector_position: NaN q", "q", lambda: model.end_effector_position(np.full(NQ, NAN)))
+case("end_effector_positions: alpha of 1 column", "alpha", lambda: model.end_effector_positions(np.zeros((4, 1)), q0))
+case("end_effector_positions: empty guess", "guess", lambda: model.end_effector_positions(np.zeros((4, DOF)), np.zeros(0)))
+case("frame_jacobian: frame = nframes", "frame", lambda: model.frame_jacobian(q0, NF))
+case("frame_jacobian: frame 10**6", "frame", lambda: model.frame_jacobian(q0, 10**6))
+case("frame_jacobian: frame -1", "frame:TypeError", lambda: model.frame_jacobian(q0, -1))
+case("frame_jacobian: empty q", "q", lambda: model.frame_jacobian(np.zeros(0), EE))
+case("frame_acceleration_drift: frame = nframes", "frame", lambda: model.frame_acceleration_drift(q0, ad, NF))
+case("frame_acceleration_drift: NaN alpha_dot", "alpha_dot", lambda: model.frame_acceleration_drift(q0, np.full(DOF, NAN), EE))
+xyz = np.tile(model.end_effector_position(q0), (3, 1))
+times, zeros3 = np.array([0.0, 0.01, 0.02]), np.zeros((3, 3))
+rows = np.array([0, 1], np.int32)
+def path(frame=EE, rows=rows, times=times, xyz=xyz, xyz_dot=zeros3, xyz_ddot=zeros3, alpha=alpha0, q=q0):
+    return model.joint_reference(frame, rows, times, xyz, xyz_dot, xyz_ddot, alpha, q)
+case("joint_reference: valid", "frame:ok", lambda: path())
+case("joint_reference: frame = nframes", "frame", lambda: path(frame=NF))
+case("joint_reference: row 3", "rows", lambda: path(rows=np.array([0, 3], np.int32)))
+case("joint_reference: row -1", "rows", lambda: path(rows=np.array([0, -1], np.int32)))
+case("joint_reference: one row for two actuators", "rows", lambda: path(rows=np.array([0], np.int32)))
+case("joint_reference: xyz_dot of 2 columns", "xyz_dot", lambda: path(xyz_dot=np.zeros((3, 2))))
+case("joint_reference: xyz_ddot of 2 rows", "xyz_ddot", lambda: path(xyz_ddot=np.zeros((2, 3))))
+case("joint_reference: alpha0 of 3", "alpha0", lambda: path(alpha=np.zeros(3)))
+case("joint_reference: empty q_start", "q_start", lambda: path(q=np.zeros(0)))
+case("joint_reference: NaN xyz_dot", "xyz_dot", lambda: path(xyz_dot=np.full((3, 3), NAN)))
+case("joint_reference: NaN time", "times", lambda: path(times=np.array([0.0, NAN, 0.02])))
+case("joint_reference: non-contiguous xyz", "xyz:ok", lambda: path(xyz=np.repeat(xyz, 2, axis=0)[::2]))
+""",
+    "analytic_plant": """
+plant = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))
+x = np.array([0.3, 0.3, 0.3, 0.0, 0.0, 0.0])
+tau = np.zeros(3)
+def sampled(x=x, steps=4, substeps=2, dt=1e-3, q=None, v=None, xyz=None, gap=None, control=None):
+    n = steps + 1
+    q = np.zeros((n, 3)) if q is None else q
+    v = np.zeros((n, 3)) if v is None else v
+    xyz = np.zeros((n, 3)) if xyz is None else xyz
+    gap = np.zeros(n) if gap is None else gap
+    control = (lambda k, state: np.zeros(3)) if control is None else control
+    return plant.run_sampled(x, steps, substeps, dt, control, q, v, xyz, gap)
+case("derivative of an empty state", "x", lambda: plant.derivative(np.zeros(0), tau, 0.0))
+case("derivative under a 2-vector torque", "tau", lambda: plant.derivative(x, np.zeros(2), 0.0))
+case("derivative of a state of 5", "x", lambda: plant.derivative(x[:5].copy(), tau, 0.0))
+case("derivative at NaN", "x", lambda: plant.derivative(np.full(6, NAN), tau, 0.0))
+case("derivative under a NaN torque", "tau", lambda: plant.derivative(x, np.full(3, NAN), 0.0))
+case("derivative at a NaN row", "row", lambda: plant.derivative(x, tau, NAN))
+def strided():  # x[::2] of a 12-vector is x
+    wide = np.repeat(x, 2)
+    assert np.array_equal(plant.derivative(wide[::2], tau, 0.0), plant.derivative(x, tau, 0.0))
+case("derivative of a non-contiguous x", "x:ok", strided)
+case("end_effector_position of an empty q", "q", lambda: plant.end_effector_position(np.zeros(0)))
+case("closure_gap of an empty q", "q", lambda: plant.closure_gap(np.zeros(0)))
+case("step: empty x", "x", lambda: plant.step(np.zeros(0), tau, 0, 1e-3))
+case("step: NaN h", "h", lambda: plant.step(x, tau, 0, NAN))
+case("step: NaN tau", "tau", lambda: plant.step(x, np.full(3, NAN), 0, 1e-3))
+case("set_friction: 2 normal forces", "normal_force", lambda: plant.set_friction(0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(2)))
+case("set_truth: normal forces of 2 columns", "normal_forces", lambda: plant.set_truth(1e-3, np.zeros(0), np.zeros((4, 2)), np.zeros((0, 3))))
+case("run_sampled: v of too few rows", "v", lambda: sampled(steps=2000, v=np.zeros((1, 3))))
+case("run_sampled: xyz of 2 columns", "xyz", lambda: sampled(xyz=np.zeros((5, 2))))
+case("run_sampled: q of too few rows", "q", lambda: sampled(q=np.zeros((2, 3))))
+case("run_sampled: gap too short", "gap", lambda: sampled(gap=np.zeros(2)))
+case("run_sampled: empty x", "x", lambda: sampled(x=np.zeros(0)))
+case("run_sampled: NaN x", "x", lambda: sampled(x=np.full(6, NAN)))
+case("run_sampled: steps -2", "steps", lambda: sampled(steps=-2, q=np.zeros((1, 3)), v=np.zeros((1, 3)),
+     xyz=np.zeros((1, 3)), gap=np.zeros(1)))
+case("run_sampled: substeps 0", "substeps", lambda: sampled(substeps=0))
+case("run_sampled: dt NaN", "dt", lambda: sampled(dt=NAN))
+case("run_sampled: dt 0", "dt", lambda: sampled(dt=0.0))
+case("run_sampled: a torque of 2", "torque", lambda: sampled(control=lambda k, state: np.zeros(2)))
+case("run_sampled: non-contiguous v", "v:TypeError", lambda: sampled(v=np.zeros((10, 3))[::2]))
+case("run_sampled: Fortran-ordered q", "q:TypeError", lambda: sampled(q=np.asfortranarray(np.zeros((5, 3)))))
+case("run_sampled: integer v", "v:TypeError", lambda: sampled(v=np.zeros((5, 3), int)))
+case("constructor: NaN R", "R", lambda: m.AnalyticDeltaPlant(NAN, 0.1, 0.2, 0.3, 1e-3, 0.1, 9.81, np.ones(3), np.zeros(3), 0.1, 0.1))
+""",
+    "closed_chain_plant": """
+import pinocchio as pin
+python_plant = dp.ClosedChainPlant(robot)
+plant = build_core_plant(python_plant)
+x = np.concatenate([q0, np.zeros(NV)])
+tau = np.zeros(DOF)
+cm = python_plant.constraint_models[0]
+def constraint(size=3, j1=int(cm.joint1_id), j2=int(cm.joint2_id), frame=int(cm.reference_frame)):
+    return (size, j1, cm.joint1_placement.homogeneous, j2, cm.joint2_placement.homogeneous, frame)
+def build(*constraints):
+    made = m.ClosedChainPlant(chain, list(constraints), 10.0, 10.0, 1e-12, 0.0, 10, 1e-8)
+    made.accelerations(q0, np.zeros(NV), tau, 0.0)
+def sampled(x=x, steps=4, substeps=2, dt=1e-3, q=None, v=None, xyz=None, gap=None):
+    n = steps + 1
+    q = np.zeros((n, NQ)) if q is None else q
+    v = np.zeros((n, NV)) if v is None else v
+    xyz = np.zeros((n, 3)) if xyz is None else xyz
+    gap = np.zeros(n) if gap is None else gap
+    return plant.run_sampled(x, steps, substeps, dt, lambda k, state: np.zeros(DOF), q, v, xyz, gap)
+case("constraint of 0 rows", "constraints", lambda: build(constraint(size=0)))
+case("constraint of -3 rows", "constraints", lambda: build(constraint(size=-3)))
+case("constraint joint = njoints", "constraints", lambda: build(constraint(j2=NJ)))
+case("constraint joint -1", "constraints:TypeError", lambda: build(constraint(j1=-1)))
+case("constraint reference frame 7", "constraints", lambda: build(constraint(frame=7)))
+case("constraint reference frame -1", "constraints", lambda: build(constraint(frame=-1)))
+case("set_springs: q entry = nq", "q_index", lambda: plant.set_springs(
+    np.array([NQ], np.int32), np.array([0], np.int32), np.ones(1), np.zeros(1), np.zeros(1),
+    np.zeros(0, np.int32), np.zeros(0)))
+case("set_springs: v entry -1", "v_index", lambda: plant.set_springs(
+    np.array([0], np.int32), np.array([-1], np.int32), np.ones(1), np.zeros(1), np.zeros(1),
+    np.zeros(0, np.int32), np.zeros(0)))
+case("set_springs: 2 stiffnesses for 1 spring", "k", lambda: plant.set_springs(
+    np.array([0], np.int32), np.array([0], np.int32), np.ones(2), np.zeros(1), np.zeros(1),
+    np.zeros(0, np.int32), np.zeros(0)))
+case("set_springs: damper entry = nv", "damper_v", lambda: plant.set_springs(
+    np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros(0),
+    np.array([NV], np.int32), np.ones(1)))
+case("set_springs: 1 damping for 2 dampers", "damper_d", lambda: plant.set_springs(
+    np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros(0),
+    np.array([0, 1], np.int32), np.ones(1)))
+case("set_truth: joint = njoints", "joint", lambda: plant.set_truth(NJ, np.zeros(3), 1e-3, np.zeros(0), np.zeros(1), np.zeros((0, DOF)), np.zeros((0, DOF))))
+case("set_truth: disturbance of 3 columns", "disturbances", lambda: plant.set_truth(1, np.zeros(3), 1e-3, np.zeros(0), np.zeros(1), np.zeros((0, DOF)), np.zeros((4, 3))))
+case("accelerations: empty q", "q", lambda: plant.accelerations(np.zeros(0), np.zeros(NV), tau, 0.0))
+case("accelerations: tau of 3", "tau", lambda: plant.accelerations(q0, np.zeros(NV), np.zeros(3), 0.0))
+case("accelerations: NaN v", "v", lambda: plant.accelerations(q0, np.full(NV, NAN), tau, 0.0))
+case("step: empty x", "x", lambda: plant.step(np.zeros(0), tau, 0, 1e-3))
+case("step: NaN x", "x", lambda: plant.step(np.full(NQ + NV, NAN), tau, 0, 1e-3))
+case("step: h 0", "h", lambda: plant.step(x, tau, 0, 0.0))
+case("end_effector_position: empty q", "q", lambda: plant.end_effector_position(np.zeros(0)))
+case("closure_gap: empty q", "q", lambda: plant.closure_gap(np.zeros(0)))
+case("run_sampled: v of too few rows", "v", lambda: sampled(steps=500, v=np.zeros((1, NV))))
+case("run_sampled: v of nv - 1 columns", "v", lambda: sampled(v=np.zeros((5, NV - 1))))
+case("run_sampled: xyz of too few rows", "xyz", lambda: sampled(steps=500, xyz=np.zeros((1, 3))))
+case("run_sampled: x of nq", "x", lambda: sampled(x=q0.copy()))
+case("run_sampled: non-contiguous gap", "gap:TypeError", lambda: sampled(gap=np.zeros(10)[::2]))
+""",
+    "laws": """
+zeros, ones = np.zeros(DOF), np.ones(DOF)
+def law():
+    return m.ComputedTorque(chain, q0, zeros, "ct", ones, ones, ones)
+def table(rows, cols=DOF):
+    return np.tile(alpha0, (rows, 1))[:, :cols].copy(), np.zeros((rows, cols)), np.zeros((rows, cols))
+python_plant = dp.ClosedChainPlant(robot)
+plant = build_core_plant(python_plant)
+x = np.concatenate([q0, np.zeros(NV)])
+def run(controller, steps=4):
+    n = steps + 1
+    return plant.run_sampled(x, steps, 1, 1e-3, controller, np.zeros((n, NQ)), np.zeros((n, NV)), np.zeros((n, 3)), np.zeros(n))
+case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(chain, np.zeros(3), zeros, "ct", ones, ones, ones))
+case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(chain, q0, zeros, "ct", np.ones(3), ones, ones))
+case("ComputedTorque: chain with a closure of 0 rows", "closures", lambda: m.ComputedTorque(
+    describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)]), q0, zeros, "ct", ones, ones, ones).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("PDGravity: K_d empty", "K_d", lambda: m.PDGravity(chain, q0, zeros, "pd", ones, np.zeros(0)))
+case("TimeDelayControl: delay -1", "delay", lambda: m.TimeDelayControl(chain, q0, zeros, "tdc", 1e-3, 1.0, 1.0, -1, False))
+case("LQR: gain of n x n", "gain", lambda: m.LQR(chain, q0, zeros, "lqr", alpha0, zeros, np.eye(DOF), np.eye(DOF), np.eye(DOF)))
+case("evaluate: alpha of 3", "alpha", lambda: law().evaluate(np.zeros(3), zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("evaluate: NaN ref_alpha_ddot", "ref_alpha_ddot", lambda: law().evaluate(alpha0, zeros, alpha0, zeros, np.full(DOF, NAN), np.zeros(0)))
+def started(samples, reference, **drive):
+    controller = law()
+    controller.start(*reference, 1e-3, np.zeros(0), samples, 100.0)
+    return controller
+case("start: an empty reference table", "alpha_d", lambda: started(5, table(0)))
+case("start: reference of 1 column", "alpha_d", lambda: started(5, table(5, 1)))
+case("start: samples -1", "samples", lambda: started(-1, table(5)))
+case("start: dt 0", "dt", lambda: law().start(*table(5), 0.0, np.zeros(0), 5, 100.0))
+case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5, 100.0))
+case("run_sampled past the samples of start()", "steps", lambda: run(started(3, table(3))))
+def noise_after_start():
+    controller = started(5, table(5))
+    controller.set_drive(True, 1e-4, np.zeros((1, DOF)), False, False, 0, np.zeros(0))
+    run(controller)
+case("set_drive after start(): noise of 1 row", "noise", noise_after_start)
+def delay_after_start():
+    controller = started(5, table(5))
+    controller.set_drive(False, 0.0, np.zeros((0, DOF)), True, True, 2, np.zeros(0))
+    run(controller)
+case("set_drive after start(): a delay of 2", "set_drive", delay_after_start)
+case("set_drive: noise of 3 columns", "noise", lambda: law().set_drive(True, 1e-4, np.zeros((5, 3)), False, False, 0, np.zeros(0)))
+case("set_drive: delay -1", "delay", lambda: law().set_drive(False, 0.0, np.zeros((0, DOF)), True, True, -1, np.zeros(0)))
+case("set_friction: 3 normal forces", "normal_force", lambda: law().set_friction(0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(3)))
+""",
+    "continuous": """
+analytic = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))
+a0 = np.array([0.3, 0.3, 0.3])
+class Law:
+    def evaluate(self, t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z):
+        return np.zeros(3), np.zeros(0)
+    def keep(self, k, tau, z):
+        pass
+def reference(rows, cols=3, dddot_rows=None):
+    dddot_rows = rows if dddot_rows is None else dddot_rows
+    return np.tile(a0[:cols], (rows, 1)), np.zeros((rows, cols)), np.zeros((rows, cols)), np.zeros((dddot_rows, cols))
+def go(tables=None, step=1e-3, alpha0=a0, dt=1e-3, samples=5, rtol=1e-8, atol=1e-10, first=1e-5, max_step=1e-2, plant=analytic):
+    tables = reference(10) if tables is None else tables
+    run = m.new_continuous_run()
+    m.run_continuous(plant, Law(), step, *tables, np.zeros(0), alpha0, np.zeros(3), np.zeros(0), dt, samples,
+                     rtol, atol, first, max_step, 100.0, run, 0, 0)
+    return run
+case("valid", "alpha:ok", lambda: go())
+case("an empty reference table", "alpha", lambda: go(tables=reference(0)))
+case("reference of 2 columns", "alpha", lambda: go(tables=reference(10, 2)))
+case("alpha_dddot of fewer rows", "alpha_dddot", lambda: go(tables=reference(10, dddot_rows=2)))
+case("step 0", "step", lambda: go(step=0.0))
+case("step NaN", "step", lambda: go(step=NAN))
+case("alpha0 of 2", "alpha0", lambda: go(alpha0=np.zeros(2)))
+case("samples 0", "samples", lambda: go(samples=0))
+case("max_step 0", "max_step", lambda: go(max_step=0.0))
+case("rtol NaN", "rtol", lambda: go(rtol=NAN))
+case("non-contiguous alpha", "alpha:ok", lambda: go(tables=(np.tile(a0, (20, 1))[::2],) + reference(10)[1:]))
+""",
+}
+
+
+def _run(group: str) -> tuple[subprocess.CompletedProcess, list[dict]]:
+    code = textwrap.dedent(PRELUDE) + textwrap.dedent(GROUPS[group])
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    lines = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
+    return done, lines
+
+
+def _cases(group: str) -> int:
+    return GROUPS[group].count('\ncase("')
+
+
+@pytest.fixture(scope="module")
+def needs_core():
+    from delta_pin.compiled.core import core
+
+    try:
+        return core()
+    except Exception as exc:
+        pytest.skip(f"the compiled core is unavailable: {exc}")
+
+
+@pytest.mark.parametrize("group", sorted(GROUPS))
+def test_every_bad_call_is_a_value_error_naming_the_argument(needs_core, group):
+    done, lines = _run(group)
+    last = lines[-1]["case"] if lines else "(none)"
+    assert done.returncode >= 0, (
+        f"{group}: killed by signal {-done.returncode} after case {last!r}\n{done.stderr[-3000:]}"
+    )
+    assert done.returncode == 0, f"{group}: exit {done.returncode}\n{done.stderr[-3000:]}"
+    assert len(lines) == _cases(group), f"{group}: {len(lines)} of {_cases(group)} cases reported"
+    wrong = []
+    for line in lines:
+        arg, _, expected = line["arg"].partition(":")
+        expected = expected or "ValueError"
+        if line["outcome"] != expected:
+            wrong.append(f"{line['case']}: {line['outcome']} (expected {expected}) {line['message'][:300]}")
+        elif expected != "ok" and arg not in line["message"]:
+            wrong.append(f"{line['case']}: the message does not name {arg!r}: {line['message'][:300]}")
+    assert not wrong, "\n".join(wrong)
