@@ -64,11 +64,14 @@ class SimulationError(DeltaPinError):
 
     Attributes:
         time: simulated time [s] of the failure.
+        configuration: the last configuration q the run recorded before it stopped, where the
+            loop knows it (a closed-chain run in the compiled core), else None.
     """
 
-    def __init__(self, message: str, time: float) -> None:
+    def __init__(self, message: str, time: float, configuration=None) -> None:
         super().__init__(f"{message} (at t={time:.6g} s)")
         self.time = time
+        self.configuration = configuration
 
 
 class NativeUnavailableError(DeltaPinError, RuntimeError):

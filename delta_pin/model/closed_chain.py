@@ -846,14 +846,14 @@ class ClosedChainRobot:
                 break
         return None, residual
 
-    def actuation_conditioning(self, alpha: np.ndarray) -> float:
+    def actuation_conditioning(self, alpha: np.ndarray, start: np.ndarray | None = None) -> float:
         """cond(J_p) (J_p restricted to its rank) at the configuration of least closure residual
-        Newton reaches at ``alpha`` from the last assembled one: large near an actuation (Type II)
-        singularity, where the actuated joints stop fixing the loops; what a failed assembly
-        during a run reports."""
+        Newton reaches at ``alpha`` from ``start`` (a configuration q; None: the last assembled
+        one): large near an actuation (Type II) singularity, where the actuated joints stop
+        fixing the loops; what a failed assembly during a run reports."""
         from delta_pin.model.assembly import assemble
 
-        start = self._last_q.copy()
+        start = (self._last_q if start is None else np.asarray(start, dtype=float)).copy()
         start[self.actuated_q_indices] = np.asarray(alpha, dtype=float)
         q = assemble(
             self.model, self.closure_residual, self.closure_jacobian, start, held=self.independent_indices,

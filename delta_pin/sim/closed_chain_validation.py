@@ -622,9 +622,8 @@ def validate_closed_chain(
     if report.states == 0:
         raise AssemblyError(
             f"{robot.name!r}: none of {samples} random states within {spread} of home={robot.home.tolist()} "
-            f"assembles, nor any drawn {NEARER_DRAWS} times halfway nearer; lower spread= "
-            "(validate_closed_chain), or assemble the robot elsewhere (home=, "
-            "CLI --home)"
+            f"assembles, nor any drawn {NEARER_DRAWS} times halfway nearer; "
+            "lower spread= (validate_closed_chain), or assemble the robot elsewhere (home=, CLI --home)"
         )
     if nearer:
         report.notes.append(

@@ -137,7 +137,8 @@ def run_core_continuous(
         )  # fmt: skip
     except module.SimulationFailure as exc:
         time = run.failure_time
-        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
+        last = np.array(run.q[run.samples - 1]) if core_plant.has_configuration and run.samples > 0 else None
+        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0, last) from None
     record = LoopRecord(
         alpha=np.array(run.alpha),
         alpha_dot=np.array(run.alpha_dot),

@@ -355,8 +355,8 @@ def _with_singularity(error: SimulationError, robot) -> SimulationError:
     alpha = np.array([float(x) for x in found.group(1).split(",")])
     if alpha.shape != (robot.dof,):
         return error
-    try:
-        condition = robot.actuation_conditioning(alpha)
+    try:  # from the last configuration the run recorded, on the branch it was on
+        condition = robot.actuation_conditioning(alpha, start=error.configuration)
     except Exception:  # the report of a failure must not fail itself
         return error
     what = (
@@ -365,4 +365,4 @@ def _with_singularity(error: SimulationError, robot) -> SimulationError:
         if condition > _SINGULAR_CONDITION
         else f"cond(J_p) = {condition:.3g} there"
     )
-    return SimulationError(f"{text}; {what}", error.time)
+    return SimulationError(f"{text}; {what}", error.time, error.configuration)
