@@ -76,19 +76,49 @@ def _page_file(text: str) -> Path:
     return Path(text)
 
 
-def _integer(minimum: int):
-    """An argparse type: an integer >= ``minimum``, naming the value otherwise."""
+def _integer(minimum: int, maximum: int | None = None):
+    """An argparse type: an integer >= ``minimum`` (and <= ``maximum``), naming the value otherwise."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"{text} must be an integer >= {minimum}")
+        if value < minimum or (maximum is not None and value > maximum):
+            within = f">= {minimum}" + ("" if maximum is None else f" and <= {maximum}")
+            raise argparse.ArgumentTypeError(f"{text} must be an integer {within}")
         return value
 
     parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+def _number(
+    minimum: float | None = None, *, above: bool = False, maximum: float | None = None, below: bool = False
+):
+    """An argparse type: a finite number within the bounds (``above``/``below``: strictly),
+    naming the value and the range otherwise."""
+    low = "" if minimum is None else f"{'>' if above else '>='} {minimum:g}"
+    high = "" if maximum is None else f"{'<' if below else '<='} {maximum:g}"
+    wanted = " and ".join(x for x in (low, high) if x)
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        ok = math.isfinite(value)
+        if ok and minimum is not None:
+            ok = value > minimum if above else value >= minimum
+        if ok and maximum is not None:
+            ok = value < maximum if below else value <= maximum
+        if not ok:
+            raise argparse.ArgumentTypeError(
+                f"{text} must be a finite number{' ' + wanted if wanted else ''}"
+            )
+        return value
+
+    parse.__name__ = f"number {wanted}".strip()
     return parse
 
 
@@ -884,6 +914,18 @@ def _identify_excite(args: argparse.Namespace) -> int:
     from delta_pin.identification.workflow import write_trajectory
 
     _check_identify_out_file(args, "excite")
+    samples = args.duration * args.rate
+    if samples > MAX_TRAJECTORY_SAMPLES:
+        raise InvalidParameterError(
+            f"--duration {args.duration:g} s at --rate {args.rate:g} Hz is {samples:.3g} samples; at most "
+            f"{MAX_TRAJECTORY_SAMPLES:.0e} are written (shorten --duration or lower --rate)"
+        )
+    if args.harmonics / args.period >= args.rate / 2.0:
+        raise InvalidParameterError(
+            f"--harmonics {args.harmonics} over --period {args.period:g} s reach "
+            f"{args.harmonics / args.period:g} Hz, at or above the Nyquist frequency of --rate "
+            f"{args.rate:g} Hz: use fewer harmonics, a longer period or a higher rate"
+        )
     robot = _identify_robot(args)
     regressor = ClosedChainRegressor(robot)
     base = base_parameters(regressor)
@@ -967,6 +1009,13 @@ def _identify_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+# Bounds of identify excite, refused in one line before any work: each harmonic adds 2 Fourier
+# coefficients per joint to the excitation optimiser (published excitations use 5-15 harmonics),
+# and the trajectory CSV takes ~200 bytes a sample (1e7 samples: ~2 GB, 2.8 h at 1 kHz).
+MAX_HARMONICS = 100
+MAX_TRAJECTORY_SAMPLES = 1e7
+
+
 def _add_identify_command(add) -> None:
     identify = add(
         "identify", help="identify a closed-chain robot's dynamics from joint data (docs/identification.md)"
@@ -989,22 +1038,33 @@ def _add_identify_command(add) -> None:
     )  # fmt: skip
     excite.add_argument("--duration", type=_seconds, default=20.0, help="length [s]")
     excite.add_argument("--period", type=_seconds, default=5.0, help="the Fourier series' period [s]")
-    excite.add_argument("--harmonics", type=_integer(1), default=8, help="harmonics per joint")
+    excite.add_argument(
+        "--harmonics", type=_integer(1, MAX_HARMONICS), default=8,
+        help=f"harmonics per joint (at most {MAX_HARMONICS})",
+    )  # fmt: skip
     excite.add_argument("--iterations", type=_integer(0), default=30, help="optimiser iterations")
-    excite.add_argument("--rate", type=float, default=1000.0, help="sample rate of the file [Hz]")
     excite.add_argument(
-        "--position-range", type=float, default=None, help="largest |alpha - alpha0| [rad or m]"
+        "--rate", type=_number(0, above=True), default=1000.0, help="sample rate of the file [Hz]"
     )
     excite.add_argument(
-        "--velocity-limit", type=float, default=None, help="largest |alpha_dot| [rad/s or m/s]"
+        "--position-range",
+        type=_number(0, above=True),
+        default=None,
+        help="largest |alpha - alpha0| [rad or m]",
     )
     excite.add_argument(
-        "--jacobian-condition", type=float, default=100.0, help="largest cond J_p along the path"
+        "--velocity-limit",
+        type=_number(0, above=True),
+        default=None,
+        help="largest |alpha_dot| [rad/s or m/s]",
     )
     excite.add_argument(
-        "--center", type=float, default=0.0, help="alpha0 = home + CENTER on every joint [rad or m]"
+        "--jacobian-condition", type=_number(1), default=100.0, help="largest cond J_p along the path"
     )
-    excite.add_argument("--seed", type=int, default=0, help="seed of the optimiser's start")
+    excite.add_argument(
+        "--center", type=_number(), default=0.0, help="alpha0 = home + CENTER on every joint [rad or m]"
+    )
+    excite.add_argument("--seed", type=_integer(0), default=0, help="seed of the optimiser's start")
     excite.set_defaults(func=_identify_excite)
 
     simulate = action(
@@ -1023,19 +1083,25 @@ def _add_identify_command(add) -> None:
         help="the simulated (true) Delta's xacro arguments, e.g. m_a=0.26 (repeatable)",
     )  # fmt: skip
     simulate.add_argument(
-        "--mass-spread", type=float, default=0.0,
+        "--mass-spread", type=_number(0, maximum=1, below=True), default=0.0,
         help="scale each body's inertia by a seeded factor in [1 - s, 1 + s] (the true robot)",
     )  # fmt: skip
-    simulate.add_argument("--payload", type=float, default=0.0, help="a point mass at the end effector [kg]")
+    simulate.add_argument(
+        "--payload", type=_number(0), default=0.0, help="a point mass at the end effector [kg]"
+    )
     simulate.add_argument(
         "--encoder-bits", type=_integer(8), default=17, help="encoder resolution (2^bits per turn)"
     )
     simulate.add_argument(
-        "--torque-noise", type=float, default=0.01, help="torque noise, relative to its RMS"
+        "--torque-noise", type=_number(0), default=0.01, help="torque noise, relative to its RMS"
     )
-    simulate.add_argument("--rate", type=float, default=1000.0, help="sample and control rate [Hz]")
+    simulate.add_argument(
+        "--rate", type=_number(0, above=True), default=1000.0, help="sample and control rate [Hz]"
+    )
     simulate.add_argument("--no-friction", action="store_true", help="no joint friction in the plant (Delta)")
-    simulate.add_argument("--seed", type=int, default=0, help="seed of the noise and of --mass-spread")
+    simulate.add_argument(
+        "--seed", type=_integer(0), default=0, help="seed of the noise and of --mass-spread"
+    )
     simulate.set_defaults(func=_identify_simulate)
 
     fit = action("fit", help="fit base parameters to a log; write parameters.json, report.md, figures")
@@ -1048,7 +1114,9 @@ def _add_identify_command(add) -> None:
         "left alone",
     )  # fmt: skip
     fit.add_argument("--validate", type=Path, default=None, help="a second log the fit does not see")
-    fit.add_argument("--cutoff", type=float, default=20.0, help="the parallel filter's cut-off [Hz]")
+    fit.add_argument(
+        "--cutoff", type=_number(0, above=True), default=20.0, help="the parallel filter's cut-off [Hz]"
+    )
     fit.add_argument("--no-consistent", action="store_true", help="skip the physically consistent estimate")
     fit.add_argument("--no-figures", action="store_true", help="write no figures")
     fit.set_defaults(func=_identify_fit)

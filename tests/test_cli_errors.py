@@ -138,6 +138,59 @@ CASES = [
         2,
         "no '# fourier:' header",
     ),
+    # identify's numbers, refused by the parser (issue 36, item 6; before: "unexpected
+    # ZeroDivisionError" for --rate 0, "unexpected ValueError: arange" for nan, for --seed -1 too)
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--rate", "0"],
+        2,
+        "--rate: 0 must be a finite number > 0",
+    ),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--rate", "nan"],
+        2,
+        "--rate: nan must be a finite number > 0",
+    ),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--rate", "inf"],
+        2,
+        "--rate: inf must be a finite number > 0",
+    ),
+    (["identify", "excite", "--out", "{out}/x.csv", "--seed", "-1"], 2, "--seed: -1 must be an integer >= 0"),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--harmonics", "100000"],
+        2,
+        "--harmonics: 100000 must be an integer >= 1 and <= 100",
+    ),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--harmonics", "40", "--rate", "10"],
+        2,
+        "--harmonics 40 over --period 5 s reach 8 Hz, at or above the Nyquist frequency of --rate 10 Hz",
+    ),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--duration", "1e9"],
+        2,
+        "--duration 1e+09 s at --rate 1000 Hz is 1e+12 samples; at most 1e+07",
+    ),
+    (
+        ["identify", "excite", "--out", "{out}/x.csv", "--velocity-limit", "0"],
+        2,
+        "--velocity-limit: 0 must be a finite number > 0",
+    ),
+    (
+        ["identify", "simulate", "--trajectory", "{file}", "--out", "{out}/log.csv", "--torque-noise", "nan"],
+        2,
+        "--torque-noise: nan must be a finite number >= 0",
+    ),
+    (
+        ["identify", "simulate", "--trajectory", "{file}", "--out", "{out}/log.csv", "--mass-spread", "1"],
+        2,
+        "--mass-spread: 1 must be a finite number >= 0 and < 1",
+    ),
+    (
+        ["identify", "fit", "--data", "{file}", "--out", "{out}", "--cutoff", "-3"],
+        2,
+        "--cutoff: -3 must be a finite",
+    ),
     # runs whose arrays or metadata are not what Run.save writes (issue 25: "unexpected ...")
     (
         ["view", "{run_list_metadata}"],
@@ -283,7 +336,10 @@ def test_bad_input_is_one_line_naming_the_value(paths, capsys, argv, code, text)
     assert main(argv) == code
     line = _one_line(capsys)
     command = argv[0] if argv and argv[0] in cli.build_parser()._subparsers._group_actions[0].choices else ""
-    assert line.startswith(f"delta-pin {command}".rstrip() + ": error: "), line
+    prefixes = [f"delta-pin {command}".rstrip()]
+    if command == "identify" and len(argv) > 1:  # argparse names the action too: "delta-pin identify fit"
+        prefixes.append(f"delta-pin identify {argv[1]}")
+    assert any(line.startswith(prefix + ": error: ") for prefix in prefixes), line
     assert text.format(**paths) in line
     assert time.perf_counter() - start < 20.0  # [s] it failed up front (the scheduler waits 0.5 s)
     assert not os.path.exists(os.path.join(paths["out"], "run.npz"))
