@@ -8,6 +8,7 @@
 
 #include "checks.hpp"
 #include "failure.hpp"
+#include "interrupt.hpp"
 #include "model_text.hpp"
 
 #include <pinocchio/algorithm/crba.hpp>
@@ -612,6 +613,7 @@ namespace delta_pin
     Vector task(dof);
     for (Eigen::Index k = 0; k < n; ++k)
     {
+      poll_interrupt();
       if (k > 0)
       {
         const double step = times[k] - times[k - 1];

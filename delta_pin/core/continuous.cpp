@@ -2,6 +2,7 @@
 
 #include "checks.hpp"
 #include "failure.hpp"
+#include "interrupt.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -197,6 +198,7 @@ namespace delta_pin
     auto record = [&](long k, const Vector & yk)
     {
       const double t = (double)k * dt;
+      poll_interrupt();
       check(yk, t);
       complete(t, yk);
       run.alpha.row(k) = alpha.transpose();

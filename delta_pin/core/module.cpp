@@ -13,6 +13,7 @@
 #include "closed_chain.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
+#include "interrupt.hpp"
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
@@ -28,6 +29,14 @@ namespace nb = nanobind;
 
 namespace
 {
+  // the interrupt hook (interrupt.hpp): runs Python's signal handlers, in the main thread only
+  // (elsewhere PyErr_CheckSignals does nothing); true when one of them raised
+  bool python_signal_pending()
+  {
+    nb::gil_scoped_acquire acquire;
+    return PyErr_CheckSignals() != 0;
+  }
+
   using delta_pin::RowMatrix;
   using delta_pin::check_finite;
   typedef nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu> Table;
@@ -198,6 +207,7 @@ NB_MODULE(_core, m)
           nb::gil_scoped_release release;
           for (Eigen::Index k = 0; k < alpha.rows(); ++k)
           {
+            delta_pin::poll_interrupt();
             if (!self.configuration(alpha.row(k).transpose(), q, next))
             {
               failed = (long)k;
@@ -247,6 +257,22 @@ NB_MODULE(_core, m)
       "(failed sample or -1, last q, alpha, alpha_dot, alpha_ddot, reached xyz) of a frame's path.");
 
   nb::exception<delta_pin::SimulationFailure>(m, "SimulationFailure", PyExc_RuntimeError);
+  // Ctrl-C within the loops (interrupt.hpp): Python's signal handlers run at the poll, and the
+  // exception they raise (KeyboardInterrupt, or the CLI's) is what the interrupted call raises
+  delta_pin::interrupt_hook() = &python_signal_pending;
+  nb::register_exception_translator(
+    [](const std::exception_ptr & error, void *)
+    {
+      try
+      {
+        std::rethrow_exception(error);
+      }
+      catch (const delta_pin::Interrupted &)
+      {
+        if (!PyErr_Occurred())  // a handler that asked to stop without raising
+          PyErr_SetNone(PyExc_KeyboardInterrupt);
+      }
+    });
   bind_continuous(m);
   using delta_pin::AnalyticDeltaPlant;
   using delta_pin::CorePlant;

@@ -5,6 +5,7 @@
 #include "checks.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
+#include "interrupt.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -35,6 +36,7 @@ namespace delta_pin
     Vector alpha(actuated_q_.size()), alpha_dot(actuated_v_.size());
     for (long k = 0; k <= steps; ++k)
     {
+      poll_interrupt();
       for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
         alpha[i] = x[actuated_q_[i]];
       for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
