@@ -369,6 +369,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} with --robot PATH only: give "
             "--robot too"
         )
+    from delta_pin.control.registry import declaration
     from delta_pin.studies.experiments import check_specs
 
     spec = _spec_from_args(
@@ -384,6 +385,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         velocity=args.velocity,
         delay=args.delay,
         torque_limit=args.torque_limit,
+    )
+    # one law: a switch it has not (--no-friction-compensation for TDC, --sampling-aware for the
+    # LQR) is refused rather than ignored; compare and sweep apply them to the laws that have them
+    declaration(spec.controller).check_options(
+        friction_compensation=spec.friction_compensation, sampling_aware=spec.sampling_aware
     )
     out = Path(args.out)
     _check_output_dir("--out", out)

@@ -16,8 +16,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from delta_pin.control import LQR, ComputedTorque, PDGravity, design1, design2, digital_robust, tdc
 from delta_pin.control.nominal import ClosedChainNominalModel
+from delta_pin.control.registry import LawOptions, declaration
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.frame_path import Circle, FramePath
@@ -87,22 +87,10 @@ def closed_chain_reference(
 def closed_chain_controller(name: str, robot: ClosedChainRobot, dt: float, sampling_aware: bool = False):
     """A controller by its CLI name on the robot's projected nominal model (the designs' and
     baselines' default gains)."""
-    nominal = ClosedChainNominalModel(robot)
-    if name in ("design1", "design2"):
-        make = design1 if name == "design1" else design2
-        return make(nominal, sampling_period=dt if sampling_aware else None)
-    makers: dict[str, Callable] = {
-        "ctc": lambda: ComputedTorque(nominal),
-        "pd": lambda: PDGravity(nominal),
-        "lqr": lambda: LQR(nominal, robot.home),
-        "tdc": lambda: tdc(nominal, dt),
-        "digital-robust": lambda: digital_robust(nominal, dt),
-    }
-    if name not in makers:
-        raise InvalidParameterError(
-            f"controller {name!r} must be one of design1, design2, {', '.join(makers)}"
-        )
-    return makers[name]()
+    law = declaration(name)  # refuses an unknown name first, before the nominal model is built
+    law.check_options(sampling_aware=sampling_aware)  # one law: a switch it has not is refused
+    options = LawOptions(dt=dt, sampling_aware=sampling_aware, start=robot.home)  # LQR: at home
+    return law.make(ClosedChainNominalModel(robot), options)
 
 
 def run_closed_chain(

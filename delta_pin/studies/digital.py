@@ -17,6 +17,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from delta_pin.control.registry import declaration
 from delta_pin.studies.experiments import RunSpec
 
 __all__ = [
@@ -105,17 +106,7 @@ def _default_gain(controller: str, gain: str):
     """The default of ``gain`` in ``controller``'s constructor (``None`` if it has none)."""
     import inspect
 
-    from delta_pin.control.adaptive_robust import AdaptiveRobustController
-    from delta_pin.control.digital import TimeDelayControl
-    from delta_pin.control.digital_robust import DigitalRobustController
-
-    classes = {
-        "design1": AdaptiveRobustController,
-        "design2": AdaptiveRobustController,
-        "tdc": TimeDelayControl,
-        "digital-robust": DigitalRobustController,
-    }
-    parameter = inspect.signature(classes[controller]).parameters.get(gain)
+    parameter = inspect.signature(declaration(controller).law).parameters.get(gain)
     return None if parameter is None or parameter.default is inspect.Parameter.empty else parameter.default
 
 

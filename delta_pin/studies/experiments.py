@@ -19,9 +19,8 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from delta_pin.choices import CONTROLLERS, PATHS, VELOCITIES
-from delta_pin.control import LQR, ComputedTorque, Controller, DeltaNominalModel, PDGravity, design1, design2
-from delta_pin.control.digital import tdc
-from delta_pin.control.digital_robust import digital_robust
+from delta_pin.control import Controller, DeltaNominalModel
+from delta_pin.control.registry import LawOptions, declaration
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.delta_robot import load_delta
 from delta_pin.model.friction import Friction
@@ -240,25 +239,17 @@ def build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None 
 
 
 def _build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None) -> Controller:
+    law = declaration(spec.controller)
+    start = None
+    if law.needs_start:  # the LQR: linearised at the path's start
+        trajectory = trajectory or build_trajectory(spec.path)
+        start = robot.inverse_kinematics(trajectory.position(0.0))
+    options = LawOptions(
+        dt=spec.dt, friction_compensation=spec.friction_compensation, sampling_aware=spec.sampling_aware,
+        delay=spec.delay, torque_limit=spec.torque_limit, start=start,
+    )  # fmt: skip
     nominal = DeltaNominalModel(robot, nominal_disturbance=PAPER_NOMINAL_DISTURBANCE)
-    fc = {"friction_compensation": spec.friction_compensation}
-    gains = dict(spec.gains)
-    if spec.controller in ("design1", "design2"):
-        make = design1 if spec.controller == "design1" else design2
-        return make(nominal, sampling_period=spec.dt if spec.sampling_aware else None, **fc, **gains)
-    if spec.controller == "ctc":
-        return ComputedTorque(nominal, **fc, **gains)
-    if spec.controller == "pd":
-        return PDGravity(nominal, **fc, **gains)
-    if spec.controller == "tdc":
-        return tdc(nominal, spec.dt, delay=spec.delay, **gains)
-    if spec.controller == "digital-robust":
-        return digital_robust(
-            nominal, spec.dt, delay=spec.delay, torque_limit=spec.torque_limit, **fc, **gains
-        )
-    trajectory = trajectory or build_trajectory(spec.path)
-    start = robot.inverse_kinematics(trajectory.position(0.0))
-    return LQR(nominal, start, **fc, **gains)
+    return law.make(nominal, options, **spec.gains)
 
 
 def check_specs(specs: list[RunSpec], robot: Delta | None = None) -> None:
@@ -322,7 +313,7 @@ def batch_group(spec: RunSpec) -> tuple | None:
     where the compiled core is available, on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
-    if not (spec.controller in ("design1", "design2") and (continuous or sampled)) or spec.drive_effects:
+    if not (declaration(spec.controller).batchable and (continuous or sampled)) or spec.drive_effects:
         return None  # designs I/II with a drive, and the digital laws, run one by one (compiled)
     if spec.plant == "pinocchio" and (sampled or not native_available()):
         return None  # sampled on the Pinocchio plant: the compiled core, one run each

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from delta_pin.control.registry import label
 from delta_pin.errors import InvalidParameterError
 from delta_pin.model.delta_robot import load_delta
 from delta_pin.sim.run import Run, load_run
@@ -69,11 +70,10 @@ SURFACE_RHO0 = 0.02
 SYMBOLS = {"delta_m": "Δ_m", "delta_f": "Δ_f", "delta_fc": "Δ_fc"}
 SETTLING_BAND = 1e-3  # [rad] path I
 SETTLING_BAND_PATH_II = 5e-3  # [rad] path II: faster (pi rad/s), the designs hold ~3e-3 rad there
-NAMES = {"design1": "design I", "design2": "design II", "lqr": "LQR"}
 
 
 def _label(spec: RunSpec) -> str:
-    return NAMES.get(spec.controller, spec.controller) + ("" if spec.friction_compensation else " (no FC)")
+    return label(spec.controller) + ("" if spec.friction_compensation else " (no FC)")
 
 
 @dataclass(frozen=True)
@@ -505,7 +505,7 @@ def _figure_jobs(result: ReproductionResult, figures: Path) -> list[tuple]:
             values,
             SYMBOLS[x],
             SYMBOLS[y],
-            title=f"ρ̂_max, {NAMES[design]}, over ({SYMBOLS[x]}, {SYMBOLS[y]})",
+            title=f"ρ̂_max, {label(design)}, over ({SYMBOLS[x]}, {SYMBOLS[y]})",
         )
     table = {}
     for row in result.metrics:

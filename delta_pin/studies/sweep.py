@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from delta_pin.control.registry import declaration
 from delta_pin.errors import (
     DeltaPinError,
     InvalidParameterError,
@@ -331,13 +332,13 @@ def evaluate_batch(
 def estimated_cost(spec: RunSpec) -> float:
     """A run's cost in units of one compiled 1 ms sample, to start the longest runs first: the
     samples of a sampled run (one compiled step each); for the compiled continuous Radau IIA/BDF2
-    (designs I/II and the LQR) 1.5 times that on the Pinocchio plant and a tenth of that on the
+    (the laws declared compiled_continuous) 1.5 times that on the Pinocchio plant and a tenth of that on the
     analytic plant (in ``reproduce --full``, 15 s on the Pinocchio plant took 0.8-1.1 s for designs
     I/II, 1.2-1.4 s for the LQR, 0.6-0.7 s for a sampled 1 kHz run); fifteen times that for LSODA."""
     samples = spec.duration / spec.dt
     if spec.mode == "sampled":
         return samples
-    compiled_law = spec.controller in ("design1", "design2", "lqr")
+    compiled_law = declaration(spec.controller).compiled_continuous
     compiled = compiled_law and spec.integrator in ("auto", "radau", "bdf2")
     if not compiled:
         return samples * 15.0

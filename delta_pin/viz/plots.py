@@ -38,6 +38,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from delta_pin.control.registry import label as controller_name
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.run import Run
 from delta_pin.utils.atomic import atomic_open
@@ -73,13 +74,6 @@ METRIC_LABELS: dict[str, tuple[str, str]] = {
     "torque_increment_rms_last_5s": ("RMS ‖τₖ − τₖ₋₁‖, last 5 s", "N·m"),
 }
 
-_CONTROLLER_NAMES = {
-    "designI": "design I",
-    "designII": "design II",
-    "lqr": "LQR",
-    "ctc": "CTC",
-    "pd": "PD",
-}
 _R_NORM = r"$\|r\|$"
 _RDOT_NORM = r"$\|\dot{r}\|$"
 _RHO_HAT = r"$\hat{\rho}$"
@@ -92,7 +86,7 @@ def controller_label(run: Run) -> str:
     with ``" (no friction comp.)"`` when friction compensation was off."""
     meta = run.metadata.get("controller") or {}
     name = meta.get("name")
-    label = _CONTROLLER_NAMES.get(name, str(name) if name else "controller")
+    label = controller_name(name)
     if meta.get("friction_compensation") is False:
         label += " (no friction comp.)"
     return label

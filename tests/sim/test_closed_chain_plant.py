@@ -114,8 +114,9 @@ def test_design_one_tracks_a_circle_of_the_five_bar_tip(five_bar):
 def test_every_controller_runs_on_a_closed_chain_robot(five_bar, controller):
     from delta_pin.studies.closed_chain_run import run_closed_chain
 
+    aware = controller == "design2"  # the one switch it has: sampled at 1 kHz it needs the cap
     run, description = run_closed_chain(
-        five_bar, controller=controller, frame="tip", mode="sampled", t_end=0.3, sampling_aware=True
+        five_bar, controller=controller, frame="tip", mode="sampled", t_end=0.3, sampling_aware=aware
     )
     assert description["plane"] == "xz"  # the five-bar moves in the vertical plane
     assert np.isfinite(run.alpha).all() and run.closure_residual.max() < 1e-9

@@ -449,7 +449,7 @@ def test_single_runs_start_longest_first_and_batches_follow():
 
     specs = {
         "sampled_1k": RunSpec(controller="tdc", mode="sampled", dt=1e-3),
-        "lqr_lsoda": RunSpec(controller="pd"),  # no compiled law: LSODA
+        "lqr_lsoda": RunSpec(controller="pd", integrator="lsoda"),
         "sampled_10k": RunSpec(controller="tdc", mode="sampled", dt=1e-4),
         "radau": RunSpec(controller="design1", plant="analytic"),
         "bdf2_a": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.1),
