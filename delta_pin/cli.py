@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -21,6 +22,7 @@ __all__ = ["MAX_SWEEP_POINTS", "main"]
 MAX_SWEEP_POINTS = 100_000  # a larger grid needs --force
 RESUMABLE = ("compare", "sweep", "reproduce")  # commands whose finished runs are cached on disk
 EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143  # 143: 128 + SIGTERM
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a writer whose reader left
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -1015,6 +1017,8 @@ def _identify_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+VALIDATE_MAX_SAMPLES = 100_000  # validate's random states (closed_chain_validation.MAX_SAMPLES)
+
 # Bounds of identify excite, refused in one line before any work: each harmonic adds 2 Fourier
 # coefficients per joint to the excitation optimiser (published excitations use 5-15 harmonics),
 # and the trajectory CSV takes ~200 bytes a sample (1e7 samples: ~2 GB, 2.8 h at 1 kHz).
@@ -1132,7 +1136,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="delta-pin",
         description="Model-based control of Delta parallel robots, built on Pinocchio.",
-        epilog="Exit codes: 0 done, 1 a run or check failed, 2 bad input, 130 interrupted (Ctrl-C), "
+        epilog="Exit codes: 0 done, 1 a run or check failed, 2 bad input, 130 interrupted (Ctrl-C), 141 its "
+        "output pipe closed (| head), "
         "143 terminated (SIGTERM).",
     )
     parser.add_argument("--debug", action="store_true", help=_DEBUG_HELP)
@@ -1150,7 +1155,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     validate = add("validate", help="compare the analytic model with the constrained Pinocchio model")
     _add_robot_arguments(validate)
-    validate.add_argument("--samples", type=_integer(1), default=100, help="random states")
+    validate.add_argument(
+        "--samples", type=_integer(1, VALIDATE_MAX_SAMPLES), default=100, help="random states"
+    )
     validate.add_argument("--seed", type=int, default=0, help="random seed")
     validate.add_argument(
         "--tol",
@@ -1335,7 +1342,10 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if args.debug:
             raise
-        code, message = _error_line(exc)
+        if isinstance(exc, BrokenPipeError):  # `delta-pin ... | head`: the reader is gone, say nothing
+            _silence_stdout()
+            return EXIT_BROKEN_PIPE
+        code, message = _error_line(exc, args)
         print(f"{prefix}: error: {message}", file=sys.stderr)
         return code
     finally:
@@ -1360,7 +1370,17 @@ def _on_sigterm(terminated: list[int]):
         return None
 
 
-def _error_line(exc: Exception) -> tuple[int, str]:
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null, so that the interpreter's last flush of a closed pipe raises
+    nothing (Python's documented handling of SIGPIPE, docs.python.org/3/library/signal.html)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _error_line(exc: Exception, args: argparse.Namespace | None = None) -> tuple[int, str]:
     """(exit code, one-line message) of an exception that ends a command."""
     if isinstance(exc, SimulationError):
         return EXIT_FAILED, _one_line(exc)
@@ -1368,8 +1388,15 @@ def _error_line(exc: Exception) -> tuple[int, str]:
         return EXIT_BAD_INPUT, _one_line(exc)
     if isinstance(exc, OSError) and exc.filename is not None:
         return EXIT_BAD_INPUT, _one_line(f"{exc.filename}: {exc.strerror or exc}")
+    if isinstance(exc, OSError) and exc.errno == errno.ENOSPC:
+        return EXIT_FAILED, (
+            "no space left on the device (the outputs are written to temporaries and renamed, so no "
+            "earlier file was replaced by a partial one): free some space and rerun the same command"
+        )
     if isinstance(exc, MemoryError):
-        return EXIT_FAILED, "out of memory; shorten the run (--t-end) or lengthen --dt"
+        if args is not None and hasattr(args, "t_end"):
+            return EXIT_FAILED, "out of memory; shorten the run (--t-end) or lengthen --dt"
+        return EXIT_FAILED, "out of memory: the command asked for more than this machine has; ask for less"
     detail = f"{type(exc).__name__}: {_one_line(exc)}"
     return EXIT_FAILED, f"unexpected {detail} (rerun with --debug for the traceback)"
 

@@ -2,6 +2,7 @@
 one line on stderr that names the bad value, exit code 2 for bad input, 130 for Ctrl-C, and no
 traceback unless ``--debug``. Every case fails before anything is simulated."""
 
+import errno
 import json
 import os
 import signal
@@ -51,6 +52,17 @@ CASES = [
     ),
     (["validate", "--robot", "{gepetto}"], 2, "robot.yaml' is not text (a binary file?)"),
     (["validate", "--tol", "-5"], 2, "tol=-5.0 must be > 0"),
+    # work without a bound (issue 36, item 3; before: --duration 1e9 ran until killed)
+    (
+        ["validate", "--robot", "five_bar", "--duration", "1e9"],
+        2,
+        "energy_duration=1e+09 s (--duration) is longer than the 60 s the energy check takes",
+    ),
+    (
+        ["validate", "--robot", "five_bar", "--samples", "1000000"],
+        2,
+        "--samples: 1000000 must be an integer >= 1 and <= 100000",
+    ),
     (
         ["validate", "--robot", "five_bar", "--tol", "-5"],
         2,
@@ -565,3 +577,54 @@ def test_a_law_that_accounts_for_a_delay_runs_only_with_that_delay():
             dp.simulate(robot, dp.tdc(nominal, 1e-3, delay=built), dp.PathI(), delay=run_with, **options)
     assert dp.simulate(robot, dp.tdc(nominal, 1e-3, delay=2), dp.PathI(), delay=2, **options).t[-1] > 0
     assert dp.simulate(robot, dp.design1(nominal), dp.PathI(), delay=1, **options).t[-1] > 0
+
+
+def test_a_closed_pipe_is_a_quiet_exit():
+    """``delta-pin ... | head``: the reader leaves, the command stops with 141 (128 + SIGPIPE, as a
+    shell reports it) and writes nothing to stderr (issue 36, item 4; before: exit 1 "unexpected
+    BrokenPipeError"). The reader closes its end before the command writes (the command waits
+    0.5 s after its imports), so the write meets a closed pipe whatever the pipe's buffer holds."""
+    code = (
+        "import sys, time\nimport delta_pin.model.description as d\nfrom delta_pin import cli\n"
+        "d.compile_urdf = lambda **k: 'x' * 10_000_000\ntime.sleep(0.5)\nsys.exit(cli.main(['urdf']))\n"
+    )
+    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    process.stdout.close()
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 141, err
+    assert err == b""
+
+
+@pytest.mark.parametrize(
+    ("argv", "advice"),
+    [
+        (["run", "--out", "{out}"], "shorten the run (--t-end) or lengthen --dt"),
+        (["urdf"], "the command asked for more than this machine has; ask for less"),
+    ],
+)
+def test_out_of_memory_advises_options_the_command_has(tmp_path, capsys, monkeypatch, argv, advice):
+    """Before: every command said "shorten the run (--t-end)", which urdf, validate and identify do
+    not have (issue 36, item 6)."""
+    import delta_pin.model.description as description
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(description, "compile_urdf", exhausted)
+    monkeypatch.setattr(cli, "_cmd_run", exhausted)
+    monkeypatch.setitem(cli.build_parser.__globals__, "_cmd_run", exhausted)
+    assert main([arg.format(out=tmp_path / "o") for arg in argv]) == 1
+    assert _one_line(capsys).endswith(advice)
+
+
+def test_a_full_disk_is_one_line_not_an_unexpected_oserror(tmp_path, capsys, monkeypatch):
+    """ENOSPC without a file name (a flush, a rename) was "unexpected OSError 28"."""
+    import delta_pin.model.description as description
+
+    def full(**kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(description, "compile_urdf", full)
+    assert main(["urdf"]) == 1
+    line = _one_line(capsys)
+    assert "no space left on the device" in line and "free some space and rerun" in line

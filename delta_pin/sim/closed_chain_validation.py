@@ -88,6 +88,10 @@ DEFAULT_TOL = 1e-6  # relative tolerance of the gravity, Coriolis and energy che
 ENERGY_RTOL, ENERGY_ATOL = 1e-10, 1e-12  # DOP853 on [q, v] (rad or m, rad/s or m/s)
 ENERGY_SAMPLES = 100  # the energy is read at least this often along the free motion (max_step)
 MAX_FIXED_STEPS = 1_000_000  # a fixed-step energy run longer than this (and its half-step twin) is refused
+# bounds on the work validate is asked for, refused in one line before any: the energy check's
+# free motion (error-controlled, its cost grows with its length; the default 0.5 s) and the states
+MAX_ENERGY_DURATION = 60.0  # [s]
+MAX_SAMPLES = 100_000
 ASSEMBLY_TOL = 1e-14  # [m or rad] the differenced states are assembled this tightly where they can be
 NEARER_DRAWS = (
     10  # a random state that does not assemble is drawn again this many times, each halfway nearer home
@@ -480,8 +484,8 @@ def _frame_discrepancies(
 
 
 def _check_options(samples, seed, spread, energy_duration, tol, dt) -> None:
-    if samples < 1:
-        raise InvalidParameterError(f"samples={samples} must be >= 1")
+    if not 1 <= samples <= MAX_SAMPLES:
+        raise InvalidParameterError(f"samples={samples} must be >= 1 and <= {MAX_SAMPLES}")
     if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
         raise InvalidParameterError(f"seed={seed!r} must be an integer >= 0")
     if not (spread > 0.0 and math.isfinite(spread)):
@@ -489,6 +493,12 @@ def _check_options(samples, seed, spread, energy_duration, tol, dt) -> None:
     if not (energy_duration > 0.0 and math.isfinite(energy_duration)):
         raise InvalidParameterError(
             f"energy_duration={energy_duration} (--duration) must be a finite number of seconds > 0, e.g. 0.5"
+        )
+    if energy_duration > MAX_ENERGY_DURATION:
+        raise InvalidParameterError(
+            f"energy_duration={energy_duration:g} s (--duration) is longer than the "
+            f"{MAX_ENERGY_DURATION:g} s the energy check takes (its free motion's cost grows with its "
+            f"length): give at most {MAX_ENERGY_DURATION:g}, e.g. the default 0.5"
         )
     if not (math.isfinite(tol) and tol > 0.0):
         raise InvalidParameterError(
