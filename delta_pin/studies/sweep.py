@@ -565,11 +565,13 @@ def _backend(executor, workers: int | None, scheduler: str | None):
     else:
         cluster = None
         try:
+            _probe_scheduler(scheduler, SCHEDULER_TIMEOUT)
             client = distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, TimeoutError, ValueError, _NotASchedulerError) as exc:
             raise SchedulerUnreachableError(
                 f"no Dask scheduler answers at --scheduler {scheduler} within {SCHEDULER_TIMEOUT:g} s "
-                f"({type(exc).__name__}); start one (dask scheduler) or give its address, or 'local'"
+                f"({exc if isinstance(exc, _NotASchedulerError) else type(exc).__name__}); "
+                "start one (dask scheduler) or give its address, or 'local'"
             ) from None
     try:
         submit = functools.partial(client.submit, pure=False)
@@ -578,6 +580,50 @@ def _backend(executor, workers: int | None, scheduler: str | None):
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+class _NotASchedulerError(Exception):
+    """The peer at a --scheduler address answered, but not as a Dask scheduler."""
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Ask the peer at ``address`` for its identity, all within ``timeout`` seconds, before a
+    ``distributed.Client`` is made: the client's own ``timeout`` bounds the TCP connect only, so
+    a peer that accepts and never answers held it 143 s and more, and one that sends 8 random
+    bytes made it read a frame of exabytes. Runs in a thread of its own (its own event loop, so a
+    caller's running loop is no obstacle); the thread ends with the deadline's cancellation.
+
+    Raises:
+        TimeoutError: no answer within ``timeout``.
+        OSError: the connection broke.
+        _NotASchedulerError: the peer answered, but not as a scheduler (or not in Dask's protocol).
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def ask() -> object:
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def run() -> object:
+        return asyncio.run(asyncio.wait_for(ask(), timeout))
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
+        try:
+            reply = pool.submit(run).result(timeout=timeout + 1.0)  # the loop's own deadline first
+        except (concurrent.futures.TimeoutError, asyncio.TimeoutError):
+            raise TimeoutError(f"no answer within {timeout:g} s") from None
+        except OSError:
+            raise
+        except Exception as exc:  # a reply that is not Dask's protocol: struct.error, ValueError, ...
+            raise _NotASchedulerError(f"its reply broke Dask's protocol: {type(exc).__name__}") from None
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        raise _NotASchedulerError(f"it answered {str(reply)[:60]!r}")
 
 
 def _terminate_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
