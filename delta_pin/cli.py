@@ -694,8 +694,31 @@ def _add_force_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+# one local worker process with delta-pin, Pinocchio and a run loaded: 164 MiB of peak RSS measured
+# for a 0.5 s run of the Delta (2026-12-06), 220 MB in the sweeps' workers; counted as 250 MiB
+WORKER_MEMORY = 250 * 1024**2  # [bytes]
+
+
+def _check_workers(args: argparse.Namespace) -> None:
+    """Refuse more local worker processes than half of this machine's memory holds, unless --force
+    (before: --workers 64 on a 24 GiB machine started its processes for minutes, then ended in
+    distributed's tracebacks)."""
+    from delta_pin.studies.experiments import memory_limit
+
+    if args.scheduler not in (None, "local"):
+        return  # the workers are the remote scheduler's
+    need, limit = args.workers * WORKER_MEMORY, memory_limit()
+    if need > limit and not getattr(args, "force", False):
+        raise InvalidParameterError(
+            f"--workers {args.workers} local processes take about {_size(need)} (~{_size(WORKER_MEMORY)} "
+            f"each), more than {_size(limit)} (half of this machine's memory): give at most "
+            f"{max(1, limit // WORKER_MEMORY)}" + (", or --force" if hasattr(args, "force") else "")
+        )
+
+
 def _executor_options(args: argparse.Namespace) -> dict:
     """Where the runs of a study execute, and on which robot (xacro arguments)."""
+    _check_workers(args)
     robot_args = _parse_settings(args.settings)
     if robot_args:
         from delta_pin.model.description import compile_urdf
@@ -1007,6 +1030,8 @@ def _identify_fit(args: argparse.Namespace) -> int:
     print(f"{result.base.rank} base parameters identified in {result.timings['total']:.2f} s; "
           f"residual {relative} "
           f"of the torque's RMS; cond {result.condition:.4g}")  # fmt: skip
+    for line in result.warnings:  # one line each (a torque scale far from the CAD model's)
+        print(line)
     if validation is not None:
         print(
             "validation: torque error RMS "

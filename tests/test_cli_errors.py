@@ -628,3 +628,22 @@ def test_a_full_disk_is_one_line_not_an_unexpected_oserror(tmp_path, capsys, mon
     assert main(["urdf"]) == 1
     line = _one_line(capsys)
     assert "no space left on the device" in line and "free some space and rerun" in line
+
+
+@pytest.mark.parametrize("command", ["compare", "sweep", "reproduce"])
+def test_more_local_workers_than_memory_holds_are_refused(tmp_path, capsys, monkeypatch, command):
+    """--workers N local processes need ~250 MiB each: past half of the machine's memory the command
+    refuses in one line, naming the most it would take (before: --workers 64 started processes for
+    over 3 minutes on a 24 GiB, 2-core machine, then ended in distributed's tracebacks)."""
+    import delta_pin.studies.experiments as experiments
+
+    monkeypatch.setattr(experiments, "memory_limit", lambda: 1024**3)  # [bytes] 1 GiB: 4 workers
+    argv = {
+        "compare": ["compare", "--out", str(tmp_path)],
+        "sweep": ["sweep", "--param", "delta_m=0:0.3:2", "--out", str(tmp_path)],
+        "reproduce": ["reproduce", "--out", str(tmp_path)],
+    }[command]
+    assert main([*argv, "--workers", "64", "--scheduler", "local"]) == 2
+    line = _one_line(capsys)
+    assert "--workers 64 local processes take about 15.6 GiB" in line and "give at most 4" in line
+    assert not any(tmp_path.iterdir())  # refused before anything was written
