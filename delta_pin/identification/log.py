@@ -14,14 +14,24 @@ Format (docs/identification.md)::
 * one column ``t`` [s], strictly increasing, uniformly sampled (each step within 1 % of the median);
 * per actuated joint J (the robot's names, :attr:`ClosedChainRobot.actuated_joints`): ``q[J]``
   [rad or m] and ``tau[J]`` [N m or N], and optionally ``qd[J]`` [rad/s or m/s];
-* every value finite.
+* every value finite; no column the reader uses named twice; no ``tau[X]`` column of a joint X the
+  robot does not actuate (a motor the model would leave out); each ``tau[J]`` column not constant
+  (all zeros, say: such a log carries no information on the dynamics).
 
 Any other column is ignored. A bad log raises :class:`~delta_pin.errors.InvalidParameterError`
 with one line naming the file, the column and the line number.
+
+**Whose log** (:func:`check_log_robot`, called by ``identify`` and ``validate``): where the header
+has a ``robot`` key (``identify simulate`` writes it, with ``kinematics_sha256``: the digest of the
+robot's kinematic description, :func:`kinematics_digest`), it must name the robot being fitted, and
+a ``kinematics_sha256`` must be that robot's; a log without a ``robot`` key (a drive's, written by
+anyone) is accepted.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,7 +40,14 @@ import numpy as np
 from delta_pin.errors import InvalidParameterError
 from delta_pin.utils.atomic import atomic_open
 
-__all__ = ["IdentificationLog", "read_log", "write_log"]
+__all__ = [
+    "IdentificationLog",
+    "check_log_robot",
+    "check_torques",
+    "kinematics_digest",
+    "read_log",
+    "write_log",
+]
 
 RATE_TOLERANCE = 0.01  # relative: a step or the header's rate may differ this much from the median step
 
@@ -46,6 +63,7 @@ class IdentificationLog:
         joints: the actuated joints' names (dof,).
         alpha_dot: measured velocities (N, dof), or ``None``.
         header: the ``key: value`` comments.
+        path: the file it was read from (:func:`read_log`), or ``None``; named in errors.
     """
 
     t: np.ndarray
@@ -54,6 +72,12 @@ class IdentificationLog:
     joints: tuple[str, ...]
     alpha_dot: np.ndarray | None = None
     header: dict = field(default_factory=dict)
+    path: Path | None = None
+
+    @property
+    def where(self) -> str:
+        """``log PATH`` (or ``the log``) for messages."""
+        return "the log" if self.path is None else f"log {self.path}"
 
     @property
     def sample_rate(self) -> float:
@@ -123,6 +147,22 @@ def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> Identific
             f"log {path}: column {missing[0]!r} is missing (line {first} has {', '.join(names)}; "
             f"expected t, q[J] and tau[J] for J in {', '.join(joints)})"
         )
+    velocity_names = [f"qd[{j}]" for j in joints]
+    for name in wanted + velocity_names:
+        positions = [k + 1 for k, other in enumerate(names) if other == name]
+        if len(positions) > 1:
+            raise InvalidParameterError(
+                f"log {path}: column {name!r} is named twice on line {first}, as columns {positions[0]} "
+                f"and {positions[1]}: which one is the joint's is not known; remove or rename one"
+            )
+    others = [n for n in names if n.startswith("tau[") and n.endswith("]") and n[4:-1] not in joints]
+    if others:
+        raise InvalidParameterError(
+            f"log {path}: column {others[0]!r} is the torque of joint {others[0][4:-1]!r}, which the robot "
+            f"does not actuate (its actuated joints: {', '.join(joints)}): the log is another robot's, or "
+            "that motor is missing from the robot's actuated joints (--actuated); drop the column if "
+            "that joint is no part of this robot"
+        )
     rows, numbers = [], []
     for number, line in enumerate(lines[first:], first + 1):
         text = line.strip()
@@ -145,7 +185,6 @@ def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> Identific
     numbers = np.array(numbers)
     if len(data) < 10:
         raise InvalidParameterError(f"log {path}: {len(data)} samples; an identification needs many more")
-    velocity_names = [f"qd[{j}]" for j in joints]
     used = wanted + [n for n in velocity_names if n in index]
     for name in used:
         column = data[:, index[name]]
@@ -186,14 +225,93 @@ def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> Identific
                 f"{measured:.6g} Hz"
             )
     has_velocity = all(n in index for n in velocity_names)
-    return IdentificationLog(
+    log = IdentificationLog(
         t=t,
         alpha=data[:, [index[f"q[{j}]"] for j in joints]],
         tau=data[:, [index[f"tau[{j}]"] for j in joints]],
         joints=tuple(joints),
         alpha_dot=data[:, [index[n] for n in velocity_names]] if has_velocity else None,
         header=header,
+        path=path,
     )
+    check_torques(log)
+    return log
+
+
+def check_torques(log: IdentificationLog) -> None:
+    """Refuse a log with a constant torque column (all zeros, say: a drive that logged nothing, or
+    the wrong column): a fit to it would report a residual of 0/0 = NaN, or fit that joint's
+    parameters to a constant. Constant: its spread max - min is at most 1e-12 of its largest
+    magnitude (0 for a column read from a file)."""
+    for j, joint in enumerate(log.joints):
+        column = np.asarray(log.tau[:, j], float)
+        spread = float(column.max() - column.min()) if column.size else 0.0
+        if spread <= 1e-12 * float(np.abs(column).max(initial=0.0)):
+            value = float(column[0]) if column.size else 0.0
+            raise InvalidParameterError(
+                f"{log.where}: column 'tau[{joint}]' is {value:g} on every line: the torques carry no "
+                "information on the dynamics; log the drives' measured torque (or current times the "
+                "torque constant) while the robot runs the excitation"
+            )
+
+
+def _rounded(values) -> list[float]:
+    """Numbers for a digest: to 1e-9 (a nanometre, a nanoradian), -0 as 0."""
+    return [float(x) + 0.0 for x in np.round(np.asarray(values, float).ravel(), 9)]
+
+
+def kinematics_digest(robot) -> str:
+    """The SHA-256 (hex, first 16 digits) of a closed-chain robot's kinematic description: its tree's
+    joints (name, type, parent, placement), closures (kind, joints, placements), joint couplings
+    and actuated joints, numbers to 1e-9. Inertias, friction and limits are left out: they are
+    what a fit identifies, and a simulated log's true robot differs from the CAD file in them on
+    purpose (``identify simulate --mass-spread``, ``--true-set m_a=...``). So is gravity: the
+    site's, not the robot's (``load_delta`` takes the paper's 9.8, ``load_robot`` 9.81 m/s^2 for
+    the same Delta's URDF)."""
+    tree = robot.tree
+    items: list = [["actuated", list(robot.actuated_joints)]]
+    for j in range(1, tree.njoints):
+        placement = tree.jointPlacements[j]
+        items.append([tree.names[j], tree.joints[j].shortname(), int(tree.parents[j]),
+                      _rounded(placement.translation), _rounded(placement.rotation)])  # fmt: skip
+    for c in robot.closures:
+        items.append([c.kind, tree.names[c.joint1], _rounded(c.placement1.homogeneous),
+                      tree.names[c.joint2], _rounded(c.placement2.homogeneous)])  # fmt: skip
+    for c in getattr(robot, "joint_couplings", ()):
+        items.append([c.joint1, c.joint2, _rounded(c.coefficients), _rounded([c.reference1, c.reference2])])
+    return hashlib.sha256(json.dumps(items).encode()).hexdigest()[:16]
+
+
+def check_log_robot(log: IdentificationLog, robot) -> None:
+    """Refuse another robot's log: the log's joints must be ``robot``'s actuated joints, and where
+    its header has a ``robot`` key (``identify simulate`` writes it) it must be ``robot``'s name, and
+    its ``kinematics_sha256`` (where present) ``robot``'s :func:`kinematics_digest`. A header
+    without a ``robot`` key (a drive's log, written by anyone) is accepted."""
+    where = log.where
+    joints = tuple(robot.actuated_joints)
+    if tuple(log.joints) != joints:
+        raise InvalidParameterError(
+            f"{where}: its joints {list(log.joints)} are not the actuated joints of robot {robot.name!r}, "
+            f"{list(joints)}"
+        )
+    header = log.header or {}
+    if "robot" not in header:
+        return
+    named = str(header["robot"])
+    if named != robot.name:
+        raise InvalidParameterError(
+            f"{where} was written for robot {named!r} (its header's '# robot: {named}'), not for robot "
+            f"{robot.name!r}, the one given: fit it with the robot that made it (--robot/--urdf/--set as "
+            "for identify simulate), or remove that header line if the log is this robot's"
+        )
+    digest = header.get("kinematics_sha256")
+    if digest is not None and str(digest) != kinematics_digest(robot):
+        raise InvalidParameterError(
+            f"{where} was written for a robot {named!r} of other kinematics (its header's kinematics_sha256: "
+            f"{digest}, the robot given: {kinematics_digest(robot)}): another --urdf, --set (R, r, l_a, "
+            "l_b) or --robot file than the one identify simulate had; give that one, or remove the "
+            "header line if the log is this robot's"
+        )
 
 
 def _is_float(text: str) -> bool:

@@ -4,7 +4,8 @@
   standard deviation, OLS value, the consistent estimate's value), the rank decision, the fit's
   residual, condition number and timings, the friction per joint, for a Delta the paper's lumped
   terms and the ``xacro_arguments`` of the identified robot, the physically consistent standard
-  parameters per body, and a validation on an unseen log where one was given;
+  parameters per body, a validation on an unseen log where one was given, the log's torque
+  against the CAD model's (``torque_scale``) and the fit's ``warnings`` (also atop report.md);
 * ``xacro_arguments.json`` (a Delta) -- ``load_delta(**json.load(...))`` or
   ``delta-pin urdf --set m_a=... ...`` builds the identified robot;
 * ``robot.urdf`` (a robot from a URDF) -- the robot's URDF with the physically consistent
@@ -109,6 +110,8 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
             "timings_s": result.timings,
         },
         "friction": {k: [_float(x) for x in v] for k, v in result.friction.items()},
+        "torque_scale": {k: v if isinstance(v, str) else _float(v) for k, v in result.torque_scale.items()},
+        "warnings": list(result.warnings),
     }
     if consistent is not None:
         bodies = {}
@@ -271,6 +274,7 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
     lines = [
         f"# Identification of {record['robot']}",
         "",
+        *(f"**{line}**\n" for line in record["warnings"]),
         f"{r['base_parameters']} base parameters of {r['standard_parameters']} standard ones "
         "(pivoted QR, rank "
         f"tolerance {r['rtol']:g} of |R_11|: smallest kept {r['smallest_kept']:.3g}, largest dropped "

@@ -34,10 +34,17 @@ from delta_pin.identification.estimation import (
     reversal_mask,
 )
 from delta_pin.identification.excitation import FourierExcitation
-from delta_pin.identification.log import IdentificationLog, read_log
+from delta_pin.identification.log import (
+    IdentificationLog,
+    check_log_robot,
+    check_torques,
+    kinematics_digest,
+    read_log,
+)
 from delta_pin.identification.regressor import ClosedChainRegressor, JointColumns
 
 __all__ = [
+    "TORQUE_SCALE_LIMIT",
     "IdentificationResult",
     "delta_lumped_map",
     "friction_truth",
@@ -46,6 +53,7 @@ __all__ = [
     "perturbed_robot",
     "read_trajectory",
     "simulate_log",
+    "torque_scale",
     "validate",
     "write_trajectory",
 ]
@@ -112,8 +120,12 @@ def simulate_log(
     rng = np.random.default_rng(seed)
     rms = np.sqrt((run.tau**2).mean(axis=0))
     tau = run.tau + rng.normal(0.0, 1.0, run.tau.shape) * torque_noise * rms
+    # whose log this is: the robot the user named (the CAD robot; the truth differs from it in its
+    # inertias, or in what a study changes on purpose), checked by identify (log.check_log_robot)
+    named = robot if nominal is None else nominal
     header = {
-        "robot": robot.name,
+        "robot": named.name,
+        "kinematics_sha256": kinematics_digest(named),
         "source": "delta-pin identify simulate",
         "encoder_bits": encoder_bits,
         "torque_noise_relative": torque_noise,
@@ -180,6 +192,9 @@ class IdentificationResult:
         timings: seconds per step.
         lumped: for a Delta, the paper's terms {name: value} from WLS; ``xacro_arguments`` the
             masses and friction of the identified Delta (``load_delta(**xacro_arguments)``).
+        torque_scale: the log's torque against the CAD model's (:func:`torque_scale`).
+        warnings: one line each, for stdout and report.md (a torque scale beyond
+            :data:`TORQUE_SCALE_LIMIT`).
     """
 
     regressor: ClosedChainRegressor
@@ -201,6 +216,8 @@ class IdentificationResult:
     xacro_arguments: dict | None = None
     dropped: list = field(default_factory=list)
     friction: dict = field(default_factory=dict)
+    torque_scale: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
     @property
     def beta(self) -> np.ndarray:
@@ -221,6 +238,49 @@ class IdentificationResult:
             else self.wls.beta
         )
         return self.base.reduce(Y) @ beta, tau
+
+
+# The log's torque may be this many times the CAD model's (or 1 / this many times) before the fit
+# warns (a warning, not a refusal: a CAD file can be far off). Measured on simulated logs whose
+# true masses are off the CAD file's by up to 30 % (Delta: Table 1 friction in the plant, the
+# CAD model's too, or none; five-bar: no friction): ratios 0.83-1.18. A CAD model 10x off in its
+# masses is hardly this robot's, while the mistakes this catches are 100x and more: torques in
+# mN m (1000x) or N cm (100x), kN m (0.001x), or motor-side torques of a 10:1 to 100:1 gearbox.
+TORQUE_SCALE_LIMIT = 10.0
+
+
+def torque_scale(regressor, Y: np.ndarray, tau: np.ndarray, mask: np.ndarray, nominal) -> dict:
+    """The log's torque RMS against the RMS of the torque the nominal (CAD) robot predicts along the
+    logged motion (its inertias, and for a Delta its URDF's friction at F_n = 15 N: the
+    :func:`friction_truth` of :class:`~delta_pin.model.friction.Friction`; other robots' friction
+    counts 0), over the rows the fit used (the filtered Y (N, dof, p) and tau (N, dof), ``mask``).
+
+    Returns:
+        {"measured_rms", "nominal_rms" [N m or N], "ratio", and "warning" (one line) where the ratio
+        is beyond :data:`TORQUE_SCALE_LIMIT` or below its inverse}; no ratio where the CAD model
+        predicts no torque (a file without masses).
+    """
+    friction = None
+    if getattr(nominal, "delta", None) is not None and nominal.delta.params.friction is not None:
+        from delta_pin.model.friction import Friction
+
+        friction = friction_truth(nominal, Friction())
+    predicted = Y @ regressor.parameters(nominal, friction)
+    measured_rms = float(np.sqrt(np.mean(tau[mask] ** 2)))
+    nominal_rms = float(np.sqrt(np.mean(predicted[mask] ** 2)))
+    out = {"measured_rms": measured_rms, "nominal_rms": nominal_rms}
+    if not nominal_rms > 1e-12 * max(measured_rms, 1.0):
+        return out
+    ratio = measured_rms / nominal_rms
+    out["ratio"] = ratio
+    if not 1.0 / TORQUE_SCALE_LIMIT <= ratio <= TORQUE_SCALE_LIMIT:
+        out["warning"] = (
+            f"warning: torques in N m? the log's torques are {ratio:.3g}x the CAD model's (RMS "
+            f"{measured_rms:.4g} vs {nominal_rms:.4g} along the logged motion; beyond a factor "
+            f"{TORQUE_SCALE_LIMIT:g} either way): mN m would be 1000x, a motor-side torque the gear "
+            "ratio; the identified parameters carry the same factor"
+        )
+    return out
 
 
 def decimation(rate: float, cutoff: float) -> int:
@@ -263,19 +323,19 @@ def identify(
             ``result.dropped``); ``False`` fits every base parameter.
 
     Raises:
-        InvalidParameterError: a bad log (one line: column, line), an excitation that leaves
-            base parameters unidentifiable (named).
+        InvalidParameterError: a bad log (one line: column, line), another robot's log (its
+            joints, or its header's robot and kinematics_sha256:
+            :func:`~delta_pin.identification.log.check_log_robot`), a constant torque column, an
+            excitation that leaves base parameters unidentifiable (named). Torques far from the CAD
+            model's (beyond :data:`TORQUE_SCALE_LIMIT`) are a warning in ``result.warnings``.
     """
     timings = {}
     start = time.perf_counter()
     regressor = ClosedChainRegressor(robot, columns, massless=massless)
     if not isinstance(data, IdentificationLog):
         data = read_log(data, robot.actuated_joints)
-    elif tuple(data.joints) != tuple(robot.actuated_joints):
-        raise InvalidParameterError(
-            f"the log's joints {list(data.joints)} are not the robot's actuated joints "
-            f"{list(robot.actuated_joints)}"
-        )
+    check_log_robot(data, robot)  # its joints and its header's robot
+    check_torques(data)
     base = base_parameters(regressor)
     timings["base_parameters"] = time.perf_counter() - start
     t0 = time.perf_counter()
@@ -324,6 +384,7 @@ def identify(
         timings["consistent"] = time.perf_counter() - t0
     residual = np.where(mask, tau - Y_base @ wls.beta, 0.0)
     kept = np.maximum(mask.sum(axis=0), 1)
+    scale = torque_scale(regressor, Y, tau, mask, prior_robot or robot)
     result = IdentificationResult(
         regressor=regressor,
         base=base,
@@ -341,6 +402,8 @@ def identify(
         cutoff=cutoff,
         timings=timings,
         dropped=[(names[k], t) for k, t in dropped],
+        torque_scale=scale,
+        warnings=[scale["warning"]] if scale.get("warning") else [],
     )
     result.friction = _friction_estimates(regressor, base, wls)
     if getattr(robot, "delta", None) is not None:
@@ -438,6 +501,8 @@ def validate(
     robot = result.regressor.robot
     if not isinstance(log, IdentificationLog):
         log = read_log(log, robot.actuated_joints)
+    check_log_robot(log, robot)
+    check_torques(log)
     predicted, measured = result.predict(log, estimate)
     error = predicted - measured
     rms_tau = np.sqrt((measured**2).mean(axis=0))

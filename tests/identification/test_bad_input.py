@@ -69,7 +69,8 @@ def test_rank_deficient_excitation_names_the_parameters(delta):
     t = np.arange(n) / rate
     alpha = np.zeros((n, 3)) + delta.home
     alpha[:, 0] += 0.3 * np.sin(2 * np.pi * 1.0 * t)
-    log = IdentificationLog(t, alpha, np.zeros((n, 3)), JOINTS, header={"torque_hold": "sample"})
+    tau = np.random.default_rng(0).normal(0.0, 0.1, (n, 3))  # any torque but a constant (refused first)
+    log = IdentificationLog(t, alpha, tau, JOINTS, header={"torque_hold": "sample"})
     with pytest.raises(
         InvalidParameterError, match=r"rank-deficient excitation: \d+ of \d+ base parameters"
     ) as error:
