@@ -212,6 +212,11 @@ CASES = [
     (["view", "{run_short_alpha}"], 2, "is not a delta-pin run: alpha has shape (4, 3), expected (10, 3)"),
     (["view", "{run_reversed_t}"], 2, "is not a delta-pin run: t does not increase at sample 1"),
     (["view", "{run_text_tau}"], 2, "is not a delta-pin run: tau holds <U"),
+    (
+        ["view", "{run_string_robot}"],
+        2,
+        "is not a delta-pin run: its metadata's 'robot' is a JSON str, expected an object",
+    ),
     # compare
     (["compare", "--out", "{file}"], 2, "--out {file} is a file"),
     (["compare", "--controllers", "nope", "--paths", "I", *SHORT, "--out", "{out}"], 2, "'nope'"),
@@ -300,8 +305,12 @@ def paths(tmp_path, monkeypatch):
     gepetto.mkdir()
     (gepetto / "robot.urdf").write_text(shipped_robot("delta_gepetto").read_text())
     (gepetto / "robot.yaml").write_bytes(b"\xff\xfe\x00" + np.random.default_rng(1).bytes(64))
-    runs = {name: _run_arrays() for name in ("list_metadata", "short_alpha", "reversed_t", "text_tau")}
+    names = ("list_metadata", "short_alpha", "reversed_t", "text_tau", "string_robot")
+    runs = {name: _run_arrays() for name in names}
     runs["list_metadata"]["metadata_json"] = np.array("[1, 2]")
+    runs["string_robot"]["metadata_json"] = np.array(
+        json.dumps({"controller": {"name": "x"}, "robot": "delta"})
+    )
     runs["short_alpha"]["alpha"] = runs["short_alpha"]["alpha"][:4]
     runs["reversed_t"]["t"] = runs["reversed_t"]["t"][::-1].copy()
     runs["text_tau"]["tau"] = runs["text_tau"]["tau"].astype(str)
@@ -647,3 +656,17 @@ def test_more_local_workers_than_memory_holds_are_refused(tmp_path, capsys, monk
     line = _one_line(capsys)
     assert "--workers 64 local processes take about 15.6 GiB" in line and "give at most 4" in line
     assert not any(tmp_path.iterdir())  # refused before anything was written
+
+
+@pytest.mark.parametrize("allow", [False, True])
+def test_compare_where_every_run_fails_says_so(tmp_path, capsys, allow):
+    """Every run of a compare diverges (designs I/II sampled at 10 ms): the table lists each
+    failure, the command says how many failed and exits 1, or 0 with --allow-failures (issue 36,
+    item 6; before: exit 2, "table must be a non-empty dict", --allow-failures ignored)."""
+    argv = ["compare", "--controllers", "design1,design2", "--paths", "I", "--mode", "sampled",
+            "--dt", "0.01", "--t-end", "1", "--workers", "1", "--out", str(tmp_path)]  # fmt: skip
+    assert main([*argv, *(["--allow-failures"] if allow else [])]) == (0 if allow else 1)
+    captured = capsys.readouterr()
+    assert captured.err.strip().startswith("2 of 2 runs failed; the first: the run diverged")
+    assert "metrics.csv" in captured.out
+    assert json.loads((tmp_path / "manifest.json").read_text())["complete"] is True

@@ -143,6 +143,9 @@ def _layout_problem(arrays: dict, internals: dict, metadata) -> str | None:
     ``xyz_d`` (N, 3), ``q``/``v`` (N, k), each internal N samples long, and a metadata object."""
     if not isinstance(metadata, dict):
         return f"its metadata is a JSON {type(metadata).__name__}, expected an object"
+    for key in ("robot", "controller", "trajectory", "plant_details", "uncertainty"):  # what viewers read
+        if metadata.get(key) is not None and not isinstance(metadata[key], dict):
+            return f"its metadata's {key!r} is a JSON {type(metadata[key]).__name__}, expected an object"
     every = {**arrays, **{f"internal {name!r}": value for name, value in internals.items()}}
     for name, value in every.items():
         if value.dtype.kind not in "fiu":

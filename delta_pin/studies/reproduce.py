@@ -753,7 +753,7 @@ def compare(
         for row in metrics:
             if "error" not in row:
                 table.setdefault(row["controller"], {})[f"path {row['path']}"] = row
-        for metric in ("iae", "ise", "control_effort"):
+        for metric in ("iae", "ise", "control_effort") if table else ():  # none: every run failed
             plots.save_figure(
                 plots.plot_metric_bars(table, metric, log=metric != "control_effort"),
                 out / "figures" / f"{metric}.png",
