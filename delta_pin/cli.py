@@ -348,10 +348,33 @@ _DELTA_RUN_OPTIONS = {
 _ROBOT_RUN_OPTIONS = {"frame": "--frame", "radius": "--radius", "period": "--period"}
 
 
+GIVEN = "given_options"  # the namespace's set of the destinations given on the command line
+
+
+def _record_given(parser: argparse.ArgumentParser) -> None:
+    """Make each of ``parser``'s options note its destination in ``namespace.given_options`` when
+    it appears on the command line, so that a flag given at its default value is still known to be
+    given (argparse's own namespace cannot tell ``--path I`` from no ``--path``)."""
+    for action in parser._actions:
+        if not action.option_strings or isinstance(action, argparse._HelpAction):
+            continue
+        base = type(action)
+
+        def call(self, parser, namespace, values, option_string=None, _base=base):
+            given = getattr(namespace, GIVEN, None)
+            if given is None:
+                given = set()
+                setattr(namespace, GIVEN, given)
+            given.add(self.dest)
+            _base.__call__(self, parser, namespace, values, option_string)
+
+        action.__class__ = type(f"Given{base.__name__}", (base,), {"__call__": call})
+
+
 def _given_options(args: argparse.Namespace, options: dict[str, str]) -> list[str]:
-    """The flags among ``options`` whose value differs from run's default (given on the command line)."""
-    defaults = build_parser().parse_args(["run", "--out", "."])
-    return [flag for name, flag in options.items() if getattr(args, name) != getattr(defaults, name)]
+    """The flags among ``options`` given on the command line, at their default value or not."""
+    given = getattr(args, GIVEN, None) or set()
+    return [flag for name, flag in options.items() if name in given]
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -481,6 +504,7 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
     _check_output_dir("--out", out)
     _check_page(args.html, out)
     robot = _closed_chain_robot(args)
+    _check_robot_memory(args, robot)
     options = {
         name: getattr(args, name)
         for name in ("robot", "actuated", "passive", "free_flyer", "controller", "frame", "mode", "dt",
@@ -488,6 +512,24 @@ def _cmd_run_robot(args: argparse.Namespace) -> int:
     }  # fmt: skip
     with _claim_run_folder(args, out, options) as folder:
         return _write_robot_run(args, out, robot, folder)
+
+
+def _check_robot_memory(args: argparse.Namespace, robot) -> None:
+    """``run --robot``'s memory guard, like the Delta's (:func:`_check_memory`): the Delta's bytes
+    per sample scaled by the robot's recorded width (q, v and about 8 arrays per actuated joint;
+    the Delta: 12 + 12 + 8 x 3 = 48 numbers a sample)."""
+    from delta_pin.studies.experiments import BYTES_PER_SAMPLE, memory_limit
+
+    t_end = max(6.0, 2.0 * args.period) if args.t_end is None else args.t_end  # run_closed_chain's default
+    samples = min(t_end / args.dt, 1e30) + 1
+    width = robot.model.nq + robot.model.nv + 8 * robot.dof
+    need, limit = samples * BYTES_PER_SAMPLE[args.mode] * max(1.0, width / 48.0), memory_limit()
+    if need > limit and not args.force:
+        raise InvalidParameterError(
+            f"--t-end {t_end:g} at --dt {args.dt:g} is {samples:.3g} samples of {robot.name!r}: about "
+            f"{_size(need)} of arrays, more than {_size(limit)} (half of this machine's memory); "
+            "shorten --t-end, lengthen --dt, or give --force"
+        )
 
 
 def _write_robot_run(args: argparse.Namespace, out: Path, robot, folder) -> int:
@@ -1286,6 +1328,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--period", type=float, default=2.0, help="with --robot: the circle's or sinusoid's period [s]"
     )
     run.set_defaults(func=_cmd_run)
+    _record_given(run)
 
     reproduce = add("reproduce", help="the paper's Section V study: runs, surfaces, figures, report")
     size = reproduce.add_mutually_exclusive_group()

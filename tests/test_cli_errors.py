@@ -670,3 +670,22 @@ def test_compare_where_every_run_fails_says_so(tmp_path, capsys, allow):
     assert captured.err.strip().startswith("2 of 2 runs failed; the first: the run diverged")
     assert "metrics.csv" in captured.out
     assert json.loads((tmp_path / "manifest.json").read_text())["complete"] is True
+
+
+@pytest.mark.parametrize(
+    "flag", [["--path", "I"], ["--plant", "pinocchio"], ["--delay", "0"], ["--seed", "0"]]
+)
+def test_run_robot_refuses_a_delta_flag_given_at_its_default(tmp_path, capsys, flag):
+    """--path I is run's default: given with --robot it was silently ignored (compared with the
+    default, it looked absent); now any Delta-only flag on the command line is refused (issue 36,
+    item 6)."""
+    assert main(["run", "--robot", "five_bar", *flag, "--out", str(tmp_path / "o")]) == 2
+    assert f"{flag[0]} applies to the packaged Delta's scenario, not to --robot" in _one_line(capsys)
+
+
+def test_run_robot_has_the_memory_guard(tmp_path, capsys):
+    """run --robot had no memory guard (issue 36, item 6): 1e9 s at 1 ms is refused with its estimate."""
+    assert main(["run", "--robot", "five_bar", "--t-end", "1e9", "--out", str(tmp_path / "o")]) == 2
+    line = _one_line(capsys)
+    assert "--t-end 1e+09 at --dt 0.001 is 1e+12 samples of 'five_bar'" in line and "give --force" in line
+    assert not (tmp_path / "o").exists()
