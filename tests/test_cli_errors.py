@@ -619,9 +619,10 @@ def test_out_of_memory_advises_options_the_command_has(tmp_path, capsys, monkeyp
     def exhausted(*args, **kwargs):
         raise MemoryError
 
+    import delta_pin.studies.experiments as experiments
+
     monkeypatch.setattr(description, "compile_urdf", exhausted)
-    monkeypatch.setattr(cli, "_cmd_run", exhausted)
-    monkeypatch.setitem(cli.build_parser.__globals__, "_cmd_run", exhausted)
+    monkeypatch.setattr(experiments, "check_specs", exhausted)  # run's first step after its checks
     assert main([arg.format(out=tmp_path / "o") for arg in argv]) == 1
     assert _one_line(capsys).endswith(advice)
 
