@@ -96,3 +96,25 @@ def test_the_version_has_one_home_that_pyproject_agrees_with():
     text = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text()
     (version,) = re.findall(r'(?m)^version = "([^"]+)"$', text)  # [project]'s (tomllib is 3.11+)
     assert delta_pin.__version__ == __version__ == version
+
+
+def test_the_package_never_imports_the_tests():
+    """The readable references live in tests/ as oracles, never as run-time code (issue 38): no
+    module of delta_pin imports ``tests`` (import-linter sees only delta_pin's own modules, so the
+    check reads every module's imports here). It fails on a planted ``from tests import x``."""
+    import ast
+    from pathlib import Path
+
+    def imports_tests(source: str) -> bool:
+        for node in ast.walk(ast.parse(source)):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            if any(name == "tests" or name.startswith("tests.") for name in names):
+                return True
+        return False
+
+    assert imports_tests("from tests.reference import loop") and imports_tests("import tests")
+    package = Path(__file__).resolve().parents[1] / "delta_pin"
+    offenders = [str(p.relative_to(package)) for p in package.rglob("*.py") if imports_tests(p.read_text())]
+    assert offenders == []
