@@ -158,11 +158,15 @@ class AdaptiveRobustController(Controller):
         if not self._compiled:
             return None
         ctc, g = self.computed_torque, self.gains
-        return core_law_of(self.nominal,
-            "AdaptiveRobust", self.name, ctc.D, ctc.T_p, ctc.T_v, g.beta, g.xi, g.epsilon, g.b1, g.b2, g.b3,
-            self.design == "II", self.vector_rho, self.sampling_period or 0.0, self.sampling_margin,
-            friction_compensation=self.friction_compensation,
-        )  # fmt: skip
+        gains = {
+            "D": ctc.D, "T_p": ctc.T_p, "T_v": ctc.T_v, "beta": g.beta, "xi": g.xi, "epsilon": g.epsilon,
+            "b1": g.b1, "b2": g.b2, "b3": g.b3, "design_two": self.design == "II",
+            "vector_rho": self.vector_rho, "sampling_period": self.sampling_period or 0.0,
+            "sampling_margin": self.sampling_margin,
+        }  # fmt: skip
+        return core_law_of(
+            self.nominal, "AdaptiveRobust", self.name, gains, friction_compensation=self.friction_compensation
+        )
 
     def core_law_internals(self, law) -> dict[str, np.ndarray]:
         names = ("Lambda", "robust_gain", "omega_norm", "robust_torque", "adaptation_active")

@@ -231,11 +231,15 @@ class DigitalRobustController(Controller):
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
         observer = self.observer
         limit = np.zeros(0) if self.torque_limit is None else self.torque_limit
-        return core_law_of(self.nominal,
-            "DigitalRobust", self.name, self.dt, self.delay, self.K_p, self.K_v, self.D, self.beta, self.b1,
-            self.b2, self.b3, self.epsilon, self.layer_samples, limit, observer.transition,
-            observer.input_gain, observer.gain, friction_compensation=self.friction_compensation,
-        )  # fmt: skip
+        gains = {
+            "period": self.dt, "delay": self.delay, "K_p": self.K_p, "K_v": self.K_v, "D": self.D,
+            "beta": self.beta, "b1": self.b1, "b2": self.b2, "b3": self.b3, "epsilon": self.epsilon,
+            "layer_samples": self.layer_samples, "torque_limit": limit, "transition": observer.transition,
+            "input_gain": observer.input_gain, "observer_gain": observer.gain,
+        }  # fmt: skip
+        return core_law_of(
+            self.nominal, "DigitalRobust", self.name, gains, friction_compensation=self.friction_compensation
+        )
 
     def core_law_internals(self, law) -> dict[str, np.ndarray]:
         names = ("rho_hat", "robust_torque", "disturbance_estimate", "velocity_estimate", "s")

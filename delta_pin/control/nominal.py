@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 
 import numpy as np
 import pinocchio as pin
@@ -316,6 +317,30 @@ class ClosedChainNominalModel(NominalModel):
         }
 
 
+def gains_fields(struct_type: type) -> set[str]:
+    """The fields of a compiled gains struct (its bound read-write properties)."""
+    return {name for name, value in vars(struct_type).items() if isinstance(value, property)}
+
+
+def named_gains(module, kind: str, gains: Mapping):
+    """The compiled law ``kind``'s gains struct (``<kind>Gains`` of the core) filled by name from
+    ``gains``: every field of the struct must be given and no other (a default taken silently,
+    or a name that does not exist, is how positional gains went wrong).
+
+    Raises:
+        ValueError: a missing or unknown field, naming it.
+    """
+    struct_type = getattr(module, f"{kind}Gains")
+    fields = gains_fields(struct_type)
+    missing, unknown = sorted(fields - set(gains)), sorted(set(gains) - fields)
+    if missing or unknown:
+        raise ValueError(f"{kind}Gains: missing {missing}, unknown {unknown}; its fields: {sorted(fields)}")
+    struct = struct_type()
+    for field, value in gains.items():
+        setattr(struct, field, value)
+    return struct
+
+
 def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
     """The compiled law ``kind`` of ``delta_pin/core/controller.hpp`` for the closed chain
     ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
@@ -326,6 +351,8 @@ def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, frictio
         module = core()
     except NativeUnavailableError:
         return None
+    if len(gains) == 1 and isinstance(gains[0], Mapping):  # gains by name: the law's gains struct
+        gains = (named_gains(module, kind, gains[0]),)
     law = getattr(module, kind)(
         core_chain(robot), robot.reference_configuration, np.asarray(disturbance, dtype=float), name, *gains
     )

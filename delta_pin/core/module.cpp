@@ -491,32 +491,32 @@ NB_MODULE(_core, m)
           chain, reference_configuration,
           disturbance, name, K_p, K_d);
       });
+  // gains cross the binding by name (issue 38, item 3): one struct per law, each field bound
+  using AdaptiveRobustGains = delta_pin::AdaptiveRobustGains<Eigen::Dynamic>;
+  nb::class_<AdaptiveRobustGains>(
+    m, "AdaptiveRobustGains", "Designs I/II's gains by name (control/adaptive_robust_law.hpp; SI units).")
+    .def(nb::init<>())
+    .def_rw("D", &AdaptiveRobustGains::D)
+    .def_rw("T_p", &AdaptiveRobustGains::T_p)
+    .def_rw("T_v", &AdaptiveRobustGains::T_v)
+    .def_rw("beta", &AdaptiveRobustGains::beta)
+    .def_rw("xi", &AdaptiveRobustGains::xi)
+    .def_rw("epsilon", &AdaptiveRobustGains::epsilon)
+    .def_rw("b1", &AdaptiveRobustGains::b1)
+    .def_rw("b2", &AdaptiveRobustGains::b2)
+    .def_rw("b3", &AdaptiveRobustGains::b3)
+    .def_rw("design_two", &AdaptiveRobustGains::design_two)
+    .def_rw("vector_rho", &AdaptiveRobustGains::vector_rho)
+    .def_rw("sampling_period", &AdaptiveRobustGains::sampling_period)
+    .def_rw("sampling_margin", &AdaptiveRobustGains::sampling_margin);
   nb::class_<delta_pin::AdaptiveRobust, delta_pin::ProjectedLaw>(m, "AdaptiveRobust")
     .def(
       "__init__",
-      [](delta_pin::AdaptiveRobust * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-         const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v,
-         double beta, double xi, double epsilon, double b1, double b2, double b3, bool design_two, bool vector_rho,
-         double sampling_period, double sampling_margin)
-      {
-        delta_pin::AdaptiveRobustGains<Eigen::Dynamic> g;
-        g.D = D;
-        g.T_p = T_p;
-        g.T_v = T_v;
-        g.beta = beta;
-        g.xi = xi;
-        g.epsilon = epsilon;
-        g.b1 = b1;
-        g.b2 = b2;
-        g.b3 = b3;
-        g.design_two = design_two;
-        g.vector_rho = vector_rho;
-        g.sampling_period = sampling_period;
-        g.sampling_margin = sampling_margin;
-        new (self) delta_pin::AdaptiveRobust(
-          chain, reference_configuration,
-          disturbance, name, g);
-      })
+      [](delta_pin::AdaptiveRobust * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+         const Eigen::VectorXd & disturbance, const std::string & name, const AdaptiveRobustGains & gains)
+      { new (self) delta_pin::AdaptiveRobust(chain, reference_configuration, disturbance, name, gains); },
+      nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+      nb::arg("gains"))
     .def_ro("robust_torque", &delta_pin::AdaptiveRobust::robust_torque)
     .def_ro("Lambda", &delta_pin::AdaptiveRobust::Lambda)
     .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)
@@ -539,40 +539,72 @@ NB_MODULE(_core, m)
           disturbance, name, g);
       })
     .def_ro("lumped_estimate", &delta_pin::TimeDelayControlLaw::lumped_estimate);
+  using DigitalRobustGains = delta_pin::DigitalRobustGains<Eigen::Dynamic>;
+  nb::class_<DigitalRobustGains>(
+    m, "DigitalRobustGains",
+    "The digital robust law's gains and observer by name (control/digital_robust_law.hpp; SI units; an "
+    "empty torque_limit: none).")
+    .def(nb::init<>())
+    .def_rw("period", &DigitalRobustGains::period)
+    .def_rw("delay", &DigitalRobustGains::delay)
+    .def_rw("K_p", &DigitalRobustGains::K_p)
+    .def_rw("K_v", &DigitalRobustGains::K_v)
+    .def_rw("D", &DigitalRobustGains::D)
+    .def_rw("beta", &DigitalRobustGains::beta)
+    .def_rw("b1", &DigitalRobustGains::b1)
+    .def_rw("b2", &DigitalRobustGains::b2)
+    .def_rw("b3", &DigitalRobustGains::b3)
+    .def_rw("epsilon", &DigitalRobustGains::epsilon)
+    .def_rw("layer_samples", &DigitalRobustGains::layer_samples)
+    .def_rw("torque_limit", &DigitalRobustGains::torque_limit)
+    // the observer's tables have a compile-time largest size: checked here before they are copied in
+    .def_prop_rw(
+      "transition", [](const DigitalRobustGains & g) { return Eigen::MatrixXd(g.transition); },
+      [](DigitalRobustGains & g, const Eigen::MatrixXd & value)
+      {
+        if (value.rows() > delta_pin::observer_max || value.cols() > delta_pin::observer_max)
+          throw std::invalid_argument(
+            "transition has shape " + delta_pin::shape_text(value.rows(), value.cols()) + ", expected at most ("
+            + std::to_string(delta_pin::observer_max) + ", " + std::to_string(delta_pin::observer_max) + ")");
+        g.transition = value;
+      })
+    .def_prop_rw(
+      "input_gain", [](const DigitalRobustGains & g) { return Eigen::VectorXd(g.input_gain); },
+      [](DigitalRobustGains & g, const Eigen::VectorXd & value)
+      {
+        if (value.size() > delta_pin::observer_max)
+          throw std::invalid_argument(
+            "input_gain has " + std::to_string(value.size()) + " entries, expected at most "
+            + std::to_string(delta_pin::observer_max));
+        g.input_gain = value;
+      })
+    .def_prop_rw(
+      "observer_gain", [](const DigitalRobustGains & g) { return Eigen::VectorXd(g.observer_gain); },
+      [](DigitalRobustGains & g, const Eigen::VectorXd & value)
+      {
+        if (value.size() > delta_pin::observer_max)
+          throw std::invalid_argument(
+            "observer_gain has " + std::to_string(value.size()) + " entries, expected at most "
+            + std::to_string(delta_pin::observer_max));
+        g.observer_gain = value;
+      });
   nb::class_<delta_pin::DigitalRobustLaw, delta_pin::ProjectedLaw>(m, "DigitalRobust")
     .def(
       "__init__",
-      [](delta_pin::DigitalRobustLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-         const std::string & name, double dt, int delay, double K_p, double K_v, double D, double beta, double b1,
-         double b2, double b3, double epsilon, double layer_samples, const Eigen::VectorXd & torque_limit,
-         const Eigen::MatrixXd & transition, const Eigen::VectorXd & input_gain, const Eigen::VectorXd & observer_gain)
+      [](delta_pin::DigitalRobustLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+         const Eigen::VectorXd & disturbance, const std::string & name, const DigitalRobustGains & gains)
       {
-        const Eigen::Index size = transition.rows();
-        if (size < 3 || size > delta_pin::observer_max || transition.cols() != size)
+        const Eigen::Index size = gains.transition.rows();
+        if (size < 3 || size > delta_pin::observer_max || gains.transition.cols() != size)
           throw std::invalid_argument(
-            "transition has shape " + delta_pin::shape_text(transition.rows(), transition.cols())
+            "transition has shape " + delta_pin::shape_text(gains.transition.rows(), gains.transition.cols())
             + ", expected the observer's Phi (S, S) with 3 <= S <= " + std::to_string(delta_pin::observer_max));
-        delta_pin::DigitalRobustGains<Eigen::Dynamic> g;
-        g.period = dt;
-        g.delay = delay;
-        g.K_p = K_p;
-        g.K_v = K_v;
-        g.D = D;
-        g.beta = beta;
-        g.b1 = b1;
-        g.b2 = b2;
-        g.b3 = b3;
-        g.epsilon = epsilon;
-        g.layer_samples = layer_samples;
-        g.has_limit = torque_limit.size() > 0;  // empty: no limit
-        g.torque_limit = torque_limit;
-        g.transition = transition;
-        g.input_gain = input_gain;
-        g.observer_gain = observer_gain;
-        new (self) delta_pin::DigitalRobustLaw(
-          chain, reference_configuration,
-          disturbance, name, g);
-      })
+        DigitalRobustGains g = gains;
+        g.has_limit = g.torque_limit.size() > 0;  // empty: no limit
+        new (self) delta_pin::DigitalRobustLaw(chain, reference_configuration, disturbance, name, g);
+      },
+      nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+      nb::arg("gains"))
     .def_ro("rho_hat", &delta_pin::DigitalRobustLaw::rho_hat)
     .def_ro("robust_torque", &delta_pin::DigitalRobustLaw::robust_torque)
     .def_ro("disturbance_estimate", &delta_pin::DigitalRobustLaw::disturbance_estimate)

@@ -290,3 +290,40 @@ def test_a_recognised_delta_with_the_analytic_nominal_model_runs_in_the_core_as_
         assert np.abs(getattr(core, name) - getattr(python, name)).max() < 1e-10, name
     for name, values in python.internals.items():
         assert np.abs(core.internals[name] - values).max() < 1e-10, name
+
+
+def test_gains_cross_the_binding_by_name():
+    """Designs I/II's and the digital robust law's gains reach the core as named structs (issue 38,
+    item 3: they were 13 and 16 positional numbers): each field the law sets is read back as set,
+    a missing or unknown name is refused naming it, and an observer table larger than the core's
+    compile-time size is refused before it is copied (it would write past the fixed storage)."""
+    from delta_pin.compiled.core import core
+    from delta_pin.control.nominal import gains_fields, named_gains
+
+    module = core()
+    delta = dp.load_delta()
+    nominal = dp.DeltaNominalModel(delta)
+    design = dp.design2(nominal, sampling_period=1e-3)
+    assert gains_fields(module.AdaptiveRobustGains) == {
+        "D", "T_p", "T_v", "beta", "xi", "epsilon", "b1", "b2", "b3", "design_two", "vector_rho",
+        "sampling_period", "sampling_margin",
+    }  # fmt: skip
+    gains = {name: 0.5 for name in gains_fields(module.AdaptiveRobustGains)}
+    gains.update(
+        D=np.array([1.0, 2.0, 3.0]), T_p=np.ones(3), T_v=np.ones(3), design_two=True, vector_rho=False
+    )
+    struct = named_gains(module, "AdaptiveRobust", gains)
+    np.testing.assert_array_equal(struct.D, [1.0, 2.0, 3.0])
+    assert struct.design_two is True and struct.xi == 0.5
+    with pytest.raises(ValueError, match=r"missing \['xi'\], unknown \['ksi'\]"):
+        named_gains(module, "AdaptiveRobust", {**{k: v for k, v in gains.items() if k != "xi"}, "ksi": 1e-3})
+    assert design.sampled_core_law() is not None  # the laws build their structs by name
+    digital = dp.digital_robust(nominal, 1e-3, delay=1).sampled_core_law()
+    assert digital is not None
+    struct = module.DigitalRobustGains()
+    with pytest.raises(ValueError, match=r"transition has shape \(7, 7\), expected at most \(6, 6\)"):
+        struct.transition = np.eye(7)
+    with pytest.raises(ValueError, match="observer_gain has 7 entries, expected at most 6"):
+        struct.observer_gain = np.ones(7)
+    struct.transition = np.eye(4)
+    np.testing.assert_array_equal(struct.transition, np.eye(4))
