@@ -88,14 +88,9 @@ class ComputedTorque(Controller):
 
     def sampled_core_law(self):
         """The compiled core's C1 + C2 where the nominal model has one there."""
+        gains = {"D": self.D, "T_p": self.T_p, "T_v": self.T_v}
         return core_law_of(
-            self.nominal,
-            "ComputedTorque",
-            self.name,
-            self.D,
-            self.T_p,
-            self.T_v,
-            friction_compensation=self.friction_compensation,
+            self.nominal, "ComputedTorque", self.name, gains, friction_compensation=self.friction_compensation
         )
 
     def metadata(self):
@@ -131,13 +126,9 @@ class PDGravity(Controller):
 
     def sampled_core_law(self):
         """The compiled core's PD + gravity where the nominal model has one there."""
+        gains = {"K_p": self.K_p, "K_d": self.K_d}
         return core_law_of(
-            self.nominal,
-            "PDGravity",
-            self.name,
-            self.K_p,
-            self.K_d,
-            friction_compensation=self.friction_compensation,
+            self.nominal, "PDGravity", self.name, gains, friction_compensation=self.friction_compensation
         )
 
     def metadata(self):
@@ -219,10 +210,16 @@ class LQR(Controller):
         """The compiled core's LQR (``LQR`` of ``delta_pin/core/controller.hpp``, :meth:`evaluate`'s
         arithmetic with this linearisation and gain) where the nominal model has one there; else
         ``None``."""
-        return core_law_of(self.nominal,
-            "LQR", self.name, self.alpha0, self.G0, self.dG, self.M0, self.K,
-            friction_compensation=self.friction_compensation,
-        )  # fmt: skip
+        gains = {
+            "alpha0": self.alpha0,
+            "gravity": self.G0,
+            "gravity_slope": self.dG,
+            "inertia": self.M0,
+            "gain": self.K,
+        }
+        return core_law_of(
+            self.nominal, "LQR", self.name, gains, friction_compensation=self.friction_compensation
+        )
 
     def metadata(self):
         return {

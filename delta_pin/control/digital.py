@@ -129,10 +129,11 @@ class TimeDelayControl(Controller):
         model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``. Its first samples' N̂ is
         C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""
-        return core_law_of(self.nominal,
-            "TimeDelayControl", self.name, self.dt, self.K_p, self.K_v, self.delay, self.pairing == "mean",
-            friction_compensation=False,
-        )  # fmt: skip
+        gains = {
+            "period": self.dt, "K_p": self.K_p, "K_v": self.K_v, "delay": self.delay,
+            "mean_pairing": self.pairing == "mean",
+        }  # fmt: skip
+        return core_law_of(self.nominal, "TimeDelayControl", self.name, gains, friction_compensation=False)
 
     def core_law_internals(self, law) -> dict[str, np.ndarray]:
         return {"lumped_estimate": np.array(law.lumped_estimate)}

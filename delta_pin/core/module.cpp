@@ -29,6 +29,16 @@ namespace nb = nanobind;
 
 namespace
 {
+  // the gains of the two laws whose C++ constructors take their vectors one by one
+  struct ComputedTorqueGains
+  {
+    Eigen::VectorXd D, T_p, T_v;  // [1/s], [N m/rad], [N m s/rad]
+  };
+  struct PDGravityGains
+  {
+    Eigen::VectorXd K_p, K_d;  // [N m/rad], [N m s/rad]
+  };
+
   // the interrupt hook (interrupt.hpp): runs Python's signal handlers, in the main thread only
   // (elsewhere PyErr_CheckSignals does nothing); true when one of them raised
   bool python_signal_pending()
@@ -471,27 +481,33 @@ NB_MODULE(_core, m)
     .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
     .def_ro("hits", &delta_pin::ProjectedLaw::hits)
     .def_ro("state", &delta_pin::ProjectedLaw::state);
+  // gains cross the binding by name (issue 38, item 3): one struct per law, each field bound, and
+  // each law's constructor takes (chain, reference_configuration, disturbance, name, gains)
+  nb::class_<ComputedTorqueGains>(m, "ComputedTorqueGains", "Computed torque's gains by name (SI units).")
+    .def(nb::init<>())
+    .def_rw("D", &ComputedTorqueGains::D)
+    .def_rw("T_p", &ComputedTorqueGains::T_p)
+    .def_rw("T_v", &ComputedTorqueGains::T_v);
   nb::class_<delta_pin::ComputedTorqueLaw, delta_pin::ProjectedLaw>(m, "ComputedTorque")
     .def(
       "__init__",
-      [](delta_pin::ComputedTorqueLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-         const std::string & name, const Eigen::VectorXd & D, const Eigen::VectorXd & T_p, const Eigen::VectorXd & T_v)
-      {
-        new (self) delta_pin::ComputedTorqueLaw(
-          chain, reference_configuration,
-          disturbance, name, D, T_p, T_v);
-      });
+      [](delta_pin::ComputedTorqueLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+         const Eigen::VectorXd & disturbance, const std::string & name, const ComputedTorqueGains & g)
+      { new (self) delta_pin::ComputedTorqueLaw(chain, reference_configuration, disturbance, name, g.D, g.T_p, g.T_v); },
+      nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+      nb::arg("gains"));
+  nb::class_<PDGravityGains>(m, "PDGravityGains", "PD + gravity's gains by name (SI units).")
+    .def(nb::init<>())
+    .def_rw("K_p", &PDGravityGains::K_p)
+    .def_rw("K_d", &PDGravityGains::K_d);
   nb::class_<delta_pin::PDGravityLaw, delta_pin::ProjectedLaw>(m, "PDGravity")
     .def(
       "__init__",
-      [](delta_pin::PDGravityLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-         const std::string & name, const Eigen::VectorXd & K_p, const Eigen::VectorXd & K_d)
-      {
-        new (self) delta_pin::PDGravityLaw(
-          chain, reference_configuration,
-          disturbance, name, K_p, K_d);
-      });
-  // gains cross the binding by name (issue 38, item 3): one struct per law, each field bound
+      [](delta_pin::PDGravityLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+         const Eigen::VectorXd & disturbance, const std::string & name, const PDGravityGains & g)
+      { new (self) delta_pin::PDGravityLaw(chain, reference_configuration, disturbance, name, g.K_p, g.K_d); },
+      nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+      nb::arg("gains"));
   using AdaptiveRobustGains = delta_pin::AdaptiveRobustGains<Eigen::Dynamic>;
   nb::class_<AdaptiveRobustGains>(
     m, "AdaptiveRobustGains", "Designs I/II's gains by name (control/adaptive_robust_law.hpp; SI units).")
@@ -522,22 +538,21 @@ NB_MODULE(_core, m)
     .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)
     .def_ro("omega_norm", &delta_pin::AdaptiveRobust::omega_norm)
     .def_ro("adaptation_active", &delta_pin::AdaptiveRobust::adaptation_active);
+  nb::class_<delta_pin::TimeDelayGains>(m, "TimeDelayControlGains", "TDC's gains by name (time_delay_control.hpp).")
+    .def(nb::init<>())
+    .def_rw("period", &delta_pin::TimeDelayGains::period)
+    .def_rw("K_p", &delta_pin::TimeDelayGains::K_p)
+    .def_rw("K_v", &delta_pin::TimeDelayGains::K_v)
+    .def_rw("delay", &delta_pin::TimeDelayGains::delay)
+    .def_rw("mean_pairing", &delta_pin::TimeDelayGains::mean_pairing);
   nb::class_<delta_pin::TimeDelayControlLaw, delta_pin::ProjectedLaw>(m, "TimeDelayControl")
     .def(
       "__init__",
-      [](delta_pin::TimeDelayControlLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-         const std::string & name, double dt, double K_p, double K_v, int delay, bool mean_pairing)
-      {
-        delta_pin::TimeDelayGains g;
-        g.period = dt;
-        g.K_p = K_p;
-        g.K_v = K_v;
-        g.delay = delay;
-        g.mean_pairing = mean_pairing;
-        new (self) delta_pin::TimeDelayControlLaw(
-          chain, reference_configuration,
-          disturbance, name, g);
-      })
+      [](delta_pin::TimeDelayControlLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+         const Eigen::VectorXd & disturbance, const std::string & name, const delta_pin::TimeDelayGains & g)
+      { new (self) delta_pin::TimeDelayControlLaw(chain, reference_configuration, disturbance, name, g); },
+      nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+      nb::arg("gains"))
     .def_ro("lumped_estimate", &delta_pin::TimeDelayControlLaw::lumped_estimate);
   using DigitalRobustGains = delta_pin::DigitalRobustGains<Eigen::Dynamic>;
   nb::class_<DigitalRobustGains>(
@@ -610,20 +625,19 @@ NB_MODULE(_core, m)
     .def_ro("disturbance_estimate", &delta_pin::DigitalRobustLaw::disturbance_estimate)
     .def_ro("velocity_estimate", &delta_pin::DigitalRobustLaw::velocity_estimate)
     .def_ro("s", &delta_pin::DigitalRobustLaw::s);
+  using LqrGains = delta_pin::LqrGains<Eigen::Dynamic>;
+  nb::class_<LqrGains>(m, "LQRGains", "The LQR's linearisation and gain by name (lqr_law.hpp; SI units).")
+    .def(nb::init<>())
+    .def_rw("alpha0", &LqrGains::alpha0)
+    .def_rw("gravity", &LqrGains::gravity)
+    .def_rw("gravity_slope", &LqrGains::gravity_slope)
+    .def_rw("inertia", &LqrGains::inertia)
+    .def_rw("gain", &LqrGains::gain);
   nb::class_<delta_pin::LqrLaw, delta_pin::ProjectedLaw>(m, "LQR").def(
     "__init__",
-    [](delta_pin::LqrLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration, const Eigen::VectorXd & disturbance,
-       const std::string & name, const Eigen::VectorXd & alpha0, const Eigen::VectorXd & gravity,
-       const Eigen::MatrixXd & gravity_slope, const Eigen::MatrixXd & inertia, const Eigen::MatrixXd & gain)
-    {
-      delta_pin::LqrGains<Eigen::Dynamic> g;
-      g.alpha0 = alpha0;
-      g.gravity = gravity;
-      g.gravity_slope = gravity_slope;
-      g.inertia = inertia;
-      g.gain = gain;
-      new (self) delta_pin::LqrLaw(
-        chain, reference_configuration,
-        disturbance, name, g);
-    });
+    [](delta_pin::LqrLaw * self, const ChainDescription & chain, const Eigen::VectorXd & reference_configuration,
+       const Eigen::VectorXd & disturbance, const std::string & name, const LqrGains & g)
+    { new (self) delta_pin::LqrLaw(chain, reference_configuration, disturbance, name, g); },
+    nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
+    nb::arg("gains"));
 }

@@ -254,8 +254,13 @@ case("run_sampled: non-contiguous gap", "gap:TypeError", lambda: sampled(gap=np.
 """,
     "laws": """
 zeros, ones = np.zeros(DOF), np.ones(DOF)
+from delta_pin.control.nominal import named_gains
+def gains(kind, **fields):
+    return named_gains(m, kind, fields)
+def ct(D=ones, T_p=ones, T_v=ones):
+    return gains("ComputedTorque", D=D, T_p=T_p, T_v=T_v)
 def law():
-    return m.ComputedTorque(chain, q0, zeros, "ct", ones, ones, ones)
+    return m.ComputedTorque(chain, q0, zeros, "ct", ct())
 def table(rows, cols=DOF):
     return np.tile(alpha0, (rows, 1))[:, :cols].copy(), np.zeros((rows, cols)), np.zeros((rows, cols))
 python_plant = dp.ClosedChainPlant(robot)
@@ -264,13 +269,15 @@ x = np.concatenate([q0, np.zeros(NV)])
 def run(controller, steps=4):
     n = steps + 1
     return plant.run_sampled(x, steps, 1, 1e-3, controller, np.zeros((n, NQ)), np.zeros((n, NV)), np.zeros((n, 3)), np.zeros(n))
-case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(chain, np.zeros(3), zeros, "ct", ones, ones, ones))
-case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(chain, q0, zeros, "ct", np.ones(3), ones, ones))
+case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(chain, np.zeros(3), zeros, "ct", ct()))
+case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(chain, q0, zeros, "ct", ct(D=np.ones(3))))
 case("ComputedTorque: chain with a closure of 0 rows", "closures", lambda: m.ComputedTorque(
-    describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)]), q0, zeros, "ct", ones, ones, ones).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
-case("PDGravity: K_d empty", "K_d", lambda: m.PDGravity(chain, q0, zeros, "pd", ones, np.zeros(0)))
-case("TimeDelayControl: delay -1", "delay", lambda: m.TimeDelayControl(chain, q0, zeros, "tdc", 1e-3, 1.0, 1.0, -1, False))
-case("LQR: gain of n x n", "gain", lambda: m.LQR(chain, q0, zeros, "lqr", alpha0, zeros, np.eye(DOF), np.eye(DOF), np.eye(DOF)))
+    describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)]), q0, zeros, "ct", ct()).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("PDGravity: K_d empty", "K_d", lambda: m.PDGravity(chain, q0, zeros, "pd", gains("PDGravity", K_p=ones, K_d=np.zeros(0))))
+case("TimeDelayControl: delay -1", "delay", lambda: m.TimeDelayControl(chain, q0, zeros, "tdc", gains(
+    "TimeDelayControl", period=1e-3, K_p=1.0, K_v=1.0, delay=-1, mean_pairing=False)))
+case("LQR: gain of n x n", "gain", lambda: m.LQR(chain, q0, zeros, "lqr", gains(
+    "LQR", alpha0=alpha0, gravity=zeros, gravity_slope=np.eye(DOF), inertia=np.eye(DOF), gain=np.eye(DOF))))
 case("evaluate: alpha of 3", "alpha", lambda: law().evaluate(np.zeros(3), zeros, alpha0, zeros, zeros, np.zeros(0)))
 case("evaluate: NaN ref_alpha_ddot", "ref_alpha_ddot", lambda: law().evaluate(alpha0, zeros, alpha0, zeros, np.full(DOF, NAN), np.zeros(0)))
 def started(samples, reference, **drive):
