@@ -1058,10 +1058,13 @@ def _identify_simulate(args: argparse.Namespace) -> int:
 def _identify_fit(args: argparse.Namespace) -> int:
     from delta_pin.identification.log import read_log
     from delta_pin.identification.report import write_report
-    from delta_pin.identification.workflow import identify, validate
+    from delta_pin.identification.workflow import check_log_memory, identify, validate
 
     _check_identify_out_folder(args)
     robot = _identify_robot(args)
+    for path in (args.data, args.validate):  # before either is read: a fit holds ~9 kB a Delta sample
+        if path is not None:
+            check_log_memory(path, robot)
     log = read_log(args.data, robot.actuated_joints)
     unseen = None if args.validate is None else read_log(args.validate, robot.actuated_joints)
     with _claim_fit_folder(args) as folder:

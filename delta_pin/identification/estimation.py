@@ -37,6 +37,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,14 +53,17 @@ __all__ = [
     "LOG_RANK_TOLERANCE",
     "Estimate",
     "FilteredStates",
+    "check_cutoff",
     "check_identifiable",
     "essential_fit",
     "expand",
     "filtered_states",
     "least_squares_fit",
     "log_regressor",
+    "minimum_filtered_samples",
     "parallel_filter",
     "reversal_mask",
+    "trimmed_samples",
 ]
 
 LOG_RANK_TOLERANCE = 1e-7
@@ -92,11 +96,16 @@ def filtered_states(
         order: the filter's order (the zero-phase response has twice it).
         trim: time dropped at each end [s].
     """
+    if len(log) < 2:
+        raise InvalidParameterError(f"{log.where} has {len(log)} samples; a fit needs a recorded run")
     rate = log.sample_rate
-    if not 0.0 < STATE_CUTOFF_RATIO * cutoff < 0.5 * rate:
+    check_cutoff(cutoff, rate)
+    need = minimum_filtered_samples(rate, order, trim)
+    if len(log) < need:
         raise InvalidParameterError(
-            f"cutoff {cutoff} Hz must lie between 0 and a quarter of the log's sample rate "
-            f"({0.25 * rate:g} Hz)"
+            f"{log.where} has {len(log)} samples; filtering it needs at least {need} at its {rate:g} Hz "
+            f"({trim:g} s trimmed at each end, and more than the 3 (order + 1) = {3 * (order + 1)} samples "
+            "the zero-phase filter extends each end by); record a longer run"
         )
     dt = 1.0 / rate
     b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
@@ -107,16 +116,35 @@ def filtered_states(
         alpha_dot = np.gradient(alpha, dt, axis=0)
     alpha_ddot = np.gradient(alpha_dot, dt, axis=0)
     keep = (log.t >= log.t[0] + trim) & (log.t <= log.t[-1] - trim)
-    if keep.sum() < 10:
-        raise InvalidParameterError(
-            f"the log lasts {log.t[-1] - log.t[0]:.3g} s; after trimming {trim} s at each end fewer than "
-            "10 samples are left"
-        )
     tau = log.tau
     if log.header.get("torque_hold", "zoh") == "zoh":
         tau = tau.copy()
         tau[1:] = 0.5 * (log.tau[1:] + log.tau[:-1])
     return FilteredStates(log.t[keep], alpha[keep], alpha_dot[keep], alpha_ddot[keep], tau[keep])
+
+
+def check_cutoff(cutoff: float, rate: float) -> None:
+    """Refuse a parallel filter's ``cutoff`` [Hz] outside (0, rate / 4): the states' filter
+    (``STATE_CUTOFF_RATIO`` times it) must lie below the Nyquist frequency of ``rate`` [Hz]."""
+    if not 0.0 < STATE_CUTOFF_RATIO * cutoff < 0.5 * rate:
+        raise InvalidParameterError(
+            f"cutoff {cutoff} Hz must lie between 0 and a quarter of the log's sample rate "
+            f"({0.25 * rate:g} Hz)"
+        )
+
+
+def minimum_filtered_samples(rate: float, order: int = 4, trim: float = 0.05) -> int:
+    """The fewest samples of a log at ``rate`` [Hz] that :func:`filtered_states` and
+    :func:`parallel_filter` take: ``scipy.signal.filtfilt`` extends a signal by 3 (order + 1)
+    samples at each end (15 at order 4) and needs more samples than that, after the ``trim`` [s]
+    dropped at each end (ceil(trim rate) samples, one more for the rounding of the time column)."""
+    return 3 * (order + 1) + 1 + trimmed_samples(rate, trim)
+
+
+def trimmed_samples(rate: float, trim: float = 0.05) -> int:
+    """At most how many samples of a log at ``rate`` [Hz] :func:`filtered_states` drops with
+    ``trim`` [s] at each end: ceil(trim rate) at each, one more each for the time column's rounding."""
+    return 2 * (math.ceil(trim * rate) + 1)
 
 
 def parallel_filter(

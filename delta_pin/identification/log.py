@@ -44,6 +44,7 @@ __all__ = [
     "IdentificationLog",
     "check_log_robot",
     "check_torques",
+    "count_samples",
     "kinematics_digest",
     "read_log",
     "write_log",
@@ -104,6 +105,30 @@ def write_log(path: str | Path, log: IdentificationLog) -> Path:
         handle.write(",".join(columns) + "\n")
         np.savetxt(handle, data, delimiter=",", fmt="%.17g")
     return Path(path)
+
+
+def count_samples(path: str | Path, stop: int | None = None) -> tuple[int, bool]:
+    """(the number of sample lines of a log, whether counted to the end) without reading the file
+    into memory: its lines less the ``#`` lines and the column line that open it (blank lines and
+    later comments are counted too: an upper bound by a few). With ``stop``, the count ends past
+    ``stop`` lines and the rest is estimated from the file's size (``False``), so that a huge file
+    is not read through to be refused."""
+    size = Path(path).stat().st_size
+    header, lines, read, last = 0, 0, 0, b"\n"
+    with open(path, "rb") as handle:
+        for line in iter(lambda: handle.readline(1 << 16), b""):
+            if not line.startswith(b"#"):
+                break
+            header += 1
+        handle.seek(0)
+        while chunk := handle.read(1 << 20):
+            lines += chunk.count(b"\n")
+            read += len(chunk)
+            last = chunk[-1:]
+            if stop is not None and lines - header - 1 > stop and read < size:
+                return int((lines - header - 1) * size / read), False
+    lines += last != b"\n"  # a last line without its newline
+    return max(lines - header - 1, 0), True
 
 
 def read_log(path: str | Path, joints: tuple[str, ...] | list[str]) -> IdentificationLog:

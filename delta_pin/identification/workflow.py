@@ -24,32 +24,41 @@ from delta_pin.identification.base import BaseParameters, base_parameters
 from delta_pin.identification.consistent import ConsistentEstimate, consistent_estimate
 from delta_pin.identification.estimation import (
     Estimate,
+    check_cutoff,
     check_identifiable,
     essential_fit,
     expand,
     filtered_states,
     least_squares_fit,
     log_regressor,
+    minimum_filtered_samples,
     parallel_filter,
     reversal_mask,
+    trimmed_samples,
 )
 from delta_pin.identification.excitation import FourierExcitation
 from delta_pin.identification.log import (
     IdentificationLog,
     check_log_robot,
     check_torques,
+    count_samples,
     kinematics_digest,
     read_log,
 )
 from delta_pin.identification.regressor import ClosedChainRegressor, JointColumns
 
 __all__ = [
+    "FIT_BYTES_PER_ENTRY",
     "TORQUE_SCALE_LIMIT",
     "IdentificationResult",
+    "check_fit_memory",
+    "check_log_memory",
     "delta_lumped_map",
+    "fit_memory",
     "friction_truth",
     "identified_robot",
     "identify",
+    "minimum_samples",
     "perturbed_robot",
     "read_trajectory",
     "simulate_log",
@@ -289,6 +298,79 @@ def decimation(rate: float, cutoff: float) -> int:
     return max(1, int(rate // (2.0 * cutoff)))
 
 
+def minimum_samples(rate: float, cutoff: float, rank: int, dof: int, trim: float = 0.05) -> int:
+    """The fewest samples of a log at ``rate`` [Hz] from which :func:`identify` can fit ``rank``
+    base parameters of a robot of ``dof`` actuated joints at ``cutoff`` [Hz]; necessary, not
+    sufficient (the rows near a velocity reversal are dropped too, which only the log's motion
+    decides: ``check_identifiable`` names what is then not identifiable). What the fit does:
+
+    * :func:`~delta_pin.identification.estimation.filtered_states` drops ``trim`` s at each end
+      (the filters' edge transients), and the zero-phase filters need more samples than the 15
+      they extend each end by (:func:`~delta_pin.identification.estimation.minimum_filtered_samples`);
+    * the filtered rows are decimated to every :func:`decimation`-th sample (25 at 1 kHz and
+      20 Hz), dof rows each;
+    * least squares need more rows than base parameters (sigma^2 = |r|^2 / (rows - r)): rank // dof
+      + 1 samples per joint after decimation, i.e. (rank // dof) x step + 1 after trimming.
+
+    The packaged Delta (46 base parameters, 3 joints) at 1 kHz and 20 Hz: 15 x 25 + 1 = 376 after
+    trimming, 478 in all (0.48 s)."""
+    rows = (rank // dof) * decimation(rate, cutoff) + 1 + trimmed_samples(rate, trim)
+    return max(minimum_filtered_samples(rate, trim=trim), rows)
+
+
+# Peak memory of a fit per entry of the regressor it holds along the log (samples x actuated joints x
+# regressor columns, float64): the regressor Y (N, dof, p), its cubic spline's output and the parallel
+# filter's copies (filtfilt extends, filters forward and back) are alive at once. Measured on
+# 2026-12-06 (the peak RSS, ru_maxrss, of `delta-pin identify fit` in a subprocess on synthetic logs,
+# less the ~185 MiB its imports take; 2-core x86_64): the Delta (3 x 85) 228, 355, 673, 1169 MiB at
+# 5k, 20k, 60k, 120k samples (8.7 kB a sample: 4.25 x 8 bytes an entry; an 80 MB log is ~590k samples,
+# ~5 GB, as the issue saw), the five-bar (2 x 48) 4.46 x 8, the Stewart platform (6 x 214) 4.17 x 8;
+# counted as 4.5 x 8 bytes. Reading the log (its text, rows of Python floats) takes ~0.7 kB a sample
+# for a Delta's 7 columns, freed before the fit.
+FIT_BYTES_PER_ENTRY = 36
+
+
+def fit_memory(regressor: ClosedChainRegressor, samples: int) -> int:
+    """About how many bytes :func:`identify` (or :func:`validate`) holds at its peak along a log of
+    ``samples`` samples: :data:`FIT_BYTES_PER_ENTRY` per sample, joint and regressor column."""
+    return int(samples * regressor.dof * regressor.size * FIT_BYTES_PER_ENTRY)
+
+
+def check_fit_memory(regressor: ClosedChainRegressor, samples: int, where: str, exact: bool = True) -> None:
+    """Refuse a log (``where``: ``log PATH``) whose fit would take more than half of this machine's
+    memory (:func:`fit_memory`, :func:`delta_pin.utils.memory.memory_limit`), in one line saying how
+    many samples it may have."""
+    from delta_pin.utils import memory
+
+    need, limit = fit_memory(regressor, samples), memory.memory_limit()
+    if need <= limit:
+        return
+    per = regressor.dof * regressor.size * FIT_BYTES_PER_ENTRY
+    raise InvalidParameterError(
+        f"{where} has {'' if exact else 'about '}{samples:,} samples: a fit of robot "
+        f"{regressor.robot.name!r} holds about {memory.format_size(need)} along them "
+        f"({memory.format_size(per)} a sample: {regressor.dof} joints x {regressor.size} regressor columns "
+        f"x {FIT_BYTES_PER_ENTRY} bytes), more than "
+        f"{memory.format_size(limit)} (half of this machine's memory); shorten the log to at most "
+        f"{limit // per:,} samples (cut it, or record a shorter excitation)"
+    )
+
+
+def check_log_memory(path: str | Path, robot) -> None:
+    """:func:`check_fit_memory` for the log file at ``path`` before it is read: its sample lines
+    counted (:func:`~delta_pin.identification.log.count_samples`, up to what the limit allows).
+    ``robot``: a robot or its :class:`ClosedChainRegressor`. A missing file passes (``read_log``
+    names it)."""
+    from delta_pin.utils.memory import memory_limit
+
+    regressor = robot if isinstance(robot, ClosedChainRegressor) else ClosedChainRegressor(robot)
+    if not Path(path).is_file():
+        return
+    most = memory_limit() // (regressor.dof * regressor.size * FIT_BYTES_PER_ENTRY)
+    samples, exact = count_samples(path, stop=most)
+    check_fit_memory(regressor, samples, f"log {path}", exact)
+
+
 def _stride(log: IdentificationLog) -> int:
     """Every stride-th sample is evaluated in full (the rest interpolated): a coarse rate >= 200 Hz."""
     return max(1, int(log.sample_rate // 200))
@@ -325,19 +407,24 @@ def identify(
     Raises:
         InvalidParameterError: a bad log (one line: column, line), another robot's log (its
             joints, or its header's robot and kinematics_sha256:
-            :func:`~delta_pin.identification.log.check_log_robot`), a constant torque column, an
-            excitation that leaves base parameters unidentifiable (named). Torques far from the CAD
+            :func:`~delta_pin.identification.log.check_log_robot`), a constant torque column, a log
+            shorter than :func:`minimum_samples` or whose fit would take more than half of this
+            machine's memory (:func:`check_fit_memory`; a file's samples counted before it is read),
+            an excitation that leaves base parameters unidentifiable (named). Torques far from the CAD
             model's (beyond :data:`TORQUE_SCALE_LIMIT`) are a warning in ``result.warnings``.
     """
     timings = {}
     start = time.perf_counter()
     regressor = ClosedChainRegressor(robot, columns, massless=massless)
     if not isinstance(data, IdentificationLog):
+        check_log_memory(data, regressor)  # before reading it all
         data = read_log(data, robot.actuated_joints)
     check_log_robot(data, robot)  # its joints and its header's robot
     check_torques(data)
+    check_fit_memory(regressor, len(data), data.where)
     base = base_parameters(regressor)
     timings["base_parameters"] = time.perf_counter() - start
+    _check_log_length(data, cutoff, base.rank, regressor)
     t0 = time.perf_counter()
     states = filtered_states(data, cutoff=cutoff)
     timings["filter"] = time.perf_counter() - t0
@@ -415,6 +502,25 @@ def identify(
         timings["lumped"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
     return result
+
+
+def _check_log_length(log: IdentificationLog, cutoff: float, rank: int, regressor) -> None:
+    """Refuse, before any filtering, a log shorter than :func:`minimum_samples` (before: a
+    10-sample log ended in filtfilt's 'unexpected ValueError: ... padlen')."""
+    if len(log) < 2:
+        raise InvalidParameterError(f"{log.where} has {len(log)} samples; a fit needs a recorded run")
+    rate = log.sample_rate
+    check_cutoff(cutoff, rate)
+    need = minimum_samples(rate, cutoff, rank, regressor.dof)
+    if len(log) < need:
+        raise InvalidParameterError(
+            f"{log.where} has {len(log)} samples; fitting the {rank} base parameters of robot "
+            f"{regressor.robot.name!r} at {rate:g} Hz needs at least {need} ({need / rate:.3g} s): more "
+            f"rows than base parameters ({rank // regressor.dof + 1} per joint for {regressor.dof} joints), "
+            f"one every {decimation(rate, cutoff)} samples (the Nyquist interval of the {cutoff:g} Hz "
+            "filter), and 0.05 s trimmed at each end; record a longer excitation (identify excite "
+            "--duration)"
+        )
 
 
 def _friction_estimates(regressor, base, estimate) -> dict:
@@ -500,9 +606,11 @@ def validate(
     """
     robot = result.regressor.robot
     if not isinstance(log, IdentificationLog):
+        check_log_memory(log, result.regressor)  # before reading it all
         log = read_log(log, robot.actuated_joints)
     check_log_robot(log, robot)
     check_torques(log)
+    check_fit_memory(result.regressor, len(log), log.where)
     predicted, measured = result.predict(log, estimate)
     error = predicted - measured
     rms_tau = np.sqrt((measured**2).mean(axis=0))
@@ -575,7 +683,9 @@ def write_trajectory(path: str | Path, trajectory: FourierExcitation, robot, rat
     ]
     with atomic_open(path, "w", newline="") as handle:
         handle.write("# delta-pin excitation trajectory\n")
-        handle.write(f"# robot: {robot.name}\n# sample_rate_hz: {rate:g}\n")
+        # whose excitation this is, checked by read_trajectory (as identify checks a log's)
+        handle.write(f"# robot: {robot.name}\n# kinematics_sha256: {kinematics_digest(robot)}\n")
+        handle.write(f"# sample_rate_hz: {rate:g}\n")
         handle.write(f"# fourier: {json.dumps(trajectory.metadata())}\n")
         handle.write(",".join(columns) + "\n")
         np.savetxt(handle, np.hstack([t[:, None], alpha, alpha_dot, alpha_ddot]), delimiter=",", fmt="%.12g")
@@ -583,10 +693,15 @@ def write_trajectory(path: str | Path, trajectory: FourierExcitation, robot, rat
 
 
 def read_trajectory(path: str | Path, robot) -> FourierExcitation:
-    """The excitation of a file written by :func:`write_trajectory` (``delta-pin identify excite``).
+    """The excitation of a file written by :func:`write_trajectory` (``delta-pin identify excite``),
+    for ``robot``: where its header names a robot (``# robot:``) it must be ``robot``'s name, and a
+    ``# kinematics_sha256:`` must be ``robot``'s :func:`~delta_pin.identification.log.kinematics_digest`
+    (an excitation keeps to one robot's workspace, limits and singularity margin); a header without
+    them (a file of anyone's) is accepted. Then it must move ``robot``'s number of joints.
 
     Raises:
-        InvalidParameterError: no such file, no ``# fourier:`` header, or joints that are not the robot's.
+        InvalidParameterError: no such file, no ``# fourier:`` header, another robot's excitation, or
+            joints that are not the robot's; one line.
     """
     import json
 
@@ -597,23 +712,45 @@ def read_trajectory(path: str | Path, robot) -> FourierExcitation:
         lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
     except UnicodeDecodeError:
         raise InvalidParameterError(f"trajectory {path} is not a text file") from None
+    header: dict[str, str] = {}
+    fourier = None
     for number, line in enumerate(lines, 1):
         if not line.startswith("#"):
             break
-        if line.startswith("# fourier:"):
-            try:
-                data = json.loads(line.split(":", 1)[1])
-                trajectory = FourierExcitation.from_metadata(data)
-            except (ValueError, KeyError, TypeError) as error:
-                raise InvalidParameterError(
-                    f"trajectory {path}: line {number}: bad fourier header ({error})"
-                ) from None
-            if trajectory.alpha0.shape != (robot.dof,):
-                raise InvalidParameterError(
-                    f"trajectory {path}: it moves {trajectory.alpha0.size} joints, "
-                    f"robot {robot.name!r} has {robot.dof}"
-                )
-            return trajectory
-    raise InvalidParameterError(
-        f"trajectory {path}: no '# fourier:' header line (write it with delta-pin identify excite)"
-    )
+        key, colon, value = line[1:].partition(":")
+        if colon:
+            header.setdefault(key.strip(), value.strip())
+        if line.startswith("# fourier:") and fourier is None:
+            fourier = number, line.split(":", 1)[1]
+    if fourier is None:
+        raise InvalidParameterError(
+            f"trajectory {path}: no '# fourier:' header line (write it with delta-pin identify excite)"
+        )
+    named = header.get("robot")
+    if named is not None and named != robot.name:
+        raise InvalidParameterError(
+            f"trajectory {path} was excited for robot {named!r} (its header's '# robot: {named}'), not for "
+            f"robot {robot.name!r}, the one given: simulate it with the robot it was made for "
+            "(--robot/--urdf/--set as for identify excite), or excite this robot"
+        )
+    digest = header.get("kinematics_sha256")
+    if named is not None and digest is not None and digest != kinematics_digest(robot):
+        raise InvalidParameterError(
+            f"trajectory {path} was excited for a robot {named!r} of other kinematics (its header's "
+            f"kinematics_sha256: {digest}, the robot given: {kinematics_digest(robot)}): another --urdf, "
+            "--set (R, r, l_a, l_b) or --robot file than the one identify excite had; give that one, or "
+            "excite this robot"
+        )
+    number, text = fourier
+    try:
+        trajectory = FourierExcitation.from_metadata(json.loads(text))
+    except (ValueError, KeyError, TypeError) as error:
+        raise InvalidParameterError(
+            f"trajectory {path}: line {number}: bad fourier header ({error})"
+        ) from None
+    if trajectory.alpha0.shape != (robot.dof,):
+        raise InvalidParameterError(
+            f"trajectory {path}: it moves {trajectory.alpha0.size} joints, "
+            f"robot {robot.name!r} has {robot.dof}"
+        )
+    return trajectory

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -33,6 +32,7 @@ from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.run import Run
 from delta_pin.sim.runner import simulate
 from delta_pin.sim.uncertainty import PAPER_NOMINAL_DISTURBANCE, PaperUncertainty, RandomUncertainty
+from delta_pin.utils.memory import memory_limit  # re-exported: it lived here (cli imports it from here)
 
 __all__ = [
     "CONTROLLERS",
@@ -186,15 +186,6 @@ def estimated_memory(spec: RunSpec) -> int:
     tables, truth tables, the recorded samples): :data:`BYTES_PER_SAMPLE` per sample."""
     samples = spec.duration / spec.dt + 1
     return int(min(samples, 1e30) * BYTES_PER_SAMPLE[spec.mode])
-
-
-def memory_limit() -> int:
-    """Half of this machine's physical memory [bytes] (8 GiB where it cannot be read): what a
-    command runs without ``--force``."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
-        return 8 * 1024**3
 
 
 def build_trajectory(path: str) -> Trajectory:

@@ -41,7 +41,10 @@ def logs(tmp_path_factory):
     assert main([*EXCITE, "--out", str(trajectory)]) == 0
     simulate = ["identify", "simulate", "--trajectory", str(trajectory)]
     assert main([*simulate, "--true-set", "m_a=0.26", "--out", str(log)]) == 0
-    assert main([*simulate, "--set", "l_a=0.25", "--out", str(other)]) == 0
+    # the other Delta's own excitation: simulate refuses one made for another robot (test_log_limits)
+    assert main([*EXCITE, "--set", "l_a=0.25", "--out", str(root / "other_traj.csv")]) == 0
+    other_simulate = ["identify", "simulate", "--trajectory", str(root / "other_traj.csv")]
+    assert main([*other_simulate, "--set", "l_a=0.25", "--out", str(other)]) == 0
     return {"root": root, "log": log, "other": other}
 
 
