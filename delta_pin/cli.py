@@ -214,16 +214,43 @@ def _load_robot(args: argparse.Namespace):
     return load_delta(getattr(args, "urdf", None), **_parse_settings(args.settings))
 
 
+# (no "--" inside an XML comment); standard output gets the bare URDF
+URDF_MARK = "<!-- written by delta-pin urdf to this file; the next such write replaces it -->"
+
+
+def _check_urdf_output(path: Path) -> None:
+    """``urdf --output`` replaces an existing file only when it is provably an earlier ``urdf
+    --output``'s (its second line is :data:`URDF_MARK`): anyone else's URDF of the same name is
+    refused (issue 36: it was replaced silently)."""
+    _check_output_file("--output", path)
+    if not path.exists():
+        return
+    try:
+        with open(path, encoding="utf-8", errors="replace") as file:
+            head = [file.readline().strip() for _ in range(2)]
+    except OSError as exc:
+        raise InvalidParameterError(
+            f"--output {path} cannot be read ({exc.strerror}); give another name"
+        ) from None
+    if URDF_MARK not in head:
+        raise InvalidParameterError(
+            f"--output {path} exists and was not written by delta-pin urdf: give another name, or remove "
+            "it yourself"
+        )
+
+
 def _cmd_urdf(args: argparse.Namespace) -> int:
     from delta_pin.model.description import compile_urdf
 
     if args.output is not None:
-        _check_output_file("--output", args.output)
+        _check_urdf_output(args.output)
     text = compile_urdf(**_parse_settings(args.settings))
     if args.output is None:
         sys.stdout.write(text)
     else:
-        write_text_atomically(args.output, text)
+        first, _, rest = text.partition("\n")  # the mark after the XML declaration
+        marked = f"{first}\n{URDF_MARK}\n{rest}" if first.startswith("<?xml") else f"{URDF_MARK}\n{text}"
+        write_text_atomically(args.output, marked)
         print(f"wrote {args.output}")
     return 0
 

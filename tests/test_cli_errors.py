@@ -690,3 +690,21 @@ def test_run_robot_has_the_memory_guard(tmp_path, capsys):
     line = _one_line(capsys)
     assert "--t-end 1e+09 at --dt 0.001 is 1e+12 samples of 'five_bar'" in line and "give --force" in line
     assert not (tmp_path / "o").exists()
+
+
+def test_urdf_output_replaces_only_its_own_file(tmp_path, capsys):
+    """urdf --output replaced any file of that name (a user's hand-edited URDF included, exit 0):
+    now only one an earlier urdf --output wrote (its mark), which loads as the packaged Delta."""
+    import delta_pin as dp
+
+    mine = tmp_path / "mine.urdf"
+    mine.write_text("<robot name='hand-edited'/>\n")
+    assert main(["urdf", "--output", str(mine)]) == 2
+    assert "exists and was not written by delta-pin urdf" in _one_line(capsys)
+    assert mine.read_text() == "<robot name='hand-edited'/>\n"
+    out = tmp_path / "delta.urdf"
+    assert main(["urdf", "--output", str(out)]) == 0
+    assert main(["urdf", "--output", str(out), "--set", "l_a=0.25"]) == 0  # its own: replaced
+    capsys.readouterr()
+    assert cli.URDF_MARK in out.read_text().splitlines()[1]
+    assert dp.load_delta(out).params.l_a == pytest.approx(0.25, abs=1e-12)

@@ -56,7 +56,7 @@ def test_xacro_file_path_is_compiled():
 
 def test_shipped_default_urdf_is_up_to_date():
     shipped = default_xacro_path().with_name("delta.urdf").read_text()
-    assert shipped == compile_urdf(), "regenerate with: delta-pin urdf -o delta_pin/urdf/delta.urdf"
+    assert shipped == compile_urdf(), "regenerate with: delta-pin urdf > delta_pin/urdf/delta.urdf"
 
 
 def test_loop_closures_are_point_constraints(robot):
