@@ -168,10 +168,6 @@ class AdaptiveRobustController(Controller):
             self.nominal, "AdaptiveRobust", self.name, gains, friction_compensation=self.friction_compensation
         )
 
-    def core_law_internals(self, law) -> dict[str, np.ndarray]:
-        names = ("Lambda", "robust_gain", "omega_norm", "robust_torque", "adaptation_active")
-        return {"rho_hat": np.array(law.state), **{name: np.array(getattr(law, name)) for name in names}}
-
     # ----------------------------------------------------------------------- the law's pieces
     def bound(self, rho_hat: np.ndarray, a_ref: np.ndarray, v_ref: np.ndarray) -> tuple[float, np.ndarray]:
         """Lambda(rho_hat, ...) of eq. 67 and dLambda/drho (constant: Lambda is linear in rho)."""

@@ -142,8 +142,9 @@ class Controller(ABC):
 
     def core_law_internals(self, law) -> dict[str, np.ndarray]:
         """The internals (N, ...) that :meth:`evaluate` would have recorded, read from the records
-        of :meth:`sampled_core_law`'s law after a run (none by default)."""
-        return {}
+        of :meth:`sampled_core_law`'s law after a run: its ``records`` by name (the compiled law
+        names them; none for a law without any)."""
+        return {name: np.array(value) for name, value in getattr(law, "records", {}).items()}
 
     def advance(self, state: np.ndarray, output: ControlOutput, period: float) -> np.ndarray:
         """The internal state one sample of ``period`` [s] later: the discrete-time law's

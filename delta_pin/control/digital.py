@@ -135,9 +135,6 @@ class TimeDelayControl(Controller):
         }  # fmt: skip
         return core_law_of(self.nominal, "TimeDelayControl", self.name, gains, friction_compensation=False)
 
-    def core_law_internals(self, law) -> dict[str, np.ndarray]:
-        return {"lumped_estimate": np.array(law.lumped_estimate)}
-
     def metadata(self) -> dict:
         return {
             "name": self.name,

@@ -241,10 +241,6 @@ class DigitalRobustController(Controller):
             self.nominal, "DigitalRobust", self.name, gains, friction_compensation=self.friction_compensation
         )
 
-    def core_law_internals(self, law) -> dict[str, np.ndarray]:
-        names = ("rho_hat", "robust_torque", "disturbance_estimate", "velocity_estimate", "s")
-        return {name: np.array(getattr(law, name)) for name in names}
-
     def metadata(self) -> dict:
         return {
             "name": self.name,

@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -51,6 +52,15 @@ namespace delta_pin
   // ControlLoop.control), the state advanced by explicit Euler or to a discrete-time law's next
   // state (Controller.advance), the drive between the plant and the law (set_drive) and the
   // records of the torque and the state.
+  // A law's own records of its last run by name, one row (or entry) per sample, besides the torque
+  // and the state: what its Python twin's evaluate() returns as internals (issue 38, item 3: the
+  // names are written here once, and read by Python as `records`)
+  struct Records
+  {
+    std::map<std::string, RowMatrix> matrices;  // (samples, width)
+    std::map<std::string, Vector> vectors;  // (samples,)
+  };
+
   class ProjectedLaw : public SampledController
   {
   public:
@@ -94,6 +104,8 @@ namespace delta_pin
     }
 
     RowMatrix tau, state;  // the records of the last run (samples rows): the torque that acted, the state
+    // the law's own records (none by default)
+    virtual Records records() const { return {}; }
     RowMatrix tau_command;  // with a drive: the law's command (samples rows)
     long hits = 0;  // with a torque limit: the samples at which it bound
 
@@ -188,6 +200,12 @@ namespace delta_pin
 
     RowMatrix robust_torque;  // records, with the state (rho_hat) and the torque
     Vector Lambda, robust_gain, omega_norm, adaptation_active;
+    Records records() const override
+    {
+      return {{{"rho_hat", state}, {"robust_torque", robust_torque}},
+              {{"Lambda", Lambda}, {"robust_gain", robust_gain}, {"omega_norm", omega_norm},
+               {"adaptation_active", adaptation_active}}};
+    }
 
   protected:
     void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
@@ -211,6 +229,7 @@ namespace delta_pin
       const TimeDelayGains & gains);
 
     RowMatrix lumped_estimate;  // records [N m]
+    Records records() const override { return {{{"lumped_estimate", lumped_estimate}}, {}}; }
 
   protected:
     void law(const Matrix & M, const Matrix & C, const Vector & G, const Vector & compensation, const Vector & alpha,
@@ -237,6 +256,12 @@ namespace delta_pin
     // records: rho_hat (samples x 1) [N m], the robust torque and M̄ f̂ [N m], the velocity
     // estimate and s [rad/s]
     RowMatrix rho_hat, robust_torque, disturbance_estimate, velocity_estimate, s;
+    Records records() const override
+    {
+      return {{{"rho_hat", rho_hat}, {"robust_torque", robust_torque}, {"disturbance_estimate", disturbance_estimate},
+               {"velocity_estimate", velocity_estimate}, {"s", s}},
+              {}};
+    }
 
   protected:
     void compute(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,

@@ -477,6 +477,20 @@ NB_MODULE(_core, m)
     .def("set_drive", &delta_pin::ProjectedLaw::set_drive,
          "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive (delay "
          "[samples], torque limit [N m] or empty) between the plant and the law, before start().")
+    .def_prop_ro(
+      "records",
+      [](const delta_pin::ProjectedLaw & self)
+      {
+        const delta_pin::Records records = self.records();
+        nb::dict out;
+        for (const auto & [name, value] : records.matrices)
+          out[name.c_str()] = nb::cast(value);
+        for (const auto & [name, value] : records.vectors)
+          out[name.c_str()] = nb::cast(value);
+        return out;
+      },
+      "The law's own records of its last run by name (samples rows), besides tau and state: what its "
+      "Python twin's evaluate() returns as internals.")
     .def_ro("tau", &delta_pin::ProjectedLaw::tau)
     .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
     .def_ro("hits", &delta_pin::ProjectedLaw::hits)
@@ -532,12 +546,7 @@ NB_MODULE(_core, m)
          const Eigen::VectorXd & disturbance, const std::string & name, const AdaptiveRobustGains & gains)
       { new (self) delta_pin::AdaptiveRobust(chain, reference_configuration, disturbance, name, gains); },
       nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
-      nb::arg("gains"))
-    .def_ro("robust_torque", &delta_pin::AdaptiveRobust::robust_torque)
-    .def_ro("Lambda", &delta_pin::AdaptiveRobust::Lambda)
-    .def_ro("robust_gain", &delta_pin::AdaptiveRobust::robust_gain)
-    .def_ro("omega_norm", &delta_pin::AdaptiveRobust::omega_norm)
-    .def_ro("adaptation_active", &delta_pin::AdaptiveRobust::adaptation_active);
+      nb::arg("gains"));
   nb::class_<delta_pin::TimeDelayGains>(m, "TimeDelayControlGains", "TDC's gains by name (time_delay_control.hpp).")
     .def(nb::init<>())
     .def_rw("period", &delta_pin::TimeDelayGains::period)
@@ -552,8 +561,7 @@ NB_MODULE(_core, m)
          const Eigen::VectorXd & disturbance, const std::string & name, const delta_pin::TimeDelayGains & g)
       { new (self) delta_pin::TimeDelayControlLaw(chain, reference_configuration, disturbance, name, g); },
       nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
-      nb::arg("gains"))
-    .def_ro("lumped_estimate", &delta_pin::TimeDelayControlLaw::lumped_estimate);
+      nb::arg("gains"));
   using DigitalRobustGains = delta_pin::DigitalRobustGains<Eigen::Dynamic>;
   nb::class_<DigitalRobustGains>(
     m, "DigitalRobustGains",
@@ -619,12 +627,7 @@ NB_MODULE(_core, m)
         new (self) delta_pin::DigitalRobustLaw(chain, reference_configuration, disturbance, name, g);
       },
       nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
-      nb::arg("gains"))
-    .def_ro("rho_hat", &delta_pin::DigitalRobustLaw::rho_hat)
-    .def_ro("robust_torque", &delta_pin::DigitalRobustLaw::robust_torque)
-    .def_ro("disturbance_estimate", &delta_pin::DigitalRobustLaw::disturbance_estimate)
-    .def_ro("velocity_estimate", &delta_pin::DigitalRobustLaw::velocity_estimate)
-    .def_ro("s", &delta_pin::DigitalRobustLaw::s);
+      nb::arg("gains"));
   using LqrGains = delta_pin::LqrGains<Eigen::Dynamic>;
   nb::class_<LqrGains>(m, "LQRGains", "The LQR's linearisation and gain by name (lqr_law.hpp; SI units).")
     .def(nb::init<>())
