@@ -1104,6 +1104,10 @@ def _identify_fit(args: argparse.Namespace) -> int:
           f"of the torque's RMS; cond {result.condition:.4g}")  # fmt: skip
     for line in result.warnings:  # one line each (a torque scale far from the CAD model's)
         print(line)
+    if result.consistent is not None:
+        from delta_pin.identification.report import consistent_status
+
+        print(consistent_status(result))
     if validation is not None:
         print(
             "validation: torque error RMS "

@@ -9,7 +9,8 @@
 * ``xacro_arguments.json`` (a Delta) -- ``load_delta(**json.load(...))`` or
   ``delta-pin urdf --set m_a=... ...`` builds the identified robot;
 * ``robot.urdf`` (a robot from a URDF) -- the robot's URDF with the physically consistent
-  inertials (``dp.load_robot`` reads it back);
+  inertials (``dp.load_robot`` reads it back), only where that estimate converged (its status,
+  :func:`consistent_status`, is in report.md, parameters.json's ``consistent`` and stdout);
 * ``report.md`` and the figures ``torque.png`` (measured vs predicted torque), ``residual.png``
   (residual histogram per joint) and ``condition.png`` (singular values of the column-scaled base
   regressor of the log).
@@ -43,7 +44,7 @@ from delta_pin.identification.workflow import IdentificationResult
 from delta_pin.utils.atomic import atomic_open, write_text_atomically
 from delta_pin.utils.manifest import OutputFolder, claim
 
-__all__ = ["COMMAND", "OUTPUTS", "identified_urdf", "parameters_record", "write_report"]
+__all__ = ["COMMAND", "OUTPUTS", "consistent_status", "identified_urdf", "parameters_record", "write_report"]
 
 COMMAND = "identify fit"  # the command a fit's manifest.json names
 # every name a fit may write into its folder (module docstring): only these must be its own
@@ -127,7 +128,11 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
             "distance_relative": consistent.distance_relative,
             "min_pseudo_inertia_eigenvalue": consistent.min_eigenvalues.tolist(),
             "success": consistent.success,
+            "converged": consistent.success,
             "message": consistent.message,
+            "iterations": consistent.iterations,
+            "duality_gap": _float(consistent.duality_gap),
+            "time_s": result.timings.get("consistent"),
         }
     if result.lumped is not None:
         record["lumped"] = dict(zip(result.lumped["names"], result.lumped["values"], strict=True))
@@ -138,11 +143,27 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
     return record
 
 
+def consistent_status(result: IdentificationResult) -> str:
+    """One line: whether the consistent estimate converged, the solver's message and steps, and
+    whether robot.urdf is written from it (``""`` where it was not computed)."""
+    c = result.consistent
+    if c is None:
+        return ""
+    seconds = result.timings.get("consistent", float("nan"))
+    if c.success:
+        return f"consistent estimate: converged ({c.message}, {seconds:.2f} s)"
+    return (
+        f"consistent estimate: NOT converged ({c.message}, {seconds:.2f} s); robot.urdf is not written "
+        "(the WLS base parameters are not standard parameters a URDF can hold)"
+    )
+
+
 def identified_urdf(result: IdentificationResult) -> str | None:
     """The robot's URDF with every moving link's inertial replaced by the physically consistent
     estimate (mass, COM, inertia about the COM in the link frame), or ``None`` where the robot has
-    no URDF text or a body gathers several links (fixed joints)."""
-    if result.consistent is None or not result.regressor.robot.urdf:
+    no URDF text, a body gathers several links (fixed joints) or the estimate did not converge
+    (``result.consistent.success`` False: not the optimum, so not a model to hand on)."""
+    if result.consistent is None or not result.consistent.success or not result.regressor.robot.urdf:
         return None
     from lxml import etree
 
@@ -307,7 +328,9 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
             "",
             f"Physically consistent estimate (log-Cholesky, every pseudo-inertia ⪰ 0: smallest eigenvalue "
             f"{min(c['min_pseudo_inertia_eigenvalue'], default=0.0):.3g}): distance to WLS "
-            f"{c['distance_relative']:.3g} relative, {c['distance_mahalanobis']:.3g} in the WLS metric.",
+            f"{c['distance_relative']:.3g} relative, {c['distance_mahalanobis']:.3g} in the WLS metric. "
+            + consistent_status(result)
+            + ".",
         ]
     if "lumped" in record:
         lines += ["", "The paper's lumped terms (eqs. 7-9) from the base parameters:", ""]

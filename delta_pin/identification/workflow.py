@@ -492,6 +492,11 @@ def identify(
         torque_scale=scale,
         warnings=[scale["warning"]] if scale.get("warning") else [],
     )
+    if estimate is not None and not estimate.success:
+        result.warnings.append(
+            f"warning: the physically consistent estimate did not converge ({estimate.message}): it is "
+            "reported but not optimal, and no robot.urdf is written from it"
+        )
     result.friction = _friction_estimates(regressor, base, wls)
     if getattr(robot, "delta", None) is not None:
         t0 = time.perf_counter()
