@@ -14,7 +14,7 @@ __all__ = [
     "VELOCITIES",
 ]
 
-CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust")  # studies.experiments
+CONTROLLERS = ("design1", "design2", "lqr", "ctc", "pd", "tdc", "digital-robust", "pid")  # control.registry
 PATHS = ("I", "II", "adept")  # path I (eq. 66), path II (eq. 69), the Adept pick-and-place cycle
 MODES = ("sampled", "continuous")  # sim.arguments
 INTEGRATORS = ("rk4", "lsoda", "bdf2", "radau")  # sim.integrators; bdf2 and radau are compiled

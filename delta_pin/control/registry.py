@@ -12,109 +12,29 @@ as it is.
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 
+import delta_pin.control
 from delta_pin.choices import CONTROLLERS as NAMES
 from delta_pin.control.adaptive_robust import AdaptiveRobustController, design1, design2
 from delta_pin.control.base import Controller
 from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
+from delta_pin.control.declaration import (
+    FRICTION_COMPENSATION,
+    SAMPLING_AWARE,
+    ControllerDeclaration,
+    LawOptions,
+)
 from delta_pin.control.digital import TimeDelayControl, tdc
 from delta_pin.control.digital_robust import DigitalRobustController, digital_robust
 from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
 
 __all__ = ["CONTROLLERS", "ControllerDeclaration", "LawOptions", "declaration", "label"]
-
-FRICTION_COMPENSATION = "friction_compensation"
-SAMPLING_AWARE = "sampling_aware"
-
-
-@dataclass(frozen=True)
-class LawOptions:
-    """What a run tells the law it builds (SI units).
-
-    Attributes:
-        dt: the sample / control period [s].
-        friction_compensation: add the nominal friction M̄_f (laws that have it).
-        sampling_aware: cap the robust gain for a zero-order-hold loop of period dt (designs I/II).
-        delay: samples of computation delay the drive adds (a digital law is told it).
-        torque_limit: the drive's saturation [N m] (a digital law is told it); None: none.
-        start: the actuated coordinates the LQR is linearised at [rad or m] (the path's start, or
-            a closed chain's home).
-    """
-
-    dt: float = 1e-3
-    friction_compensation: bool = True
-    sampling_aware: bool = False
-    delay: int = 0
-    torque_limit: object = None
-    start: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class ControllerDeclaration:
-    """A built-in controller as the run-time reads it.
-
-    Attributes:
-        name: the CLI's and :class:`~delta_pin.studies.experiments.RunSpec`'s name.
-        label: its name in figures and tables (e.g. ``"design I"``).
-        law: the class the factory returns (its constructor's keywords are the gains).
-        build: ``build(nominal, options, gains) -> Controller``.
-        options: which of :class:`LawOptions`' switches (``"friction_compensation"``,
-            ``"sampling_aware"``) the law has; a command that runs this law alone refuses another
-            (:meth:`check_options`) instead of ignoring it.
-        discrete: a law of period dt (sampled mode only).
-        compiled_continuous: the compiled core's continuous loop (Radau IIA, BDF2) runs its
-            compiled law (otherwise a continuous run calls the Python law back).
-        batchable: several runs of it share one batched simulation in sweeps (designs I/II).
-        needs_start: its construction needs :attr:`LawOptions.start` (the LQR).
-        run_name: the ``name`` its controllers carry in a run's metadata, where it differs from
-            :attr:`name` (designs I/II: ``"designI"``).
-    """
-
-    name: str
-    label: str
-    law: type[Controller]
-    build: Callable[[NominalModel, LawOptions, Mapping], Controller] = field(repr=False)
-    options: frozenset[str] = frozenset()
-    discrete: bool = False
-    compiled_continuous: bool = False
-    batchable: bool = False
-    needs_start: bool = False
-    run_name: str = ""
-
-    def make(self, nominal: NominalModel, options: LawOptions | None = None, **gains) -> Controller:
-        """The controller on ``nominal`` with ``options`` and gain overrides by name. A switch of
-        ``options`` the law does not have is not applicable to it (a study of several laws sets it
-        for those that have it); a command that runs one law refuses it (:meth:`check_options`).
-
-        Raises:
-            InvalidParameterError: no start for the LQR, or a gain the law refuses.
-        """
-        options = options or LawOptions()
-        if self.needs_start and options.start is None:
-            raise InvalidParameterError(f"controller {self.name!r} needs the start it is linearised at")
-        return self.build(nominal, options, gains)
-
-    def check_options(self, *, friction_compensation: bool = True, sampling_aware: bool = False) -> None:
-        """Refuse a switch this law does not take (one line naming it and the laws that do).
-
-        Raises:
-            InvalidParameterError: ``friction_compensation=False`` or ``sampling_aware=True`` for a
-                law without that switch.
-        """
-        asked = {FRICTION_COMPENSATION: not friction_compensation, SAMPLING_AWARE: sampling_aware}
-        for option, set_ in asked.items():
-            if set_ and option not in self.options:
-                takers = ", ".join(d.name for d in CONTROLLERS.values() if option in d.options)
-                value = "False" if option == FRICTION_COMPENSATION else "True"
-                raise InvalidParameterError(
-                    f"controller {self.name!r} has no {option} switch ({option}={value} would be "
-                    f"ignored); the laws that have it: {takers}"
-                )
 
 
 def _design(make: Callable) -> Callable:
@@ -174,7 +94,24 @@ _DECLARATIONS = (
         discrete=True,
     ),
 )  # fmt: skip
-CONTROLLERS: dict[str, ControllerDeclaration] = {d.name: d for d in _DECLARATIONS}
+
+
+def _declared_by_their_modules() -> tuple[ControllerDeclaration, ...]:
+    """The declarations of the laws that declare themselves: a module of :mod:`delta_pin.control`
+    with a module-level ``DECLARATION`` (adding a law needs no edit here)."""
+    found = []
+    for info in pkgutil.iter_modules(delta_pin.control.__path__):
+        if info.name in ("registry", "declaration") or info.name.startswith("_"):
+            continue
+        found.append(getattr(importlib.import_module(f"delta_pin.control.{info.name}"), "DECLARATION", None))
+    return tuple(d for d in found if isinstance(d, ControllerDeclaration))
+
+
+_DECLARATIONS = _DECLARATIONS + _declared_by_their_modules()
+CONTROLLERS: dict[str, ControllerDeclaration] = {
+    d.name: d
+    for d in sorted(_DECLARATIONS, key=lambda d: NAMES.index(d.name) if d.name in NAMES else len(NAMES))
+}
 if tuple(CONTROLLERS) != NAMES:  # one list of names: choices.CONTROLLERS, in this order
     raise ImportError(
         f"delta_pin.choices.CONTROLLERS {NAMES} and the declarations {tuple(CONTROLLERS)} differ"

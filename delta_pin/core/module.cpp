@@ -14,6 +14,7 @@
 #include "controller.hpp"
 #include "failure.hpp"
 #include "interrupt.hpp"
+#include "law_registry.hpp"
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
@@ -495,6 +496,8 @@ NB_MODULE(_core, m)
     .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
     .def_ro("hits", &delta_pin::ProjectedLaw::hits)
     .def_ro("state", &delta_pin::ProjectedLaw::state);
+  for (const delta_pin::LawBinder bind_law : delta_pin::law_binders())  // core/laws/*.cpp
+    bind_law(m);
   // gains cross the binding by name (issue 38, item 3): one struct per law, each field bound, and
   // each law's constructor takes (chain, reference_configuration, disturbance, name, gains)
   nb::class_<ComputedTorqueGains>(m, "ComputedTorqueGains", "Computed torque's gains by name (SI units).")
