@@ -1082,6 +1082,27 @@ def _identify_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _friction_columns(robot, model: str | None):
+    """The regressor's joint columns for ``identify fit --friction-model`` (``None``: the default,
+    a Stribeck column where the robot is a Delta with URDF friction)."""
+    from delta_pin.identification.regressor import JointColumns
+
+    if model is None:
+        return None
+    if model == "viscous":
+        return JointColumns(coulomb=False)
+    if model == "coulomb":
+        return JointColumns()
+    delta = getattr(robot, "delta", None)
+    friction = None if delta is None else delta.params.friction
+    if friction is None:
+        raise InvalidParameterError(
+            f"--friction-model stribeck needs a Stribeck velocity, which robot {robot.name!r} does not carry "
+            "(not a Delta with URDF friction); use --friction-model coulomb or viscous"
+        )
+    return JointColumns(stribeck_velocity=friction.v_s, friction_arm=friction.r_a)
+
+
 def _identify_fit(args: argparse.Namespace) -> int:
     from delta_pin.identification.log import read_log
     from delta_pin.identification.report import write_report
@@ -1089,13 +1110,14 @@ def _identify_fit(args: argparse.Namespace) -> int:
 
     _check_identify_out_folder(args)
     robot = _identify_robot(args)
+    columns = _friction_columns(robot, args.friction_model)  # before any file is read or claimed
     for path in (args.data, args.validate):  # before either is read: a fit holds ~9 kB a Delta sample
         if path is not None:
             check_log_memory(path, robot)
     log = read_log(args.data, robot.actuated_joints)
     unseen = None if args.validate is None else read_log(args.validate, robot.actuated_joints)
     with _claim_fit_folder(args) as folder:
-        result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent)
+        result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent, columns=columns)
         validation = None if unseen is None else validate(result, unseen)
         written = write_report(result, log, args.out, validation, figures=not args.no_figures, folder=folder)
     relative = ", ".join(f"{x:.3g}" for x in result.residual_rms / result.tau_rms)
@@ -1228,6 +1250,11 @@ def _add_identify_command(add) -> None:
     fit.add_argument(
         "--cutoff", type=_number(0, above=True), default=20.0, help="the parallel filter's cut-off [Hz]"
     )
+    fit.add_argument(
+        "--friction-model", choices=("viscous", "coulomb", "stribeck"), default=None,
+        help="friction columns per joint: viscous (fv), coulomb (fv, fc) or stribeck (fv, fc, fs); default: "
+        "stribeck for a Delta with URDF friction, coulomb otherwise (rotor inertia and offset always)",
+    )  # fmt: skip
     fit.add_argument("--no-consistent", action="store_true", help="skip the physically consistent estimate")
     fit.add_argument("--no-figures", action="store_true", help="write no figures")
     fit.set_defaults(func=_identify_fit)

@@ -29,6 +29,11 @@
   re-fitted, the least significant first, until every one left is significant. What is dropped is
   listed (its t value when dropped), never silent; a Delta's rods have zero products of inertia,
   and fitting them only adds variance to the rest.
+* **Physical friction** (:func:`bounded_fit`): the WLS problem again with Coulomb ``fc`` >= 0,
+  Stribeck excess ``fs`` >= 0 (static >= Coulomb), viscous ``fv`` >= 0 and rotor inertia ``Ia``
+  >= 0, on those base parameters that are one such column alone (checked: its K row is zero and
+  it lumps no other column; the others stay free), by ``scipy.optimize.lsq_linear`` (BVLS); the
+  unconstrained WLS values are reported beside it.
 * **Identifiability of the log.** Before the fit, W_b's columns are scaled to unit norm and
   factored by pivoted QR; a base parameter whose diagonal entry is below ``LOG_RANK_TOLERANCE``
   (1e-7) of the largest is not identifiable from this excitation, and the fit refuses, naming it
@@ -53,6 +58,7 @@ __all__ = [
     "LOG_RANK_TOLERANCE",
     "Estimate",
     "FilteredStates",
+    "bounded_fit",
     "check_cutoff",
     "check_identifiable",
     "essential_fit",
@@ -235,6 +241,7 @@ class Estimate:
     sigma: np.ndarray
     method: str
     R: np.ndarray | None = None  # WLS: the R factor of the whitened regressor (information R^T R)
+    weights: np.ndarray | None = None  # WLS: each joint's sigma_j its rows were divided by (dof,)
 
     @property
     def std(self) -> np.ndarray:
@@ -281,7 +288,27 @@ def least_squares_fit(
     sigma_w = np.sqrt(np.bincount(joint, weights=e_w**2, minlength=dof) / np.maximum(rows, 1))
     wls = Estimate(beta_w, Rw_inv @ Rw_inv.T, sigma_w, "wls")
     wls.R = Rw
+    wls.weights = sigma_j
     return ols, wls
+
+
+def bounded_fit(
+    Y_base: np.ndarray, tau: np.ndarray, mask: np.ndarray, weights: np.ndarray, lower: np.ndarray
+) -> np.ndarray:
+    """The WLS problem (rows divided by ``weights``, each joint's sigma_j) with ``beta >= lower``
+    (r,) (``-inf``: free): ``scipy.optimize.lsq_linear`` (bounded-variable least squares); the
+    physical friction of the module docstring."""
+    from scipy.optimize import lsq_linear
+
+    count, dof, r = Y_base.shape
+    keep = mask.ravel()
+    joint = np.broadcast_to(np.arange(dof), (count, dof)).ravel()[keep]
+    W = Y_base.reshape(-1, r)[keep] / weights[joint, None]
+    y = tau.reshape(-1)[keep] / weights[joint]
+    if not np.any(np.isfinite(lower)):
+        return scipy.linalg.lstsq(W, y, lapack_driver="gelsy")[0]
+    found = lsq_linear(W, y, bounds=(lower, np.full(r, np.inf)), method="bvls", tol=1e-12)
+    return np.maximum(found.x, lower)
 
 
 def base_names(base: BaseParameters) -> list[str]:
@@ -317,4 +344,4 @@ def expand(estimate: Estimate, kept: np.ndarray, size: int) -> Estimate:
     if estimate.R is not None:
         R = np.zeros((len(kept), size))
         R[:, kept] = estimate.R
-    return Estimate(beta, covariance, estimate.sigma, estimate.method, R)
+    return Estimate(beta, covariance, estimate.sigma, estimate.method, R, estimate.weights)

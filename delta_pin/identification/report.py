@@ -2,7 +2,8 @@
 
 * ``parameters.json`` -- the base parameters (name, combination of standard parameters, WLS value,
   standard deviation, OLS value, the consistent estimate's value), the rank decision, the fit's
-  residual, condition number and timings, the friction per joint, for a Delta the paper's lumped
+  residual, condition number and timings, the friction per joint (``friction``: the bounded fit,
+  physical by construction; ``friction_unconstrained``: WLS beside it), for a Delta the paper's lumped
   terms and the ``xacro_arguments`` of the identified robot, the physically consistent standard
   parameters per body, a validation on an unseen log where one was given, the log's torque
   against the CAD model's (``torque_scale``) and the fit's ``warnings`` (also atop report.md);
@@ -79,6 +80,7 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
                 "wls": _float(result.wls.beta[i]),
                 "std": _float(result.wls.std[i]),
                 "ols": _float(result.ols.beta[i]),
+                "bounded": None if result.bounded_beta is None else _float(result.bounded_beta[i]),
                 "consistent": None if consistent is None else _float(consistent.beta[i]),
                 "nominal": _float(base.values(result.theta_nominal)[i]),
             }
@@ -111,6 +113,9 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
             "timings_s": result.timings,
         },
         "friction": {k: [_float(x) for x in v] for k, v in result.friction.items()},
+        "friction_unconstrained": {
+            k: [_float(x) for x in v] for k, v in result.friction_unconstrained.items()
+        },
         "torque_scale": {k: v if isinstance(v, str) else _float(v) for k, v in result.torque_scale.items()},
         "warnings": list(result.warnings),
     }
@@ -322,6 +327,23 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
             f"| {fmt(row['ols'])} "
             f"| {fmt(row['consistent'])} | {fmt(row['nominal'])} |"
         )
+    if record["friction"]:
+        joints = record["joints"]
+        lines += [
+            "",
+            "Friction and rotor inertia per joint: bounded least squares (fc, fs, fv, Ia >= 0: static >= "
+            "Coulomb), the unconstrained WLS value in brackets (blank: lumped with other parameters):",
+            "",
+            "| | " + " | ".join(joints) + " |",
+            "|---|" + "---|" * len(joints),
+        ]
+        for prefix, values in record["friction"].items():
+            free = record["friction_unconstrained"].get(prefix, [None] * len(values))
+            cells = [
+                "" if v is None else f"{v:.6g} ({u:.6g})" if u is not None else f"{v:.6g}"
+                for v, u in zip(values, free, strict=True)
+            ]
+            lines.append(f"| {prefix} | " + " | ".join(cells) + " |")
     if "consistent" in record:
         c = record["consistent"]
         lines += [

@@ -24,6 +24,7 @@ from delta_pin.identification.base import BaseParameters, base_parameters
 from delta_pin.identification.consistent import ConsistentEstimate, consistent_estimate
 from delta_pin.identification.estimation import (
     Estimate,
+    bounded_fit,
     check_cutoff,
     check_identifiable,
     essential_fit,
@@ -201,6 +202,9 @@ class IdentificationResult:
         timings: seconds per step.
         lumped: for a Delta, the paper's terms {name: value} from WLS; ``xacro_arguments`` the
             masses and friction of the identified Delta (``load_delta(**xacro_arguments)``).
+        friction: per joint {"fv", "fc", ...} of the bounded fit (fc, fs, fv, Ia >= 0: physical by
+            construction; ``bounded_beta`` its base parameters); ``friction_unconstrained`` the WLS
+            values beside it.
         torque_scale: the log's torque against the CAD model's (:func:`torque_scale`).
         warnings: one line each, for stdout and report.md (a torque scale beyond
             :data:`TORQUE_SCALE_LIMIT`).
@@ -225,6 +229,8 @@ class IdentificationResult:
     xacro_arguments: dict | None = None
     dropped: list = field(default_factory=list)
     friction: dict = field(default_factory=dict)
+    friction_unconstrained: dict = field(default_factory=dict)
+    bounded_beta: np.ndarray | None = None
     torque_scale: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
 
@@ -452,11 +458,16 @@ def identify(
     W = Y_base.reshape(-1, base.rank)[mask.ravel()]
     check_identifiable(W, names)
     dropped: list = []
+    kept = np.arange(base.rank)
     ols_full, wls_full = least_squares_fit(Y_base, tau, mask)
     ols, wls = ols_full, wls_full
     if essential:
         kept, dropped, ols, wls = essential_fit(Y_base, tau, mask)
         ols, wls = expand(ols, kept, base.rank), expand(wls, kept, base.rank)
+    # physical friction: the WLS problem with fc, fs, fv, Ia >= 0 where each is a base parameter alone
+    lower = _friction_lower_bounds(regressor, base)
+    bounded = np.zeros(base.rank)
+    bounded[kept] = bounded_fit(Y_base[:, :, kept], tau, mask, wls.weights, lower[kept])
     norms = np.linalg.norm(W, axis=0)
     singular = np.linalg.svd(W / norms, compute_uv=False)
     timings["least_squares"] = time.perf_counter() - t0
@@ -497,7 +508,9 @@ def identify(
             f"warning: the physically consistent estimate did not converge ({estimate.message}): it is "
             "reported but not optimal, and no robot.urdf is written from it"
         )
-    result.friction = _friction_estimates(regressor, base, wls)
+    result.bounded_beta = bounded
+    result.friction = _friction_estimates(regressor, base, bounded)
+    result.friction_unconstrained = _friction_estimates(regressor, base, wls.beta)
     if getattr(robot, "delta", None) is not None:
         t0 = time.perf_counter()
         lumped_names, A, fit = delta_lumped_map(regressor, base)
@@ -528,7 +541,26 @@ def _check_log_length(log: IdentificationLog, cutoff: float, rank: int, regresso
         )
 
 
-def _friction_estimates(regressor, base, estimate) -> dict:
+def _friction_lower_bounds(regressor, base) -> np.ndarray:
+    """(r,): 0 for a base parameter that is one ``fv``, ``fc``, ``fs`` or ``Ia`` column alone (its
+    K row zero, and no other base parameter lumps that column), ``-inf`` for the rest."""
+    lower = np.full(base.rank, -np.inf)
+    n = regressor.inertial_count
+    lumped = set()
+    for i in range(base.rank):
+        lumped |= {int(base.dependent[j]) for j in np.flatnonzero(base.K[i])}
+    for kind, (prefix, _) in enumerate(regressor.columns.kinds()):
+        if prefix not in ("fv", "fc", "fs", "Ia"):
+            continue
+        for j in range(regressor.dof):
+            column = n + kind * regressor.dof + j
+            hits = np.flatnonzero(base.independent == column)
+            if hits.size and not np.any(base.K[hits[0]]) and column not in lumped:
+                lower[hits[0]] = 0.0
+    return lower
+
+
+def _friction_estimates(regressor, base, beta) -> dict:
     """{"fv": (dof,), ...}: the joint columns that are base parameters of their own, per joint
     (NaN where a joint column is lumped with others or absent)."""
     out = {}
@@ -540,7 +572,7 @@ def _friction_estimates(regressor, base, estimate) -> dict:
             column = n + kind * regressor.dof + j
             i = index.get(column)
             alone = i is not None and not np.any(base.K[i])
-            values.append(float(estimate.beta[i]) if alone else math.nan)
+            values.append(float(beta[i]) if alone else math.nan)
         out[prefix] = values
     return out
 
@@ -559,8 +591,13 @@ def _delta_xacro_arguments(robot, lumped: np.ndarray, friction: dict) -> dict:
     if stribeck is not None and friction:
         normal = 15.0  # the Friction default: eq. 12's coefficients are per newton of F_n
         r_a = stribeck.r_a
-        fv, fc = np.nanmean(friction.get("fv", [math.nan])), np.nanmean(friction.get("fc", [math.nan]))
-        fs = np.nanmean(friction.get("fs", [0.0]))
+
+        def mean(values):  # NaN where every joint's is (lumped) or the column is absent: no warning
+            values = np.asarray(values, dtype=float)
+            return float(values[np.isfinite(values)].mean()) if np.isfinite(values).any() else math.nan
+
+        fv, fc = mean(friction.get("fv", [math.nan])), mean(friction.get("fc", [math.nan]))
+        fs = mean(friction.get("fs", [0.0]))
         if np.isfinite(fv) and np.isfinite(fc):
             args.update(
                 mu_v=fv / r_a,
