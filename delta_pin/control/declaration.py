@@ -87,6 +87,30 @@ class ControllerDeclaration:
             raise InvalidParameterError(f"controller {self.name!r} needs the start it is linearised at")
         return self.build(nominal, options, gains)
 
+    def gain_names(self) -> list[str]:
+        """The gains the law takes by name (``--param``, ``RunSpec.gains``): its constructor's
+        keywords less the nominal model, the run's own options and the switches, with a gains
+        dataclass (designs I/II's ``gains=``) expanded into its fields."""
+        import dataclasses
+        import inspect
+        import typing
+
+        taken = {"self", "nominal", "design", "dt", "delay", "torque_limit", "alpha_linearisation",
+                 "sampling_period", "compiled", FRICTION_COMPENSATION}  # fmt: skip
+        names = []
+        hints = typing.get_type_hints(self.law.__init__)
+        for name in inspect.signature(self.law).parameters:
+            if name in taken:
+                continue
+            kind = hints.get(name)
+            for candidate in typing.get_args(kind) or (kind,):
+                if dataclasses.is_dataclass(candidate):
+                    names += [f.name for f in dataclasses.fields(candidate)]
+                    break
+            else:
+                names.append(name)
+        return names
+
     def check_options(self, *, friction_compensation: bool = True, sampling_aware: bool = False) -> None:
         """Refuse a switch this law does not take (one line naming it and the laws that do).
 

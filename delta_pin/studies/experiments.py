@@ -214,6 +214,12 @@ def build_controller(spec: RunSpec, robot: Delta, trajectory: Trajectory | None 
     Raises:
         InvalidParameterError: a gain name the controller does not have, or a value it cannot take.
     """
+    names = declaration(spec.controller).gain_names()
+    unknown = sorted(set(spec.gains) - set(names))
+    if unknown:  # before the law is built: its own TypeError named one and none of the valid ones
+        raise InvalidParameterError(
+            f"controller {spec.controller!r} has no gain {', '.join(unknown)}; its gains: {', '.join(names)}"
+        )
     try:
         return _build_controller(spec, robot, trajectory)
     except TypeError as exc:

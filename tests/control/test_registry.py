@@ -92,3 +92,23 @@ def test_a_closed_chain_robot_builds_every_law_by_its_declaration():
     np.testing.assert_array_equal(lqr.alpha0, robot.home)
     with pytest.raises(InvalidParameterError, match="controller 'nope' must be one of design1, design2"):
         closed_chain_controller("nope", robot, 1e-3)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_each_law_takes_the_gains_its_declaration_names(delta, name):
+    """Every name gain_names() lists is a keyword the law takes (set to its own default, the law
+    builds), and an unknown one is refused naming the valid ones (issue 39: "a wrong gain name
+    does not list the valid ones"; rho0, design I's starting rho_hat, was in neither help nor README)."""
+    law = declaration(name)
+    names = law.gain_names()
+    assert names and len(names) == len(set(names))
+    built = build_controller(RunSpec(controller=name, mode="sampled"), delta)
+    for gain in names:  # each one, at the value the default law holds
+        value = getattr(getattr(built, "gains", built), gain, None)
+        if value is None:
+            continue  # a derived or optional gain (e.g. TDC's bandwidth is kept as K_p, K_v)
+        build_controller(RunSpec(controller=name, mode="sampled", gains={gain: value}), delta)
+    with pytest.raises(InvalidParameterError, match=f"controller '{name}' has no gain ksi; its gains: "):
+        build_controller(RunSpec(controller=name, mode="sampled", gains={"ksi": 1.0}), delta)
+    if name in ("design1", "design2"):
+        assert "rho0" in names and "xi" in names
