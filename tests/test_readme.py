@@ -35,21 +35,27 @@ def test_fence_pattern_finds_blocks():
     assert python_blocks(text) == ["print(1)\n", "x = 2\n"]
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=[f"block{i + 1}" for i in range(len(BLOCKS))])
-def test_readme_block_runs_as_pasted(block, tmp_path):
-    env = {**os.environ, "HOME": str(tmp_path), "MPLBACKEND": "Agg"}
+def run_block(block: str, folder: Path, what: str) -> None:
+    """Run ``block`` in a fresh interpreter in ``folder`` (HOME there, matplotlib headless);
+    fail naming ``what`` and the block's first line unless it exits 0 within TIMEOUT_S."""
+    env = {**os.environ, "HOME": str(folder), "MPLBACKEND": "Agg"}
     try:
         done = subprocess.run(
             [sys.executable, "-c", block],
-            cwd=tmp_path,
+            cwd=folder,
             env=env,
             capture_output=True,
             text=True,
             timeout=TIMEOUT_S,
         )
     except subprocess.TimeoutExpired:
-        pytest.fail(f"README block starting {first_line(block)!r} ran past {TIMEOUT_S} s")
+        pytest.fail(f"{what} starting {first_line(block)!r} ran past {TIMEOUT_S} s")
     assert done.returncode == 0, (
-        f"README block starting {first_line(block)!r} exited {done.returncode}:\n"
+        f"{what} starting {first_line(block)!r} exited {done.returncode}:\n"
         f"{done.stdout[-2000:]}\n{done.stderr[-4000:]}"
     )
+
+
+@pytest.mark.parametrize("block", BLOCKS, ids=[f"block{i + 1}" for i in range(len(BLOCKS))])
+def test_readme_block_runs_as_pasted(block, tmp_path):
+    run_block(block, tmp_path, "README block")

@@ -20,16 +20,20 @@ from __future__ import annotations
 import math
 import re
 import time
+from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from delta_pin.choices import INTEGRATOR_CHOICES
-from delta_pin.control.base import NoTorque, as_controller
+from delta_pin.control.base import Controller, NoTorque, as_controller
 from delta_pin.errors import InvalidParameterError, SimulationError
 from delta_pin.model.closed_chain import ClosedChainRobot
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.frame_path import FramePath
+from delta_pin.model.friction import Friction
 from delta_pin.model.robot import Delta
+from delta_pin.model.trajectory import Trajectory
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, closed_chain_plant, make_plant
 from delta_pin.sim.compiled_plant import core_unavailable
@@ -40,6 +44,8 @@ from delta_pin.sim.loop import run_python_loop
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
+from delta_pin.sim.serial import JointSinusoid
+from delta_pin.sim.uncertainty import Uncertainty
 
 __all__ = ["INTEGRATOR_CHOICES", "simulate"]
 
@@ -163,17 +169,17 @@ def _check_digital(controller, mode: str, dt: float, drive_effects: bool, delay:
 
 def simulate(
     robot: Delta | ClosedChainRobot,
-    controller,
-    trajectory=None,
+    controller: Controller | Callable | None,
+    trajectory: Trajectory | FramePath | JointSinusoid | None = None,
     *,
     plant: str | Plant = "pinocchio",
     t_end: float,
     dt: float = 1e-3,
     mode: str = "sampled",
-    alpha0=None,
-    alpha_dot0=None,
-    friction=None,
-    uncertainty=None,
+    alpha0: ArrayLike | None = None,
+    alpha_dot0: ArrayLike | None = None,
+    friction: Friction | bool | None = None,
+    uncertainty: Uncertainty | None = None,
     substeps: int = 1,
     integrator: str = "auto",
     rtol: float = 1e-6,
@@ -182,7 +188,7 @@ def simulate(
     compiled: bool | None = None,
     sensor: Encoder | None = None,
     delay: int = 0,
-    torque_limit=None,
+    torque_limit: float | ArrayLike | None = None,
 ) -> Run:
     """Simulate ``controller`` driving ``robot`` along ``trajectory``.
 
@@ -193,15 +199,17 @@ def simulate(
             ``payload_mass`` given to that plant).
         controller: a :class:`~delta_pin.control.Controller` or any ``f(t, alpha, alpha_dot) -> tau``;
             ``None``: no torque (a free motion; a mechanism without motors).
-        trajectory: a task-space :class:`~delta_pin.model.trajectory.Trajectory`, or ``None`` to
+        trajectory: a task-space :class:`~delta_pin.model.trajectory.Trajectory`, a named frame's
+            :class:`~delta_pin.model.frame_path.FramePath`, a joint-space path
+            (:class:`~delta_pin.sim.serial.JointSinusoid`), or ``None`` to
             hold ``alpha0`` (default: a closed chain's ``home``).
         plant: ``"pinocchio"`` (constrained multibody, the default), ``"analytic"`` (reduced ODE) or
             a :class:`~delta_pin.sim.plants.Plant`.
         t_end: duration [s] (> 0).
         dt: sample (and control) period [s] (> 0).
         mode: ``"sampled"`` (zero-order hold) or ``"continuous"`` (see the module docstring).
-        alpha0, alpha_dot0: initial joint angles [rad] and velocities [rad/s]; ``alpha0`` defaults
-            to the trajectory's start, ``alpha_dot0`` to zero.
+        alpha0: initial joint angles [rad or m]; default the trajectory's start.
+        alpha_dot0: initial joint velocities [rad/s or m/s]; default zero.
         friction: :class:`~delta_pin.model.friction.Friction`, ``True`` for its defaults, or ``None``.
         uncertainty: an :class:`~delta_pin.sim.uncertainty.Uncertainty` profile or ``None``.
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
@@ -215,9 +223,10 @@ def simulate(
             --full`` batch). ``"auto"`` takes RK4 in sampled mode and, in continuous mode, Radau
             where it applies (the robust term's boundary-layer gain makes the closed loop stiff)
             and LSODA elsewhere.
-        rtol, atol: LSODA's or Radau's tolerances (relative; absolute in SI units of the state). For designs
-            I/II rtol is tightened where needed to resolve the robust term's boundary layer (a fast
-            path such as the Adept cycle); ``metadata["rtol"]`` is the one used.
+        rtol: LSODA's or Radau's relative tolerance. For designs I/II it is tightened where
+            needed to resolve the robust term's boundary layer (a fast path such as the Adept
+            cycle); ``metadata["rtol"]`` is the one used.
+        atol: LSODA's or Radau's absolute tolerance (SI units of the state).
         progress: show the simulated time on stderr (``None``: only on a terminal).
         compiled: the compiled core's plant (:meth:`~delta_pin.sim.plants.Plant.core_plant`: a
             closed chain's, the Delta's reduced one) with a controller's compiled law (designs
