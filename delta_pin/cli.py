@@ -635,9 +635,11 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     _check_output_dir("--out", args.out)
     result = reproduce(args.out, quick=not args.full, **_executor_options(args), **_folder_options(args))
     holds = sum(c["holds"] == "yes" for c in result.claims)
+    partly = sum(c["holds"] == "partly" for c in result.claims)
     print(
-        f"{holds} of {len(result.claims)} of the paper's claims hold on this plant: "
-        f"see {result.out}/report.md"
+        f"{holds} of {len(result.claims)} of the paper's claims hold on this plant"
+        + (f", {partly} partly" if partly else "")
+        + f": see {result.out}/report.md"
     )
     return 0
 
@@ -1052,9 +1054,17 @@ def _identify_simulate(args: argparse.Namespace) -> int:
     from delta_pin.identification.workflow import perturbed_robot, read_trajectory, simulate_log
     from delta_pin.model.delta_robot import load_delta
 
+    if args.robot_seed is not None and (args.mass_spread == 0.0 or args.true_settings):
+        why = "--true-set gives the true robot" if args.true_settings else "--mass-spread is 0"
+        raise InvalidParameterError(
+            f"--robot-seed {args.robot_seed} seeds the true robot of --mass-spread, and {why}: give "
+            "--mass-spread S (e.g. 0.3) without --true-set, or drop --robot-seed"
+        )
     _check_identify_out_file(args, "simulate")
     robot = _identify_robot(args)
     trajectory = read_trajectory(args.trajectory, robot)
+    # --seed seeds the noise, and the true robot too unless --robot-seed is given (as before)
+    robot_seed = args.seed if args.robot_seed is None else args.robot_seed
     if args.true_settings:
         if args.robot is not None:
             raise InvalidParameterError(
@@ -1065,7 +1075,7 @@ def _identify_simulate(args: argparse.Namespace) -> int:
             **{**_parse_settings(args.settings), **_parse_settings(args.true_settings)},
         )
     elif args.mass_spread > 0.0:
-        true = perturbed_robot(robot, args.mass_spread, args.seed)
+        true = perturbed_robot(robot, args.mass_spread, robot_seed)
     else:
         true = robot
     friction = True if getattr(true, "delta", None) is not None and not args.no_friction else None
@@ -1073,6 +1083,8 @@ def _identify_simulate(args: argparse.Namespace) -> int:
         true, trajectory, nominal=robot, friction=friction, payload_mass=args.payload, dt=1.0 / args.rate,
         encoder_bits=args.encoder_bits, torque_noise=args.torque_noise, seed=args.seed,
     )  # fmt: skip
+    if args.mass_spread > 0.0 and not args.true_settings:
+        log.header["robot_seed"] = robot_seed  # the true robot's seed, beside the noise's "seed"
     write_log(args.out, log)
     error = float(abs(run.alpha - run.alpha_d).max()) if len(run.t) else 0.0
     print(
@@ -1131,11 +1143,9 @@ def _identify_fit(args: argparse.Namespace) -> int:
 
         print(consistent_status(result))
     if validation is not None:
-        print(
-            "validation: torque error RMS "
-            + ", ".join(f"{x:.3g}" for x in validation["rms_relative"])
-            + " relative"
-        )
+        from delta_pin.identification.report import validation_summary
+
+        print(validation_summary(validation))
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
 
@@ -1233,8 +1243,14 @@ def _add_identify_command(add) -> None:
     )
     simulate.add_argument("--no-friction", action="store_true", help="no joint friction in the plant (Delta)")
     simulate.add_argument(
-        "--seed", type=_integer(0), default=0, help="seed of the noise and of --mass-spread"
-    )
+        "--seed", type=_integer(0), default=0,
+        help="seed of the noise and, without --robot-seed, of --mass-spread",
+    )  # fmt: skip
+    simulate.add_argument(
+        "--robot-seed", type=_integer(0), default=None,
+        help="seed of --mass-spread's true robot alone (default: --seed), so that a second log has new "
+        "noise (--seed) on the same true robot",
+    )  # fmt: skip
     simulate.set_defaults(func=_identify_simulate)
 
     fit = action("fit", help="fit base parameters to a log; write parameters.json, report.md, figures")

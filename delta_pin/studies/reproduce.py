@@ -69,6 +69,8 @@ SURFACE_T_END = 3.0  # [s]
 SURFACE_RHO0 = 0.02
 SYMBOLS = {"delta_m": "Δ_m", "delta_f": "Δ_f", "delta_fc": "Δ_fc"}
 SETTLING_BAND = 1e-3  # [rad] path I
+SETTLING_GRACE = 0.1  # a settling claim holds within 10 % of the paper's time (read off its figures)
+PAPER_COST_GAIN = 0.0010  # design II's lower S in the paper: 62197 vs 62262, -0.10 %
 SETTLING_BAND_PATH_II = 5e-3  # [rad] path II: faster (pi rad/s), the designs hold ~3e-3 rad there
 
 
@@ -299,25 +301,21 @@ def _evaluations(run) -> int | None:
 def _claims(runs, metrics, surfaces, grid) -> list[dict]:
     claims = []
 
-    def claim(text: str, paper: str, ours: str, holds: bool | None, why: str = "") -> None:
-        claims.append(
-            {
-                "claim": text,
-                "paper": paper,
-                "ours": ours,
-                "holds": "yes" if holds else ("no" if holds is not None else "n/a"),
-                "why": why,
-            }
+    def claim(text: str, paper: str, ours: str, holds: bool | str | None, why: str = "") -> None:
+        grade = (
+            holds if isinstance(holds, str) else ("yes" if holds else ("no" if holds is not None else "n/a"))
         )
+        claims.append({"claim": text, "paper": paper, "ours": ours, "holds": grade, "why": why})
 
-    for design, paper_time in (("design I", "0.3 s"), ("design II", "0.2 s")):
+    for design, paper_time in (("design I", 0.3), ("design II", 0.2)):
         t1 = _metric(metrics, design, "I", "settling_time")
         claim(
             f"{design}: ||r|| enters a narrow zone around 0 quickly and stays (path I)",
-            f"after {paper_time}",
+            f"after {paper_time:g} s",
             f"||r|| < {SETTLING_BAND:g} rad from t = {t1:.2f} s",
-            t1 < 1.0,
-            "from alpha_0 = 0.3322 rad, ||r(0)|| = 0.144 rad (erratum 4)",
+            t1 <= paper_time * (1.0 + SETTLING_GRACE),
+            "from alpha_0 = 0.3322 rad, ||r(0)|| = 0.144 rad (erratum 4); graded against the paper's time "
+            f"(+{SETTLING_GRACE:.0%}: the paper does not define its zone)",
         )
     t2 = [
         settling_time(runs[(d, "II")], SETTLING_BAND_PATH_II) if (d, "II") in runs else float("inf")
@@ -327,9 +325,9 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
         "designs I and II settle into a very small zone on path II",
         "in less than 0.25 s",
         f"{t2[0]:.2f} s and {t2[1]:.2f} s to {SETTLING_BAND_PATH_II:g} rad",
-        max(t2) < 1.0,
+        max(t2) <= 0.25 * (1.0 + SETTLING_GRACE),
         "path II starts 0.478 rad away from alpha_0; on its faster circle the designs keep ~3e-3 rad "
-        "of error (never below 1e-3 rad)",
+        f"of error (never below 1e-3 rad); graded against the paper's 0.25 s (+{SETTLING_GRACE:.0%})",
     )
     s1, s2 = (
         _metric(metrics, "design I", "I", "control_effort"),
@@ -341,7 +339,9 @@ def _claims(runs, metrics, surfaces, grid) -> list[dict]:
         "design II has the lower control cost S (eq. 68, path I)",
         "S = 62262 (I) vs 62197 (II): -0.10 %",
         f"∫‖τ‖dt = {s1:.4f} vs {s2:.4f} N·m·s ({100 * (s2 - s1) / s1:+.4f} %); Σ‖τ_k‖ = {n1:.1f} vs {n2:.1f}",
-        s2 < s1,
+        # the direction alone is "partly": a difference ten times smaller than the paper's 0.10 %
+        # is not the paper's finding (issue 39: it was "yes" at 0.0013 %)
+        ("yes" if abs(s2 - s1) / s1 >= PAPER_COST_GAIN / 10 else "partly") if s2 < s1 else False,
         "the difference is ~1000x smaller than the paper's: C4 only acts in the boundary layer; "
         "the paper's S matches the size of the sample sum, not of the integral (erratum 5)",
     )
@@ -618,6 +618,8 @@ def _write_report(
 ) -> None:
     figures = sorted(p.name for p in (result.out / "figures").glob("*.png"))
     holds = sum(c["holds"] == "yes" for c in result.claims)
+    partly = sum(c["holds"] == "partly" for c in result.claims)
+    grade = f"{holds} of {len(result.claims)} hold" + (f", {partly} partly" if partly else "")
     lines = [
         "# Reproduction of Section V",
         "",
@@ -629,7 +631,7 @@ def _write_report(
         f"ρ̂₀ = {SURFACE_RHO0}). "
         f"Total wall time {result.wall_time:.0f} s.",
         "",
-        f"## The paper's claims on this plant ({holds} of {len(result.claims)} hold)",
+        f"## The paper's claims on this plant ({grade})",
         "",
         "| claim | paper | delta-pin | holds | note |",
         "|---|---|---|---|---|",
@@ -650,7 +652,7 @@ def _write_report(
     write_text_atomically(result.out / "report.md", "\n".join(lines) + "\n")
     body = [
         f"<h1>delta-pin: reproduction of Section V</h1><p>{html.escape(lines[2])}</p>",
-        f"<h2>The paper's claims ({holds} of {len(result.claims)} hold)</h2>",
+        f"<h2>The paper's claims ({grade})</h2>",
         "<table border=1 cellpadding=4><tr><th>claim</th><th>paper</th><th>delta-pin</th><th>holds</th>"
         "<th>note</th></tr>",
     ]
