@@ -5,7 +5,9 @@
   residual, condition number and timings, the friction per joint (``friction``: the bounded fit,
   physical by construction; ``friction_unconstrained``: WLS beside it), for a Delta the paper's lumped
   terms and the ``xacro_arguments`` of the identified robot, the physically consistent standard
-  parameters per body, a validation on an unseen log where one was given, the log's torque
+  parameters per body, the base parameters the essential fit set to 0 (``dropped``: name, t value),
+  a validation on an unseen log where one was given (every row and away from velocity reversals,
+  per joint), the log's torque
   against the CAD model's (``torque_scale``) and the fit's ``warnings`` (also atop report.md);
 * ``xacro_arguments.json`` (a Delta) -- ``load_delta(**json.load(...))`` or
   ``delta-pin urdf --set m_a=... ...`` builds the identified robot;
@@ -45,7 +47,15 @@ from delta_pin.identification.workflow import IdentificationResult
 from delta_pin.utils.atomic import atomic_open, write_text_atomically
 from delta_pin.utils.manifest import OutputFolder, claim
 
-__all__ = ["COMMAND", "OUTPUTS", "consistent_status", "identified_urdf", "parameters_record", "write_report"]
+__all__ = [
+    "COMMAND",
+    "OUTPUTS",
+    "consistent_status",
+    "identified_urdf",
+    "parameters_record",
+    "validation_summary",
+    "write_report",
+]
 
 COMMAND = "identify fit"  # the command a fit's manifest.json names
 # every name a fit may write into its folder (module docstring): only these must be its own
@@ -104,6 +114,9 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
             "absent": [base.names[k] for k in base.absent],
         },
         "base_parameters": rows,
+        # the essential fit's zeros (docs/identification.md section 4): each base parameter set to 0,
+        # in the order they went, with its |beta| / sigma when it went
+        "dropped": [{"name": name, "t": _float(t)} for name, t in result.dropped],
         "fit": {
             "samples": result.samples,
             "cutoff_hz": result.cutoff,
@@ -144,8 +157,36 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
         record["lumped_span_residual"] = result.lumped["span_residual"]
         record["xacro_arguments"] = result.xacro_arguments
     if validation is not None:
-        record["validation"] = validation
+        record["validation"] = _plain(validation)
     return record
+
+
+def _plain(value):
+    """``value`` with every non-finite float as ``None`` (strict JSON)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, float):
+        return _float(value)
+    return value
+
+
+def validation_summary(validation: dict) -> str:
+    """One line: the unseen-torque error RMS per joint over every row and away from velocity
+    reversals (:func:`~delta_pin.identification.workflow.validate`), relative to the torque's RMS."""
+
+    def joints(values):
+        return ", ".join("n/a" if x is None or not np.isfinite(x) else f"{x:.3g}" for x in values)
+
+    mask = validation["reversal_mask"]
+    near = ", ".join(f"{100 * x:.0f} %" for x in mask["fraction_near"])
+    return (
+        f"validation: torque error RMS {joints(validation['rms_relative'])} relative (every row); "
+        f"{joints(validation['away_from_reversals']['rms_relative'])} away from velocity reversals "
+        f"(rows with |qd_j| >= {mask['speed']:g} rad/s for {mask['window_s']:g} s either side, the "
+        f"fit's reversal mask; near: {near} of the rows)"
+    )
 
 
 def consistent_status(result: IdentificationResult) -> str:
@@ -327,6 +368,14 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
             f"| {fmt(row['ols'])} "
             f"| {fmt(row['consistent'])} | {fmt(row['nominal'])} |"
         )
+    if record["dropped"]:
+        lines += [
+            "",
+            f"Essential fit: {len(record['dropped'])} of {r['base_parameters']} base parameters set to 0 "
+            "(|beta| / sigma < 3, in the order they went; parameters.json `dropped`): "
+            + ", ".join(f"{d['name']} (t {fmt(d['t'])})" for d in record["dropped"])
+            + ".",
+        ]
     if record["friction"]:
         joints = record["joints"]
         lines += [
@@ -361,12 +410,23 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
     if validation is not None:
         lines += [
             "",
-            "Validation on an unseen log: torque error RMS "
-            + ", ".join(f"{x:.3g}" for x in validation["rms_relative"])
-            + " (max "
-            + ", ".join(f"{x:.3g}" for x in validation["max_relative"])
-            + ") of the torque's RMS per joint.",
+            "Validation on an unseen log, torque error relative to the torque's RMS per joint ("
+            + validation_summary(validation).removeprefix("validation: ")
+            + "):",
+            "",
+            "| | " + " | ".join(record["joints"]) + " |",
+            "|---|" + "---|" * len(record["joints"]),
         ]
+        away = validation["away_from_reversals"]
+        for label, values in (
+            ("RMS, every row", validation["rms_relative"]),
+            ("max, every row", validation["max_relative"]),
+            ("RMS, away from reversals", away["rms_relative"]),
+            ("max, away from reversals", away["max_relative"]),
+        ):
+            lines.append(
+                f"| {label} | " + " | ".join(fmt(_float(x) if x is not None else None) for x in values) + " |"
+            )
     if figures:
         lines += [
             "",

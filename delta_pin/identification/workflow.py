@@ -62,6 +62,7 @@ __all__ = [
     "minimum_samples",
     "perturbed_robot",
     "read_trajectory",
+    "reversal_speed",
     "simulate_log",
     "torque_scale",
     "validate",
@@ -244,6 +245,11 @@ class IdentificationResult:
     ) -> tuple[np.ndarray, np.ndarray]:
         """(predicted, measured) torques (N, dof) along a log, from filtered states
         (:func:`~delta_pin.identification.estimation.filtered_states` with ``options``)."""
+        predicted, measured, _ = self._predict_states(log, estimate, **options)
+        return predicted, measured
+
+    def _predict_states(self, log: IdentificationLog, estimate: str = "wls", **options):
+        """:meth:`predict` and the filtered states' alpha_dot (N, dof) it was made along."""
         states = filtered_states(log, cutoff=self.cutoff, **options)
         Y, tau = parallel_filter(log_regressor(self.regressor, states, _stride(log)), states.tau,
                                  log.sample_rate, self.cutoff)  # fmt: skip
@@ -252,7 +258,7 @@ class IdentificationResult:
             if estimate == "consistent" and self.consistent is not None
             else self.wls.beta
         )
-        return self.base.reduce(Y) @ beta, tau
+        return self.base.reduce(Y) @ beta, tau, states.alpha_dot
 
 
 # The log's torque may be this many times the CAD model's (or 1 / this many times) before the fit
@@ -447,7 +453,7 @@ def identify(
     # their noise is (nearly) independent and the covariance formula holds (estimation docstring)
     step = decimation(data.sample_rate, cutoff)
     if regressor.columns.coulomb or regressor.columns.stribeck_velocity is not None:
-        speed = 10.0 * regressor.columns.sign_velocity_scale  # tanh = 1 - 4e-9 beyond
+        speed = reversal_speed(regressor)
         mask = reversal_mask(states.alpha_dot, data.sample_rate, cutoff, speed)[::step]
     else:  # no smooth sign: nothing to drop
         mask = np.ones(states.alpha_dot.shape, bool)[::step]
@@ -636,15 +642,51 @@ def _refine_stribeck(regressor, states, log, massless, cutoff):
     return ClosedChainRegressor(regressor.robot, columns, massless=massless)
 
 
+def reversal_speed(regressor: ClosedChainRegressor) -> float:
+    """The speed [rad/s or m/s] below which a joint's rows near a velocity reversal are dropped by
+    the fit and split off by :func:`validate`: 10 x the smooth sign's velocity scale (tanh = 1 - 4e-9
+    beyond; 0.1 rad/s by default), within 1 / cutoff of the sample
+    (:func:`~delta_pin.identification.estimation.reversal_mask`)."""
+    return 10.0 * regressor.columns.sign_velocity_scale
+
+
+def _torque_error(error: np.ndarray, measured: np.ndarray, rows: np.ndarray) -> dict:
+    """RMS and max of ``error`` per joint over ``rows`` (N, dof) bool, absolute and relative to the
+    measured torque's RMS over the same rows (NaN for a joint with no row)."""
+    count = rows.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt(np.where(rows, error**2, 0.0).sum(axis=0) / count)
+        rms_tau = np.sqrt(np.where(rows, measured**2, 0.0).sum(axis=0) / count)
+        peak = np.where(count > 0, np.where(rows, np.abs(error), 0.0).max(axis=0), np.nan)
+        total = float(np.sqrt(np.where(rows, error**2, 0.0).sum() / np.where(rows, measured**2, 0.0).sum()))
+    return {
+        "rms": rms.tolist(),
+        "max": peak.tolist(),
+        "rms_relative": (rms / rms_tau).tolist(),
+        "max_relative": (peak / rms_tau).tolist(),
+        "rms_relative_all": total,
+        "rows": count.astype(int).tolist(),
+    }
+
+
 def validate(
     result: IdentificationResult, log: IdentificationLog | str | Path, estimate: str = "wls"
 ) -> dict:
     """Torque prediction on a log the fit never saw: per joint the RMS and max of the error, and
-    both relative to the measured torque's RMS.
+    both relative to the measured torque's RMS, over every row and away from velocity reversals.
+
+    Scored over every row, a good fit and a broken one hardly differ: a joint's rows near a velocity
+    reversal (|alpha_dot_j| < :func:`reversal_speed`, 0.1 rad/s, within 1 / cutoff: the fit's own
+    :func:`~delta_pin.identification.estimation.reversal_mask`) hold the smooth Coulomb sign's
+    millisecond dynamics that no filtered velocity resolves, and their error swamps the rest.
+    ``away_from_reversals`` scores the other rows only (each joint relative to its torque's RMS over
+    those rows), whatever the fit's friction columns.
 
     Returns:
         {"rms": (dof,), "max": (dof,), "rms_relative": (dof,), "max_relative": (dof,),
-        "rms_relative_all": the error's RMS over all joints / the torque's}.
+        "rms_relative_all": the error's RMS over all joints / the torque's, "rows": (dof,),
+        "away_from_reversals": the same keys over the rows away from reversals,
+        "reversal_mask": {"speed", "window_s", "fraction_near": (dof,) the share of rows dropped}}.
     """
     robot = result.regressor.robot
     if not isinstance(log, IdentificationLog):
@@ -653,18 +695,18 @@ def validate(
     check_log_robot(log, robot)
     check_torques(log)
     check_fit_memory(result.regressor, len(log), log.where)
-    predicted, measured = result.predict(log, estimate)
+    predicted, measured, alpha_dot = result._predict_states(log, estimate)
     error = predicted - measured
-    rms_tau = np.sqrt((measured**2).mean(axis=0))
-    rms = np.sqrt((error**2).mean(axis=0))
-    peak = np.abs(error).max(axis=0)
-    return {
-        "rms": rms.tolist(),
-        "max": peak.tolist(),
-        "rms_relative": (rms / rms_tau).tolist(),
-        "max_relative": (peak / rms_tau).tolist(),
-        "rms_relative_all": float(np.sqrt((error**2).mean()) / np.sqrt((measured**2).mean())),
+    speed = reversal_speed(result.regressor)
+    away = reversal_mask(alpha_dot, log.sample_rate, result.cutoff, speed)
+    out = _torque_error(error, measured, np.ones(away.shape, bool))
+    out["away_from_reversals"] = _torque_error(error, measured, away)
+    out["reversal_mask"] = {
+        "speed": speed,
+        "window_s": 1.0 / result.cutoff,
+        "fraction_near": (1.0 - away.mean(axis=0)).tolist(),
     }
+    return out
 
 
 def identified_robot(result: IdentificationResult, estimate: str = "consistent"):
