@@ -12,3 +12,7 @@ nominal model the controllers use.
 * :mod:`~delta_pin.identification.workflow` -- ``dp.identify``, simulated logs, validation;
 * :mod:`~delta_pin.identification.report` -- parameters.json, report.md and figures.
 """
+
+from delta_pin.identification.workflow import IdentificationResult, identified_robot, identify, validate
+
+__all__ = ["IdentificationResult", "identified_robot", "identify", "validate"]
