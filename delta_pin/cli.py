@@ -1156,6 +1156,9 @@ VALIDATE_MAX_SAMPLES = 100_000  # validate's random states (closed_chain_validat
 # coefficients per joint to the excitation optimiser (published excitations use 5-15 harmonics),
 # and the trajectory CSV takes ~200 bytes a sample (1e7 samples: ~2 GB, 2.8 h at 1 kHz).
 MAX_HARMONICS = 100
+# L-BFGS-B iterations of the excitation's condition number, each a few regressor evaluations along
+# the whole trajectory (the default is 30)
+MAX_EXCITATION_ITERATIONS = 1000
 MAX_TRAJECTORY_SAMPLES = 1e7
 
 
@@ -1185,7 +1188,10 @@ def _add_identify_command(add) -> None:
         "--harmonics", type=_integer(1, MAX_HARMONICS), default=8,
         help=f"harmonics per joint (at most {MAX_HARMONICS})",
     )  # fmt: skip
-    excite.add_argument("--iterations", type=_integer(0), default=30, help="optimiser iterations")
+    excite.add_argument(
+        "--iterations", type=_integer(0, MAX_EXCITATION_ITERATIONS), default=30,
+        help=f"optimiser iterations (at most {MAX_EXCITATION_ITERATIONS})",
+    )  # fmt: skip
     excite.add_argument(
         "--rate", type=_number(0, above=True), default=1000.0, help="sample rate of the file [Hz]"
     )

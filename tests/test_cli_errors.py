@@ -169,6 +169,11 @@ CASES = [
     ),
     (["identify", "excite", "--out", "{out}/x.csv", "--seed", "-1"], 2, "--seed: -1 must be an integer >= 0"),
     (
+        ["identify", "excite", "--out", "{out}/x.csv", "--iterations", "1000000000"],
+        2,
+        "--iterations: 1000000000 must be an integer >= 0 and <= 1000",
+    ),
+    (
         ["identify", "excite", "--out", "{out}/x.csv", "--harmonics", "100000"],
         2,
         "--harmonics: 100000 must be an integer >= 1 and <= 100",
