@@ -23,8 +23,12 @@ start=$(date +%s)
 
 "$python" -c "import nanobind" 2>/dev/null || "$python" -m pip install -q nanobind
 version="$("$python" -c "import tomllib; print(tomllib.load(open('$root/pyproject.toml', 'rb'))['project']['version'])")"
-flags="-fsanitize=address -fno-omit-frame-pointer -g"
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+# EIGEN_MALLOC_ALREADY_ALIGNED=1: Eigen turns its glibc "malloc is aligned" shortcut off under
+# __SANITIZE_ADDRESS__ and then frees by its hand-made aligned allocator, while the pin wheel's
+# libpinocchio_default (built without ASan) allocates with plain malloc: every Data freed here
+# would read 8 bytes before its arrays (a false heap-buffer-overflow at the first ClosedChainModel)
+flags="-fsanitize=address -fno-omit-frame-pointer -g -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSKBUILD_PROJECT_NAME=delta_pin -DSKBUILD_PROJECT_VERSION="$version" \
   -DPython_EXECUTABLE="$python" -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address" -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address" >/dev/null
