@@ -10,24 +10,16 @@ import pytest
 import delta_pin as dp
 import delta_pin.identification.consistent as consistent_module
 from delta_pin.cli import main
-from delta_pin.identification.base import base_parameters
-from delta_pin.identification.excitation import ExcitationLimits, optimize_excitation
-from delta_pin.identification.regressor import ClosedChainRegressor
 from delta_pin.identification.report import write_report
 from delta_pin.identification.workflow import identify, simulate_log
+from tests.identification.delta_excitation import delta_excitation
 
 
 @pytest.fixture(scope="module")
 def delta_log():
     """A 3 s noisy log (17-bit encoders, 1 % torque noise) of a Delta whose masses are off the CAD
     file's by +30 %, -30 %, +30 %."""
-    nominal = dp.load_delta()
-    true = dp.load_delta(m_a=0.26, m_b=0.14, m_o=0.39)
-    regressor = ClosedChainRegressor(nominal)
-    base = base_parameters(regressor, count=80)
-    trajectory, _ = optimize_excitation(regressor, base, regressor.parameters(), alpha0=nominal.home + 0.3,
-                                        limits=ExcitationLimits(position_range=0.6), max_iterations=0,
-                                        period=3.0, duration=3.0, harmonics=6)  # fmt: skip
+    nominal, true, _, _, trajectory = delta_excitation()
     log, _ = simulate_log(true, trajectory, nominal=nominal, seed=11)
     return nominal, log
 

@@ -9,25 +9,17 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.cli import main
-from delta_pin.identification.base import base_parameters
-from delta_pin.identification.excitation import ExcitationLimits, optimize_excitation
 from delta_pin.identification.log import write_log
-from delta_pin.identification.regressor import ClosedChainRegressor
 from delta_pin.identification.report import write_report
 from delta_pin.identification.workflow import identify, simulate_log
 from delta_pin.model.description import StribeckParameters
+from tests.identification.delta_excitation import delta_excitation
 
 
 @pytest.fixture(scope="module")
 def delta_case():
     """The CAD Delta, a true one with its masses off by +30 %, -30 %, +30 %, a 3 s excitation."""
-    nominal = dp.load_delta()
-    true = dp.load_delta(m_a=0.26, m_b=0.14, m_o=0.39)
-    regressor = ClosedChainRegressor(nominal)
-    base = base_parameters(regressor, count=80)
-    trajectory, _ = optimize_excitation(regressor, base, regressor.parameters(), alpha0=nominal.home + 0.3,
-                                        limits=ExcitationLimits(position_range=0.6), max_iterations=0,
-                                        period=3.0, duration=3.0, harmonics=6)  # fmt: skip
+    nominal, true, _, _, trajectory = delta_excitation()
     return nominal, true, trajectory
 
 

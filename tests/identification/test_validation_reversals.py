@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import delta_pin as dp
-from delta_pin.identification.base import base_parameters
 from delta_pin.identification.excitation import ExcitationLimits, optimize_excitation
 from delta_pin.identification.regressor import ClosedChainRegressor
 from delta_pin.identification.report import parameters_record, write_report
 from delta_pin.identification.workflow import friction_truth, identify, simulate_log, validate
+from tests.identification.delta_excitation import delta_excitation
 
 
 @pytest.fixture(scope="module")
@@ -23,13 +23,7 @@ def case():
     """A fit on one 3 s excitation of the +30/-30/+30 % Delta, an unseen 2 s one (another seed's
     start, another noise seed), 17-bit encoders and 1 % torque noise, the plant's sign smoothed at
     0.03 rad/s."""
-    nominal = dp.load_delta()
-    true = dp.load_delta(m_a=0.26, m_b=0.14, m_o=0.39)
-    regressor = ClosedChainRegressor(nominal)
-    base = base_parameters(regressor, count=80)
-    trajectory, _ = optimize_excitation(regressor, base, regressor.parameters(), alpha0=nominal.home + 0.3,
-                                        limits=ExcitationLimits(position_range=0.6), max_iterations=0,
-                                        period=3.0, duration=3.0, harmonics=6)  # fmt: skip
+    nominal, true, regressor, base, trajectory = delta_excitation()
     other, _ = optimize_excitation(regressor, base, regressor.parameters(), alpha0=nominal.home + 0.2,
                                    limits=ExcitationLimits(position_range=0.4), max_iterations=0, period=2.0,
                                    duration=2.0, harmonics=5, seed=5)  # fmt: skip
