@@ -6,6 +6,7 @@
 #include "checks.hpp"
 #include "controller.hpp"
 #include "failure.hpp"
+#include "multibody.hpp"
 
 #include <pinocchio/algorithm/joint-configuration.hpp>
 
@@ -51,6 +52,12 @@ namespace delta_pin
         "joint " + model.names[j] + " (" + name + ") has no configuration rate in the compiled plant");
     }
 
+    // a homogeneous transform as Pinocchio's placement
+    SE3 placement(const Eigen::Matrix4d & homogeneous)
+    {
+      return SE3(Eigen::Matrix3d(homogeneous.topLeftCorner<3, 3>()), Eigen::Vector3d(homogeneous.topRightCorner<3, 1>()));
+    }
+
     // d/dt of a unit quaternion (x, y, z, w) turning at omega in its own frame: 0.5 quat * (omega, 0)
     void quaternion_rate(
       const Eigen::Ref<const Vector> & quaternion, const Eigen::Vector3d & omega, Eigen::Ref<Vector> out)
@@ -72,46 +79,63 @@ namespace delta_pin
     int proximal_iterations,
     double projection_tolerance)
   : chain_(chain)
-  , model_(chain_.model())
-  , settings_(proximal_accuracy, proximal_mu, proximal_iterations)
+  , dyn_(std::make_unique<Dynamics>(
+      chain_.multibody().model, ProximalSettings(proximal_accuracy, proximal_mu, proximal_iterations)))
   , projection_tolerance_(projection_tolerance)
   , baumgarte_kp_(baumgarte_kp)
   , baumgarte_kd_(baumgarte_kd)
   {
     actuated_q_ = chain.actuated_q;
     actuated_v_ = chain.actuated_v;
-    coefficient_rates_ = model_.nq != model_.nv;
-    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
-      rate_kinds_.push_back(coefficient_rates_ ? rate_kind(model_, j) : AXIS);
+    coefficient_rates_ = dyn_->model.nq != dyn_->model.nv;
+    for (JointIndex j = 1; j < (JointIndex)dyn_->model.njoints; ++j)
+      rate_kinds_.push_back(coefficient_rates_ ? rate_kind(dyn_->model, j) : AXIS);
     const RigidConstraintModel::BaumgarteCorrectorParameters gains(baumgarte_kp, baumgarte_kd);
-    const std::string joints = "the model's " + std::to_string(model_.njoints) + " joints";
+    const std::string joints = "the model's " + std::to_string(dyn_->model.njoints) + " joints";
     for (size_t k = 0; k < constraints.size(); ++k)
     {
       const ConstraintSpec & spec = constraints[k];
       const std::string name = "constraints[" + std::to_string(k) + "]";
       check_closure_rows(spec.size, name);
-      check_index((long long)spec.joint1, model_.njoints, name + "'s joint 1", joints);
-      check_index((long long)spec.joint2, model_.njoints, name + "'s joint 2", joints);
+      check_index((long long)spec.joint1, dyn_->model.njoints, name + "'s joint 1", joints);
+      check_index((long long)spec.joint2, dyn_->model.njoints, name + "'s joint 2", joints);
       if (spec.reference_frame != LOCAL && spec.reference_frame != LOCAL_WORLD_ALIGNED)
         throw std::invalid_argument(
           name + "'s reference frame is " + std::to_string(spec.reference_frame) + ", expected "
           + std::to_string((int)LOCAL) + " (LOCAL) or " + std::to_string((int)LOCAL_WORLD_ALIGNED)
           + " (LOCAL_WORLD_ALIGNED)");
       RigidConstraintModel constraint(
-        spec.size == 6 ? CONTACT_6D : CONTACT_3D, model_, spec.joint1, spec.placement1, spec.joint2,
-        spec.placement2, (ReferenceFrame)spec.reference_frame);
+        spec.size == 6 ? CONTACT_6D : CONTACT_3D, dyn_->model, spec.joint1, placement(spec.placement1), spec.joint2,
+        placement(spec.placement2), (ReferenceFrame)spec.reference_frame);
       constraint.setBaumgarteCorrectorParameters(gains);
-      constraint_models_.push_back(constraint);
-      constraint_datas_.push_back(RigidConstraintData(constraint));
+      dyn_->constraint_models.push_back(constraint);
+      dyn_->constraint_datas.push_back(RigidConstraintData(constraint));
     }
-    data_ = Data(model_);
-    initConstraintDynamics(model_, data_, constraint_models_, constraint_datas_);
-    tau_ = Vector::Zero(model_.nv);
-    ddq_ = Vector::Zero(model_.nv);
-    last_q_ = neutral(model_);
+    dyn_->data = Data(dyn_->model);
+    initConstraintDynamics(dyn_->model, dyn_->data, dyn_->constraint_models, dyn_->constraint_datas);
+    tau_ = Vector::Zero(dyn_->model.nv);
+    ddq_ = Vector::Zero(dyn_->model.nv);
+    last_q_ = neutral(dyn_->model);
     friction_.normal_force = Vector::Zero(dof());
     if (proximal_mu == 0.0)
       use_axis_tree(true);
+  }
+
+  ClosedChainPlant::~ClosedChainPlant() = default;
+
+  int ClosedChainPlant::nq() const
+  {
+    return dyn_->model.nq;
+  }
+
+  int ClosedChainPlant::nv() const
+  {
+    return dyn_->model.nv;
+  }
+
+  std::string ClosedChainPlant::stage() const
+  {
+    return dyn_->axis ? "axis_tree" : "constraint_dynamics";
   }
 
   namespace
@@ -140,21 +164,21 @@ namespace delta_pin
 
   void ClosedChainPlant::use_axis_tree(bool use)
   {
-    axis_.reset();
-    if (!use || coefficient_rates_ || settings_.mu != 0.0)
+    dyn_->axis.reset();
+    if (!use || coefficient_rates_ || dyn_->settings.mu != 0.0)
       return;
-    const int joints = model_.njoints - 1;
+    const int joints = dyn_->model.njoints - 1;
     std::vector<int> parents, types, closure_joints;
     std::vector<double> placements(12 * (size_t)joints), inertias(13 * (size_t)joints), anchors;
-    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
+    for (JointIndex j = 1; j < (JointIndex)dyn_->model.njoints; ++j)
     {
-      const int code = axis_code(model_.joints[j]);
+      const int code = axis_code(dyn_->model.joints[j]);
       if (code < 0)
         return;  // a joint the axis stage does not hold
       types.push_back(code);
-      parents.push_back((int)model_.parents[j]);
-      rotation_and_translation(model_.jointPlacements[j], &placements[12 * (j - 1)]);
-      const Inertia & inertia = model_.inertias[j];
+      parents.push_back((int)dyn_->model.parents[j]);
+      rotation_and_translation(dyn_->model.jointPlacements[j], &placements[12 * (j - 1)]);
+      const Inertia & inertia = dyn_->model.inertias[j];
       double * row = &inertias[13 * (j - 1)];
       row[0] = inertia.mass();
       Eigen::Map<Eigen::Vector3d> com(row + 1);
@@ -162,7 +186,7 @@ namespace delta_pin
       com = inertia.lever();
       rotational = inertia.inertia().matrix();
     }
-    for (const RigidConstraintModel & constraint : constraint_models_)
+    for (const RigidConstraintModel & constraint : dyn_->constraint_models)
     {
       if (constraint.type != CONTACT_3D || constraint.reference_frame != LOCAL)
         return;
@@ -172,10 +196,10 @@ namespace delta_pin
       rotation_and_translation(constraint.joint1_placement, &anchors[anchors.size() - 24]);
       rotation_and_translation(constraint.joint2_placement, &anchors[anchors.size() - 12]);
     }
-    const double gravity[3] = {model_.gravity.linear()[0], model_.gravity.linear()[1], model_.gravity.linear()[2]};
-    axis_.reset(new dpn::AxisTree(
+    const double gravity[3] = {dyn_->model.gravity.linear()[0], dyn_->model.gravity.linear()[1], dyn_->model.gravity.linear()[2]};
+    dyn_->axis.reset(new dpn::AxisTree(
       joints, parents.data(), types.data(), placements.data(), inertias.data(), gravity,
-      (int)constraint_models_.size(), closure_joints.data(), anchors.data(), baumgarte_kp_, baumgarte_kd_, 0));
+      (int)dyn_->constraint_models.size(), closure_joints.data(), anchors.data(), baumgarte_kp_, baumgarte_kd_, 0));
   }
 
   void ClosedChainPlant::set_springs(
@@ -191,11 +215,11 @@ namespace delta_pin
         "v_index has " + std::to_string(v_index.size()) + " entries, expected one per entry of q_index ("
         + std::to_string(springs) + ")");
     check_size(damper_d, damper_v.size(), "damper_d");  // one per entry of damper_v
-    const std::string q_entries = "the model's " + std::to_string(model_.nq) + " entries of q";
-    const std::string v_entries = "the model's " + std::to_string(model_.nv) + " entries of v";
-    check_indices(q_index, model_.nq, "q_index", q_entries);
-    check_indices(v_index, model_.nv, "v_index", v_entries);
-    check_indices(damper_v, model_.nv, "damper_v", v_entries);
+    const std::string q_entries = "the model's " + std::to_string(dyn_->model.nq) + " entries of q";
+    const std::string v_entries = "the model's " + std::to_string(dyn_->model.nv) + " entries of v";
+    check_indices(q_index, dyn_->model.nq, "q_index", q_entries);
+    check_indices(v_index, dyn_->model.nv, "v_index", v_entries);
+    check_indices(damper_v, dyn_->model.nv, "damper_v", v_entries);
     spring_q_ = q_index;
     spring_v_ = v_index;
     spring_k_ = k;
@@ -218,17 +242,17 @@ namespace delta_pin
     JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
     const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances)
   {
-    if (joint == 0 || joint >= (JointIndex)model_.njoints)
+    if (joint == 0 || joint >= (JointIndex)dyn_->model.njoints)
       throw std::invalid_argument(
         "joint is " + std::to_string(joint) + ", expected the truth's body among the model's joints 1 to "
-        + std::to_string(model_.njoints - 1));
+        + std::to_string(dyn_->model.njoints - 1));
     if (payload_joint_ != 0)
-      model_.inertias[payload_joint_] = base_inertia_;  // the body of the last call restored
+      dyn_->model.inertias[payload_joint_] = dyn_->base_inertia;  // the body of the last call restored
     payload_joint_ = joint;
     payload_point_ = point;
-    base_inertia_ = model_.inertias[joint];
+    dyn_->base_inertia = dyn_->model.inertias[joint];
     mass_ = 0.0;
-    body_mass_ = base_inertia_.mass();
+    body_mass_ = dyn_->base_inertia.mass();
     set_truth_table(TruthTable{step, body_masses, point_masses, normal_forces, disturbances});
   }
 
@@ -249,27 +273,27 @@ namespace delta_pin
 
   void ClosedChainPlant::set_body(double u)
   {
-    const double body = TruthTable::value(truth_.body_masses, u, base_inertia_.mass());
+    const double body = TruthTable::value(truth_.body_masses, u, dyn_->base_inertia.mass());
     const double mass = TruthTable::value(truth_.point_masses, u, 0.0);
     if (mass == mass_ && body == body_mass_)
       return;
     // PinocchioPlant._set_mass: the body's COM kept, its rotational inertia scaled with its mass
-    const Eigen::Matrix3d rotational = base_inertia_.inertia().matrix() * (body / base_inertia_.mass());
-    const Inertia scaled(body, base_inertia_.lever(), Symmetric3(rotational));
-    model_.inertias[payload_joint_] = scaled + Inertia(mass, payload_point_, Symmetric3::Zero());
+    const Eigen::Matrix3d rotational = dyn_->base_inertia.inertia().matrix() * (body / dyn_->base_inertia.mass());
+    const Inertia scaled(body, dyn_->base_inertia.lever(), Symmetric3(rotational));
+    dyn_->model.inertias[payload_joint_] = scaled + Inertia(mass, payload_point_, Symmetric3::Zero());
     mass_ = mass;
     body_mass_ = body;
-    if (axis_)
+    if (dyn_->axis)
     {
-      const Inertia & inertia = model_.inertias[payload_joint_];
-      axis_->set_body((int)payload_joint_, inertia.mass(), inertia.lever(), inertia.inertia().matrix());
+      const Inertia & inertia = dyn_->model.inertias[payload_joint_];
+      dyn_->axis->set_body((int)payload_joint_, inertia.mass(), inertia.lever(), inertia.inertia().matrix());
     }
   }
 
   const Vector & ClosedChainPlant::accelerations(const Vector & q, const Vector & v, const Vector & tau, double u)
   {
-    check_size(q, model_.nq, "q");
-    check_size(v, model_.nv, "v");
+    check_size(q, dyn_->model.nq, "q");
+    check_size(v, dyn_->model.nv, "v");
     check_size(tau, actuated_v_.size(), "tau");
     if (payload_joint_ != 0)
       set_body(u);
@@ -299,7 +323,7 @@ namespace delta_pin
     chain_.coupling_terms(q, v, coupling_r_, coupling_J_, coupling_drift_);
     free_ = ddq_;
     const Eigen::Index k = coupling_r_.size();
-    responses_.resize(model_.nv, k);
+    responses_.resize(dyn_->model.nv, k);
     for (Eigen::Index c = 0; c < k; ++c)
     {
       constrained(q, v, tau_ + coupling_J_.row(c).transpose());
@@ -317,20 +341,20 @@ namespace delta_pin
 
   void ClosedChainPlant::constrained(const Vector & q, const Vector & v, const Vector & joint_torques)
   {
-    if (axis_)
+    if (dyn_->axis)
     {
-      if (axis_->dynamics(q.data(), v.data(), joint_torques.data(), 0.0, nullptr, ddq_.data()))
+      if (dyn_->axis->dynamics(q.data(), v.data(), joint_torques.data(), 0.0, nullptr, ddq_.data()))
         return;
-      axis_.reset();  // M or the Delassus matrix not positive definite: Pinocchio's from now on
+      dyn_->axis.reset();  // M or the Delassus matrix not positive definite: Pinocchio's from now on
     }
-    ddq_ = constraintDynamics(model_, data_, q, v, joint_torques, constraint_models_, constraint_datas_, settings_);
+    ddq_ = constraintDynamics(dyn_->model, dyn_->data, q, v, joint_torques, dyn_->constraint_models, dyn_->constraint_datas, dyn_->settings);
   }
 
   void ClosedChainPlant::configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const
   {
-    for (JointIndex j = 1; j < (JointIndex)model_.njoints; ++j)
+    for (JointIndex j = 1; j < (JointIndex)dyn_->model.njoints; ++j)
     {
-      const int iq = model_.idx_qs[j], iv = model_.idx_vs[j], nq = model_.nqs[j];
+      const int iq = dyn_->model.idx_qs[j], iv = dyn_->model.idx_vs[j], nq = dyn_->model.nqs[j];
       switch (rate_kinds_[j - 1])
       {
       case AXIS:
@@ -364,7 +388,7 @@ namespace delta_pin
 
   void ClosedChainPlant::derivative(const Vector & x, const Vector & tau, double u, Vector & dx)
   {
-    const int nq = model_.nq, nv = model_.nv;
+    const int nq = dyn_->model.nq, nv = dyn_->model.nv;
     dx.resize(nq + nv);
     const Vector q = x.head(nq), v = x.tail(nv);
     if (coefficient_rates_)
@@ -376,7 +400,7 @@ namespace delta_pin
 
   double ClosedChainPlant::step(Vector & x, const Vector & tau, long stage, double h)
   {
-    check_size(x, model_.nq + model_.nv, "x");
+    check_size(x, dyn_->model.nq + dyn_->model.nv, "x");
     rk4_step(
       x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
       k3_, k4_, y_);
@@ -385,11 +409,11 @@ namespace delta_pin
 
   double ClosedChainPlant::settle(Vector & x)
   {
-    const int nq = model_.nq, nv = model_.nv;
+    const int nq = dyn_->model.nq, nv = dyn_->model.nv;
     if (coefficient_rates_)
     {
       Vector q = x.head(nq);
-      normalize(model_, q);
+      normalize(dyn_->model, q);
       x.head(nq) = q;
     }
     const double gap = chain_.closure_gap(x.head(nq));
@@ -436,7 +460,7 @@ namespace delta_pin
 
   bool ClosedChainPlant::project(Vector & x)
   {
-    check_size(x, model_.nq + model_.nv, "x");
+    check_size(x, dyn_->model.nq + dyn_->model.nv, "x");
     const long before = projections_;
     Vector settled = x;
     settle(settled);
@@ -448,7 +472,7 @@ namespace delta_pin
 
   bool ClosedChainPlant::complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v)
   {
-    const Vector guess = q.size() == model_.nq ? q : neutral(model_);
+    const Vector guess = q.size() == dyn_->model.nq ? q : neutral(dyn_->model);
     if (!chain_.configuration(alpha, guess, q))
       return false;
     v = chain_.velocity_map(q) * alpha_dot;

@@ -15,17 +15,19 @@
 // joints), passive joints (underactuated, a free base) and joint couplings (MuJoCo's <equality
 // joint>: closure rows of their own, whose multipliers the plant adds to constraintDynamics'
 // solution, as the Python plant does).
+//
+// This header includes no Pinocchio (docs/architecture.md section 8, build time): the Pinocchio
+// model, its data and the constraint models live behind a pointer (ClosedChainModel::Multibody,
+// ClosedChainPlant::Dynamics, multibody.hpp), so that the laws, the loops and the bindings, which
+// include this header, compile without Pinocchio's headers.
 #pragma once
 
-#include <pinocchio/algorithm/constrained-dynamics.hpp>
-#include <pinocchio/multibody.hpp>
-
-#include "axis_tree.hpp"
 #include "control/friction.hpp"
 #include "plant.hpp"
 
 #include <Eigen/Dense>
 
+#include <cstddef>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -34,10 +36,45 @@
 
 namespace delta_pin
 {
+  // Pinocchio's indices (FrameIndex and JointIndex are std::size_t)
+  typedef std::size_t FrameIndex;
+  typedef std::size_t JointIndex;
+
+  // A value kept behind a pointer so that its type need not be complete where its owner is
+  // declared; copied with its owner. Its owner declares its copies and destructor and defines
+  // them (= default) where T is complete.
+  template<class T>
+  class Hidden
+  {
+  public:
+    Hidden() = default;
+    explicit Hidden(std::unique_ptr<T> value)
+    : value_(std::move(value))
+    {
+    }
+    Hidden(const Hidden & other)
+    : value_(other.value_ ? std::make_unique<T>(*other.value_) : nullptr)
+    {
+    }
+    Hidden & operator=(const Hidden & other)
+    {
+      value_ = other.value_ ? std::make_unique<T>(*other.value_) : nullptr;
+      return *this;
+    }
+    Hidden(Hidden &&) noexcept = default;
+    Hidden & operator=(Hidden &&) noexcept = default;
+    ~Hidden() = default;
+    T * operator->() const { return value_.get(); }
+    T & operator*() const { return *value_; }
+
+  private:
+    std::unique_ptr<T> value_;
+  };
+
   // One loop closure: its two frames in the model and its equations (3: a point, 6: a weld).
   struct ClosureFrames
   {
-    pinocchio::FrameIndex frame1, frame2;
+    FrameIndex frame1, frame2;
     int size;
   };
 
@@ -45,8 +82,8 @@ namespace delta_pin
   struct ConstraintSpec
   {
     int size;  // 3 or 6
-    pinocchio::JointIndex joint1, joint2;
-    pinocchio::SE3 placement1, placement2;
+    JointIndex joint1, joint2;
+    Eigen::Matrix4d placement1, placement2;  // homogeneous transforms in the joints' frames
     int reference_frame;  // pinocchio::ReferenceFrame
   };
 
@@ -77,7 +114,7 @@ namespace delta_pin
     std::vector<JointCouplingSpec> couplings;
     Indices actuated_q, actuated_v, dependent_v;
     int idle_dof = 0;
-    pinocchio::FrameIndex end_effector = 0;
+    FrameIndex end_effector = 0;
   };
 
   // Stribeck friction on the actuated joints (eq. 12): r_a, v_s, mu_s, mu_d, mu_v, the normal
@@ -96,8 +133,15 @@ namespace delta_pin
   {
   public:
     explicit ClosedChainModel(const ChainDescription & chain);
+    ClosedChainModel(const ClosedChainModel & other);
+    ClosedChainModel & operator=(const ClosedChainModel & other);
+    ~ClosedChainModel();
 
-    const pinocchio::Model & model() const { return model_; }
+    // the Pinocchio model and its data (multibody.hpp)
+    struct Multibody;
+    const Multibody & multibody() const { return *pin_; }
+    int nq() const;
+    int nv() const;
     int dof() const { return (int)actuated_v_.size(); }
     const Indices & actuated_q() const { return actuated_q_; }
     const Indices & actuated_v() const { return actuated_v_; }
@@ -107,7 +151,7 @@ namespace delta_pin
     void coupling_terms(const Vector & q, const Vector & v, Vector & r, Matrix & J, Vector & drift) const;
     // whether the robot moves in ways the actuated joints do not determine (idle motions, passive
     // joints): its state is then (q, v) whole, never (alpha, alpha_dot)
-    bool unactuated() const { return idle_dof_ > 0 || actuated_v_.size() + dependent_v_.size() < model_.nv; }
+    bool unactuated() const;
 
     // closure residual r(q) [m, rad] and its largest entry (NaN where q holds one)
     const Vector & residual(const Vector & q);
@@ -128,29 +172,29 @@ namespace delta_pin
     void reduced_terms(const Vector & q, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G, Vector & C_alpha_dot);
     Eigen::Vector3d end_effector_position(const Vector & q);
     // the closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED)
-    Matrix frame_jacobian(const Vector & q, pinocchio::FrameIndex frame);
+    Matrix frame_jacobian(const Vector & q, FrameIndex frame);
     // the frame's classical linear acceleration at zero actuated acceleration [m/s^2]
-    Eigen::Vector3d frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, pinocchio::FrameIndex frame);
+    Eigen::Vector3d frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame);
     // alpha putting the frame's origin at `target` along `rows` (0..2), Newton on alpha from
     // `alpha` with each iterate assembled from the previous q (ClosedChainRobot.inverse_kinematics);
     // q is the assembled configuration on success
     bool inverse_kinematics(
-      const Eigen::Vector3d & target, pinocchio::FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
+      const Eigen::Vector3d & target, FrameIndex frame, const Indices & rows, Vector & alpha, Vector & q,
       double tolerance = 1e-12, int iterations = 60);
     // A task-space path of a frame as a joint reference (FramePath.joint_reference): alpha,
     // alpha_dot, alpha_ddot and the frame's reached position per sample, each IK started from the
     // second-order prediction off the previous sample. Returns -1, or the first sample that
     // cannot be reached or assembled.
     long joint_reference(
-      pinocchio::FrameIndex frame, const Indices & rows, const Vector & times, const RowMatrix & xyz,
+      FrameIndex frame, const Indices & rows, const Vector & times, const RowMatrix & xyz,
       const RowMatrix & xyz_dot, const RowMatrix & xyz_ddot, const Vector & alpha0, Vector & q, RowMatrix & alpha,
       RowMatrix & alpha_dot, RowMatrix & alpha_ddot, RowMatrix & actual);
 
   private:
     // std::invalid_argument where frame is not one of the model's
-    void check_frame(pinocchio::FrameIndex frame) const;
+    void check_frame(FrameIndex frame) const;
     const Matrix & closure_jacobian(const Vector & q);
-    // J_c from the joint placements already in data_ (after residual(q) or forwardKinematics)
+    // J_c from the joint placements already in the data (after residual(q) or forwardKinematics)
     const Matrix & closure_jacobian_at_placements(const Vector & q);
     // J_c_dot (closure rows, nv) at (q, v): Pinocchio's LOCAL_WORLD_ALIGNED dJ, the time derivative of J
     Matrix closure_jacobian_derivative(const Vector & q, const Vector & v);
@@ -184,16 +228,17 @@ namespace delta_pin
     // S_dot alpha_dot (nv): -J_dep^+ J_c_dot v on the dependent coordinates, zero elsewhere
     Vector dependent_rate(const Vector & q, const Vector & v);
 
-    pinocchio::Model model_;
-    pinocchio::Data data_;
+    Hidden<Multibody> pin_;
     std::vector<ClosureFrames> closures_;
     std::vector<JointCouplingSpec> couplings_;
     Eigen::Index closure_rows_ = 0;  // the frame closures' rows; the couplings' follow
     Indices actuated_q_, actuated_v_, dependent_v_;
     int idle_dof_;
-    pinocchio::FrameIndex end_effector_;
+    FrameIndex end_effector_;
     Vector residual_;
-    Matrix jacobian_, frame_jacobian1_, frame_jacobian2_;
+    Matrix jacobian_;
+    // two frames' Jacobians: 6 x nv, the type Pinocchio's library instantiates getFrameJacobian for
+    Eigen::Matrix<double, 6, Eigen::Dynamic> frame_jacobian1_, frame_jacobian2_;
     // J_c's dependent columns and their factorisation (solve_dependent), valid until the next Jacobian
     bool dependent_factored_ = false;
     Matrix dependent_A_, dependent_pinv_;
@@ -213,6 +258,8 @@ namespace delta_pin
       double proximal_mu,
       int proximal_iterations,
       double projection_tolerance);
+    ClosedChainPlant(const ClosedChainPlant &) = delete;
+    ~ClosedChainPlant() override;
 
     // springs on 1-DOF joints: tau -= k (q - q_ref) + d v; dampers on the others: tau -= d v
     void set_springs(
@@ -226,12 +273,12 @@ namespace delta_pin
     // joint disturbance [N m] on the actuated joints (no rows: the friction's own, none). The
     // sampled loop reads row i at its stage i (step = h / 2).
     void set_truth(
-      pinocchio::JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
+      JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
       const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances);
     void set_truth_table(const TruthTable & truth) override;
 
-    int nq() const override { return model_.nq; }
-    int nv() const override { return model_.nv; }
+    int nq() const override;
+    int nv() const override;
     bool has_configuration() const override { return true; }
 
     ClosedChainModel & chain() { return chain_; }
@@ -240,7 +287,7 @@ namespace delta_pin
     // exact KKT solution asked for, proximal mu = 0) or "constraint_dynamics" (Pinocchio's).
     // use_axis_tree(false) keeps Pinocchio's; a step where the axis stage finds M or the Delassus
     // matrix not positive definite falls back to Pinocchio's for good.
-    std::string stage() const { return axis_ ? "axis_tree" : "constraint_dynamics"; }
+    std::string stage() const;
     void use_axis_tree(bool use);
     // ddq at (q, v) under actuated torques tau with the truth at the table's row position u
     // (a stage of the sampled loop, or t / step)
@@ -274,11 +321,10 @@ namespace delta_pin
     void configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const;
 
     ClosedChainModel chain_;  // the kinematics: closures, assembly, S
-    pinocchio::Model model_;  // the dynamics (its payload inertia rewritten in time)
-    pinocchio::Data data_;
-    std::vector<pinocchio::RigidConstraintModel> constraint_models_;
-    std::vector<pinocchio::RigidConstraintData> constraint_datas_;
-    pinocchio::ProximalSettings settings_;
+    // the Pinocchio model of the dynamics (its payload inertia rewritten in time), its data, the
+    // constraint models and settings of constraintDynamics, the axis-tree stage (multibody.hpp)
+    struct Dynamics;
+    Hidden<Dynamics> dyn_;
     std::vector<int> rate_kinds_;  // per joint: 0 axis, 1 ball, 2 free, 3 unit complex, 4 planar
     bool coefficient_rates_;
     double projection_tolerance_;
@@ -286,13 +332,11 @@ namespace delta_pin
     Indices spring_q_, spring_v_, damper_v_;
     Vector spring_k_, spring_ref_, spring_d_, damper_d_;
     FrictionSpec friction_;
-    pinocchio::JointIndex payload_joint_ = 0;
+    JointIndex payload_joint_ = 0;
     Eigen::Vector3d payload_point_ = Eigen::Vector3d::Zero();
-    pinocchio::Inertia base_inertia_ = pinocchio::Inertia::Zero();
     TruthTable truth_;
     double mass_ = 0.0, body_mass_ = -1.0;
     double baumgarte_kp_, baumgarte_kd_;
-    std::unique_ptr<dpn::AxisTree> axis_;
     Vector ddq_;
     // the joint couplings' multipliers (accelerations): their rows and the responses to them
     Vector coupling_r_, coupling_drift_, free_, target_;

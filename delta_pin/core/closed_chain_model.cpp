@@ -5,6 +5,7 @@
 // heaviest parts of the core compile in parallel.
 
 #include "closed_chain.hpp"
+#include "multibody.hpp"
 
 #include "checks.hpp"
 #include "failure.hpp"
@@ -66,7 +67,7 @@ namespace delta_pin
   {
     const Eigen::Index k = (Eigen::Index)couplings_.size();
     r.resize(k);
-    J.setZero(k, model_.nv);
+    J.setZero(k, pin_->model.nv);
     drift.setZero(k);
     for (Eigen::Index row = 0; row < k; ++row)
     {
@@ -85,7 +86,8 @@ namespace delta_pin
   }
 
   ClosedChainModel::ClosedChainModel(const ChainDescription & chain)
-  : closures_(chain.closures)
+  : pin_(std::make_unique<Multibody>())
+  , closures_(chain.closures)
   , couplings_(chain.couplings)
   , actuated_q_(chain.actuated_q)
   , actuated_v_(chain.actuated_v)
@@ -95,24 +97,24 @@ namespace delta_pin
   {
     try
     {
-      model_from_text(chain.model_text, model_);
+      model_from_text(chain.model_text, pin_->model);
     }
     catch (const std::exception & error)
     {
       throw std::invalid_argument(std::string("model_text is not a Pinocchio model archive (") + error.what() + ")");
     }
     // every index the robot's description holds, checked once here for every later call
-    const std::string frames = "the model's " + std::to_string(model_.nframes) + " frames";
-    const std::string q_entries = "the model's " + std::to_string(model_.nq) + " entries of q";
-    const std::string v_entries = "the model's " + std::to_string(model_.nv) + " entries of v";
-    check_index((long long)end_effector_, model_.nframes, "end_effector", frames);
+    const std::string frames = "the model's " + std::to_string(pin_->model.nframes) + " frames";
+    const std::string q_entries = "the model's " + std::to_string(pin_->model.nq) + " entries of q";
+    const std::string v_entries = "the model's " + std::to_string(pin_->model.nv) + " entries of v";
+    check_index((long long)end_effector_, pin_->model.nframes, "end_effector", frames);
     if (actuated_q_.size() != actuated_v_.size())
       throw std::invalid_argument(
         "actuated_q has " + std::to_string(actuated_q_.size()) + " entries, expected one per entry of actuated_v ("
         + std::to_string(actuated_v_.size()) + ")");
-    check_indices(actuated_q_, model_.nq, "actuated_q", q_entries);
-    check_indices(actuated_v_, model_.nv, "actuated_v", v_entries);
-    check_indices(dependent_v_, model_.nv, "dependent_v", v_entries);
+    check_indices(actuated_q_, pin_->model.nq, "actuated_q", q_entries);
+    check_indices(actuated_v_, pin_->model.nv, "actuated_v", v_entries);
+    check_indices(dependent_v_, pin_->model.nv, "dependent_v", v_entries);
     if (idle_dof_ < 0 || idle_dof_ > dependent_v_.size())
       throw std::invalid_argument(
         "idle_dof is " + std::to_string(idle_dof_) + ", expected 0 to the dependent joints' "
@@ -122,8 +124,8 @@ namespace delta_pin
     {
       const ClosureFrames & closure = closures_[k];
       const std::string name = "closures[" + std::to_string(k) + "]";
-      check_index((long long)closure.frame1, model_.nframes, name + "'s frame 1", frames);
-      check_index((long long)closure.frame2, model_.nframes, name + "'s frame 2", frames);
+      check_index((long long)closure.frame1, pin_->model.nframes, name + "'s frame 1", frames);
+      check_index((long long)closure.frame2, pin_->model.nframes, name + "'s frame 2", frames);
       check_closure_rows(closure.size, name);
       size += closure.size;
     }
@@ -132,34 +134,53 @@ namespace delta_pin
     {
       const JointCouplingSpec & c = couplings_[k];
       const std::string name = "couplings[" + std::to_string(k) + "]";
-      check_index(c.q1, model_.nq, name + "'s q1", q_entries);
-      check_index(c.v1, model_.nv, name + "'s v1", v_entries);
+      check_index(c.q1, pin_->model.nq, name + "'s q1", q_entries);
+      check_index(c.v1, pin_->model.nv, name + "'s v1", v_entries);
       if ((c.q2 < 0) != (c.v2 < 0))
         throw std::invalid_argument(name + " has q2 = " + std::to_string(c.q2) + " and v2 = " + std::to_string(c.v2)
                                     + ", expected both entries of joint 2 or both -1 (none)");
       if (c.q2 >= 0)
       {
-        check_index(c.q2, model_.nq, name + "'s q2", q_entries);
-        check_index(c.v2, model_.nv, name + "'s v2", v_entries);
+        check_index(c.q2, pin_->model.nq, name + "'s q2", q_entries);
+        check_index(c.v2, pin_->model.nv, name + "'s v2", v_entries);
       }
     }
     size += (int)couplings_.size();
-    data_ = Data(model_);
+    pin_->data = Data(pin_->model);
     residual_ = Vector::Zero(size);
-    jacobian_ = Matrix::Zero(size, model_.nv);
-    frame_jacobian1_ = Matrix::Zero(6, model_.nv);
-    frame_jacobian2_ = Matrix::Zero(6, model_.nv);
+    jacobian_ = Matrix::Zero(size, pin_->model.nv);
+    frame_jacobian1_.setZero(6, pin_->model.nv);
+    frame_jacobian2_.setZero(6, pin_->model.nv);
+  }
+
+  ClosedChainModel::ClosedChainModel(const ClosedChainModel & other) = default;
+  ClosedChainModel & ClosedChainModel::operator=(const ClosedChainModel & other) = default;
+  ClosedChainModel::~ClosedChainModel() = default;
+
+  int ClosedChainModel::nq() const
+  {
+    return pin_->model.nq;
+  }
+
+  int ClosedChainModel::nv() const
+  {
+    return pin_->model.nv;
+  }
+
+  bool ClosedChainModel::unactuated() const
+  {
+    return idle_dof_ > 0 || actuated_v_.size() + dependent_v_.size() < pin_->model.nv;
   }
 
   const Vector & ClosedChainModel::residual(const Vector & q)
   {
-    check_size(q, model_.nq, "q");
-    forwardKinematics(model_, data_, q);  // the joints; of the frames, the closures' only
+    check_size(q, pin_->model.nq, "q");
+    forwardKinematics(pin_->model, pin_->data, q);  // the joints; of the frames, the closures' only
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
-      const SE3 & M1 = updateFramePlacement(model_, data_, closure.frame1);
-      const SE3 & M2 = updateFramePlacement(model_, data_, closure.frame2);
+      const SE3 & M1 = updateFramePlacement(pin_->model, pin_->data, closure.frame1);
+      const SE3 & M2 = updateFramePlacement(pin_->model, pin_->data, closure.frame2);
       residual_.segment<3>(row) = M1.translation() - M2.translation();
       if (closure.size == 6)
         residual_.segment<3>(row + 3) =
@@ -185,21 +206,21 @@ namespace delta_pin
 
   const Matrix & ClosedChainModel::closure_jacobian(const Vector & q)
   {
-    forwardKinematics(model_, data_, q);
+    forwardKinematics(pin_->model, pin_->data, q);
     return closure_jacobian_at_placements(q);
   }
 
   const Matrix & ClosedChainModel::closure_jacobian_at_placements(const Vector & q)
   {
-    computeJointJacobians(model_, data_);  // from the joint placements already in data_
+    computeJointJacobians(pin_->model, pin_->data);  // from the joint placements already in pin_->data
     dependent_factored_ = false;
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
       frame_jacobian1_.setZero();
       frame_jacobian2_.setZero();
-      getFrameJacobian(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
-      getFrameJacobian(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      getFrameJacobian(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobian(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
       jacobian_.middleRows(row, closure.size) =
         (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
@@ -218,11 +239,11 @@ namespace delta_pin
     const Vector & alpha, const Vector & guess, Vector & q, double tolerance, int iterations)
   {
     check_size(alpha, actuated_q_.size(), "alpha");
-    check_size(guess, model_.nq, "the initial guess q");
+    check_size(guess, pin_->model.nq, "the initial guess q");
     q = guess;
     for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
       q[actuated_q_[i]] = alpha[i];
-    Vector dv = Vector::Zero(model_.nv);
+    Vector dv = Vector::Zero(pin_->model.nv);
     for (int iteration = 0; iteration < iterations; ++iteration)
     {
       const Vector r = residual(q);
@@ -236,7 +257,7 @@ namespace delta_pin
       dv.setZero();
       for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
         dv[dependent_v_[c]] = -step[c];
-      q = integrate(model_, q, dv);
+      q = integrate(pin_->model, q, dv);
       if (!q.allFinite())
         return false;
     }
@@ -279,7 +300,7 @@ namespace delta_pin
     if (idle_dof_ > 0)
     {
       pseudo_inverse(dependent_A_, dependent_pinv_, dependent_null_basis_);
-      dependent_null_ = Matrix::Zero(model_.nv, idle_dof_);
+      dependent_null_ = Matrix::Zero(pin_->model.nv, idle_dof_);
       for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
         dependent_null_.row(dependent_v_[r]) = dependent_null_basis_.row(r);
     }
@@ -312,7 +333,7 @@ namespace delta_pin
   {
     const Eigen::Index n = actuated_v_.size();
     const Matrix dependent = -solve_dependent(actuated_columns());
-    Matrix S = Matrix::Zero(model_.nv, n);
+    Matrix S = Matrix::Zero(pin_->model.nv, n);
     for (Eigen::Index c = 0; c < n; ++c)
       S(actuated_v_[c], c) = 1.0;
     for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
@@ -322,14 +343,16 @@ namespace delta_pin
 
   Matrix ClosedChainModel::mass_matrix(const Vector & q)
   {
-    crba(model_, data_, q);
-    data_.M.triangularView<Eigen::StrictlyLower>() = data_.M.transpose().triangularView<Eigen::StrictlyLower>();
-    return data_.M;
+    // with the argument type Pinocchio's library instantiates crba for (a VectorXd would compile
+    // its own copy of the algorithm here)
+    crba(pin_->model, pin_->data, Eigen::Ref<const Vector>(q));
+    pin_->data.M.triangularView<Eigen::StrictlyLower>() = pin_->data.M.transpose().triangularView<Eigen::StrictlyLower>();
+    return pin_->data.M;
   }
 
   Matrix ClosedChainModel::velocity_map(const Vector & q)
   {
-    check_size(q, model_.nq, "q");
+    check_size(q, pin_->model.nq, "q");
     closure_jacobian(q);
     const Matrix S0 = minimum_norm_map();
     if (idle_dof_ == 0)
@@ -342,8 +365,8 @@ namespace delta_pin
 
   bool ClosedChainModel::project_state(Vector & q, Vector & v)
   {
-    check_size(q, model_.nq, "q");
-    check_size(v, model_.nv, "v");
+    check_size(q, pin_->model.nq, "q");
+    check_size(v, pin_->model.nv, "v");
     Vector alpha(actuated_q_.size()), closed;
     for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
       alpha[i] = q[actuated_q_[i]];
@@ -360,15 +383,15 @@ namespace delta_pin
 
   Matrix ClosedChainModel::closure_jacobian_derivative(const Vector & q, const Vector & v)
   {
-    computeJointJacobiansTimeVariation(model_, data_, q, v);  // getFrameJacobianTimeVariation places the frames
-    Matrix J_dot(jacobian_.rows(), model_.nv);
+    computeJointJacobiansTimeVariation(pin_->model, pin_->data, q, v);  // getFrameJacobianTimeVariation places the frames
+    Matrix J_dot(jacobian_.rows(), pin_->model.nv);
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
       frame_jacobian1_.setZero();
       frame_jacobian2_.setZero();
-      getFrameJacobianTimeVariation(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
-      getFrameJacobianTimeVariation(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      getFrameJacobianTimeVariation(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      getFrameJacobianTimeVariation(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
       J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
     }
@@ -388,7 +411,7 @@ namespace delta_pin
   void ClosedChainModel::idle_projection(
     const Vector & q, const Vector & alpha_dot, Matrix & S, Matrix & S_dot, Matrix & M, Matrix & C_tree, Vector & v)
   {
-    const Eigen::Index nv = model_.nv, n = actuated_v_.size(), nd = dependent_v_.size();
+    const Eigen::Index nv = pin_->model.nv, n = actuated_v_.size(), nd = dependent_v_.size();
     closure_jacobian(q);
     const Matrix S0 = minimum_norm_map();  // factors J_c's dependent columns A
     const Matrix & A = dependent_A_;
@@ -424,7 +447,7 @@ namespace delta_pin
       S0_dot.row(dependent_v_[r]) = S0_dot_dependent.row(r);
       N_dot.row(dependent_v_[r]) = N_dot_dependent.row(r);
     }
-    C_tree = computeCoriolisMatrix(model_, data_, q, v);
+    C_tree = computeCoriolisMatrix(pin_->model, pin_->data, q, v);
     const Matrix M_dot = C_tree + C_tree.transpose();
     const Matrix N_dot_t = N_dot.transpose();
     const Matrix W_dot = mul(mul(N_dot_t, M), N) + mul(mul(Nt, M_dot), N) + mul(NtM, N_dot);
@@ -436,7 +459,7 @@ namespace delta_pin
   void ClosedChainModel::reduced_terms(
     const Vector & q, const Vector & alpha_dot, Matrix & M_red, Matrix & C_red, Vector & G_red, Vector & C_alpha_dot)
   {
-    check_size(q, model_.nq, "q");
+    check_size(q, pin_->model.nq, "q");
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
     Matrix S, S_dot, M, C_tree;
     Vector v, rate;
@@ -450,15 +473,15 @@ namespace delta_pin
       S = velocity_map(q);  // J_c at q stays in jacobian_
       v = S * alpha_dot;
       const Matrix J_dot = closure_jacobian_derivative(q, v);
-      S_dot = Matrix::Zero(model_.nv, S.cols());
+      S_dot = Matrix::Zero(pin_->model.nv, S.cols());
       const Matrix S_dot_dependent = -solve_dependent(mul(J_dot, S));
       for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
         S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
       rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
       M = mass_matrix(q);
-      C_tree = computeCoriolisMatrix(model_, data_, q, v);
+      C_tree = computeCoriolisMatrix(pin_->model, pin_->data, q, v);
     }
-    const Vector gravity = computeGeneralizedGravity(model_, data_, q);
+    const Vector gravity = computeGeneralizedGravity(pin_->model, pin_->data, q);
     const Matrix St = S.transpose();
     const Matrix M_projected = mul(St, mul(M, S));
     M_red = 0.5 * (M_projected + M_projected.transpose());
@@ -470,13 +493,13 @@ namespace delta_pin
 
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
   {
-    forwardKinematics(model_, data_, q, v, Vector::Zero(model_.nv));
+    forwardKinematics(pin_->model, pin_->data, q, v, Vector::Zero(pin_->model.nv));
     Vector drift(jacobian_.rows());
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
-      const Motion a1 = getFrameClassicalAcceleration(model_, data_, closure.frame1, LOCAL_WORLD_ALIGNED);
-      const Motion a2 = getFrameClassicalAcceleration(model_, data_, closure.frame2, LOCAL_WORLD_ALIGNED);
+      const Motion a1 = getFrameClassicalAcceleration(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = getFrameClassicalAcceleration(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED);
       drift.segment<3>(row) = a1.linear() - a2.linear();
       if (closure.size == 6)
         drift.segment<3>(row + 3) = a1.angular() - a2.angular();
@@ -495,7 +518,7 @@ namespace delta_pin
   Vector ClosedChainModel::dependent_rate(const Vector & q, const Vector & v)
   {
     const Vector rate_dependent = -solve_dependent(closure_drift(q, v));  // J_c at q in jacobian_
-    Vector rate = Vector::Zero(model_.nv);
+    Vector rate = Vector::Zero(pin_->model.nv);
     for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
       rate[dependent_v_[r]] = rate_dependent[r];
     return rate;
@@ -503,29 +526,29 @@ namespace delta_pin
 
   Eigen::Vector3d ClosedChainModel::end_effector_position(const Vector & q)
   {
-    check_size(q, model_.nq, "q");
-    forwardKinematics(model_, data_, q);
-    return updateFramePlacement(model_, data_, end_effector_).translation();
+    check_size(q, pin_->model.nq, "q");
+    forwardKinematics(pin_->model, pin_->data, q);
+    return updateFramePlacement(pin_->model, pin_->data, end_effector_).translation();
   }
 
   void ClosedChainModel::check_frame(FrameIndex frame) const
   {
-    check_index((long long)frame, model_.nframes, "frame", "the model's " + std::to_string(model_.nframes) + " frames");
+    check_index((long long)frame, pin_->model.nframes, "frame", "the model's " + std::to_string(pin_->model.nframes) + " frames");
   }
 
   Matrix ClosedChainModel::frame_jacobian(const Vector & q, FrameIndex frame)
   {
     check_frame(frame);
-    const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in data_
+    const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in pin_->data
     frame_jacobian1_.setZero();
-    getFrameJacobian(model_, data_, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+    getFrameJacobian(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
     return frame_jacobian1_ * S;
   }
 
   Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
   {
     check_frame(frame);
-    check_size(q, model_.nq, "q");
+    check_size(q, pin_->model.nq, "q");
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
     Vector v, rate;
     if (idle_dof_ > 0)
@@ -539,8 +562,8 @@ namespace delta_pin
       v = velocity_map(q) * alpha_dot;
       rate = dependent_rate(q, v);
     }
-    forwardKinematics(model_, data_, q, v, rate);
-    return getFrameClassicalAcceleration(model_, data_, frame, LOCAL_WORLD_ALIGNED).linear();
+    forwardKinematics(pin_->model, pin_->data, q, v, rate);
+    return getFrameClassicalAcceleration(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED).linear();
   }
 
   bool ClosedChainModel::inverse_kinematics(
@@ -559,8 +582,8 @@ namespace delta_pin
       if (!configuration(alpha, q, assembled))
         return false;
       q = assembled;
-      forwardKinematics(model_, data_, q);
-      const Eigen::Vector3d position = updateFramePlacement(model_, data_, frame).translation();
+      forwardKinematics(pin_->model, pin_->data, q);
+      const Eigen::Vector3d position = updateFramePlacement(pin_->model, pin_->data, frame).translation();
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         error[r] = position[rows[r]] - target[rows[r]];
       if (largest(error) <= tolerance)
@@ -603,7 +626,7 @@ namespace delta_pin
     check_finite(xyz_ddot, "xyz_ddot");
     check_size(alpha0, dof, "alpha0");
     check_finite(alpha0, "alpha0");
-    check_size(q, model_.nq, "q_start");
+    check_size(q, pin_->model.nq, "q_start");
     alpha.resize(n, dof);
     alpha_dot.resize(n, dof);
     alpha_ddot.resize(n, dof);
@@ -635,8 +658,8 @@ namespace delta_pin
       for (Eigen::Index r = 0; r < dof; ++r)
         task[r] = xyz_ddot(k, rows[r]) - drift[rows[r]];
       alpha_ddot.row(k) = lu.solve(task).transpose();
-      forwardKinematics(model_, data_, q);
-      actual.row(k) = updateFramePlacement(model_, data_, frame).translation().transpose();
+      forwardKinematics(pin_->model, pin_->data, q);
+      actual.row(k) = updateFramePlacement(pin_->model, pin_->data, frame).translation().transpose();
     }
     return -1;
   }

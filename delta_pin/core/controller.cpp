@@ -20,7 +20,7 @@ namespace delta_pin
   , name_(name)
   {
     check_size(disturbance_, nominal_.dof(), "disturbance");  // one per actuated joint
-    check_size(q_, nominal_.model().nq, "reference_configuration");
+    check_size(q_, nominal_.nq(), "reference_configuration");
     friction_.normal_force = Vector::Zero(nominal_.dof());
   }
 

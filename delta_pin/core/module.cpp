@@ -53,11 +53,6 @@ namespace
   typedef nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu> Table;
   typedef nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> Column;
 
-  pinocchio::SE3 placement(const Eigen::Matrix4d & homogeneous)
-  {
-    return pinocchio::SE3(Eigen::Matrix3d(homogeneous.topLeftCorner<3, 3>()), Eigen::Vector3d(homogeneous.topRightCorner<3, 1>()));
-  }
-
   Eigen::Map<RowMatrix> rows(Table & table)
   {
     return Eigen::Map<RowMatrix>(table.data(), (Eigen::Index)table.shape(0), (Eigen::Index)table.shape(1));
@@ -210,7 +205,7 @@ NB_MODULE(_core, m)
         // rows assembled in turn, each warm-started from the one before, up to the first that
         // does not close (its index, or -1)
         delta_pin::check_shape(alpha, -1, self.dof(), "alpha");  // one column per actuated joint
-        delta_pin::check_size(guess, self.model().nq, "guess");
+        delta_pin::check_size(guess, self.nq(), "guess");
         RowMatrix xyz = RowMatrix::Zero(alpha.rows(), 3);
         Eigen::VectorXd q = guess, next;
         long failed = -1;
@@ -360,7 +355,7 @@ NB_MODULE(_core, m)
       {
         std::vector<delta_pin::ConstraintSpec> specs;
         for (const auto & [size, j1, p1, j2, p2, reference] : constraints)
-          specs.push_back({size, j1, j2, placement(p1), placement(p2), reference});
+          specs.push_back({size, j1, j2, p1, p2, reference});
         new (self) ClosedChainPlant(chain, specs, kp, kd, accuracy, mu, iterations, projection_tolerance);
       },
       nb::arg("chain"), nb::arg("constraints"), nb::arg("baumgarte_kp"), nb::arg("baumgarte_kd"),
