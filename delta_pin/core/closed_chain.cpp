@@ -8,8 +8,6 @@
 #include "failure.hpp"
 #include "multibody.hpp"
 
-#include <pinocchio/algorithm/joint-configuration.hpp>
-
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -18,6 +16,7 @@
 namespace delta_pin
 {
   using namespace pinocchio;
+  using namespace library;
 
   namespace
   {
@@ -112,10 +111,10 @@ namespace delta_pin
       dyn_->constraint_datas.push_back(RigidConstraintData(constraint));
     }
     dyn_->data = Data(dyn_->model);
-    initConstraintDynamics(dyn_->model, dyn_->data, dyn_->constraint_models, dyn_->constraint_datas);
+    init_constraint_dynamics(dyn_->model, dyn_->data, dyn_->constraint_models, dyn_->constraint_datas);
     tau_ = Vector::Zero(dyn_->model.nv);
     ddq_ = Vector::Zero(dyn_->model.nv);
-    last_q_ = neutral(dyn_->model);
+    last_q_ = library::neutral(dyn_->model);
     friction_.normal_force = Vector::Zero(dof());
     if (proximal_mu == 0.0)
       use_axis_tree(true);
@@ -347,7 +346,7 @@ namespace delta_pin
         return;
       dyn_->axis.reset();  // M or the Delassus matrix not positive definite: Pinocchio's from now on
     }
-    ddq_ = constraintDynamics(dyn_->model, dyn_->data, q, v, joint_torques, dyn_->constraint_models, dyn_->constraint_datas, dyn_->settings);
+    ddq_ = constraint_dynamics(dyn_->model, dyn_->data, q, v, joint_torques, dyn_->constraint_models, dyn_->constraint_datas, dyn_->settings);
   }
 
   void ClosedChainPlant::configuration_rate(const Vector & q, const Vector & v, Eigen::Ref<Vector> rate) const
@@ -413,7 +412,7 @@ namespace delta_pin
     if (coefficient_rates_)
     {
       Vector q = x.head(nq);
-      normalize(dyn_->model, q);
+      library::normalize(dyn_->model, q);
       x.head(nq) = q;
     }
     const double gap = chain_.closure_gap(x.head(nq));
@@ -472,7 +471,7 @@ namespace delta_pin
 
   bool ClosedChainPlant::complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v)
   {
-    const Vector guess = q.size() == dyn_->model.nq ? q : neutral(dyn_->model);
+    const Vector guess = q.size() == dyn_->model.nq ? q : library::neutral(dyn_->model);
     if (!chain_.configuration(alpha, guess, q))
       return false;
     v = chain_.velocity_map(q) * alpha_dot;

@@ -12,13 +12,6 @@
 #include "interrupt.hpp"
 #include "model_text.hpp"
 
-#include <pinocchio/algorithm/crba.hpp>
-#include <pinocchio/algorithm/frames.hpp>
-#include <pinocchio/algorithm/jacobian.hpp>
-#include <pinocchio/algorithm/joint-configuration.hpp>
-#include <pinocchio/algorithm/kinematics.hpp>
-#include <pinocchio/algorithm/rnea.hpp>
-
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -26,6 +19,7 @@
 namespace delta_pin
 {
   using namespace pinocchio;
+  using namespace library;
 
   namespace
   {
@@ -175,12 +169,12 @@ namespace delta_pin
   const Vector & ClosedChainModel::residual(const Vector & q)
   {
     check_size(q, pin_->model.nq, "q");
-    forwardKinematics(pin_->model, pin_->data, q);  // the joints; of the frames, the closures' only
+    forward_kinematics(pin_->model, pin_->data, q);  // the joints; of the frames, the closures' only
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
-      const SE3 & M1 = updateFramePlacement(pin_->model, pin_->data, closure.frame1);
-      const SE3 & M2 = updateFramePlacement(pin_->model, pin_->data, closure.frame2);
+      const SE3 & M1 = update_frame_placement(pin_->model, pin_->data, closure.frame1);
+      const SE3 & M2 = update_frame_placement(pin_->model, pin_->data, closure.frame2);
       residual_.segment<3>(row) = M1.translation() - M2.translation();
       if (closure.size == 6)
         residual_.segment<3>(row + 3) =
@@ -206,21 +200,21 @@ namespace delta_pin
 
   const Matrix & ClosedChainModel::closure_jacobian(const Vector & q)
   {
-    forwardKinematics(pin_->model, pin_->data, q);
+    forward_kinematics(pin_->model, pin_->data, q);
     return closure_jacobian_at_placements(q);
   }
 
   const Matrix & ClosedChainModel::closure_jacobian_at_placements(const Vector & q)
   {
-    computeJointJacobians(pin_->model, pin_->data);  // from the joint placements already in pin_->data
+    joint_jacobians(pin_->model, pin_->data);  // from the joint placements already in pin_->data
     dependent_factored_ = false;
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
       frame_jacobian1_.setZero();
       frame_jacobian2_.setZero();
-      getFrameJacobian(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
-      getFrameJacobian(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      library::frame_jacobian(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      library::frame_jacobian(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
       jacobian_.middleRows(row, closure.size) =
         (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
@@ -257,7 +251,7 @@ namespace delta_pin
       dv.setZero();
       for (Eigen::Index c = 0; c < dependent_v_.size(); ++c)
         dv[dependent_v_[c]] = -step[c];
-      q = integrate(pin_->model, q, dv);
+      q = library::integrate(pin_->model, q, dv);
       if (!q.allFinite())
         return false;
     }
@@ -343,9 +337,7 @@ namespace delta_pin
 
   Matrix ClosedChainModel::mass_matrix(const Vector & q)
   {
-    // with the argument type Pinocchio's library instantiates crba for (a VectorXd would compile
-    // its own copy of the algorithm here)
-    crba(pin_->model, pin_->data, Eigen::Ref<const Vector>(q));
+    library::crba(pin_->model, pin_->data, q);
     pin_->data.M.triangularView<Eigen::StrictlyLower>() = pin_->data.M.transpose().triangularView<Eigen::StrictlyLower>();
     return pin_->data.M;
   }
@@ -383,15 +375,15 @@ namespace delta_pin
 
   Matrix ClosedChainModel::closure_jacobian_derivative(const Vector & q, const Vector & v)
   {
-    computeJointJacobiansTimeVariation(pin_->model, pin_->data, q, v);  // getFrameJacobianTimeVariation places the frames
+    jacobians_time_variation(pin_->model, pin_->data, q, v);  // getFrameJacobianTimeVariation places the frames
     Matrix J_dot(jacobian_.rows(), pin_->model.nv);
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
       frame_jacobian1_.setZero();
       frame_jacobian2_.setZero();
-      getFrameJacobianTimeVariation(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
-      getFrameJacobianTimeVariation(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
+      frame_jacobian_time_variation(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+      frame_jacobian_time_variation(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED, frame_jacobian2_);
       J_dot.middleRows(row, closure.size) = (frame_jacobian1_ - frame_jacobian2_).topRows(closure.size);
       row += closure.size;
     }
@@ -447,7 +439,7 @@ namespace delta_pin
       S0_dot.row(dependent_v_[r]) = S0_dot_dependent.row(r);
       N_dot.row(dependent_v_[r]) = N_dot_dependent.row(r);
     }
-    C_tree = computeCoriolisMatrix(pin_->model, pin_->data, q, v);
+    C_tree = coriolis_matrix(pin_->model, pin_->data, q, v);
     const Matrix M_dot = C_tree + C_tree.transpose();
     const Matrix N_dot_t = N_dot.transpose();
     const Matrix W_dot = mul(mul(N_dot_t, M), N) + mul(mul(Nt, M_dot), N) + mul(NtM, N_dot);
@@ -479,9 +471,9 @@ namespace delta_pin
         S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
       rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
       M = mass_matrix(q);
-      C_tree = computeCoriolisMatrix(pin_->model, pin_->data, q, v);
+      C_tree = coriolis_matrix(pin_->model, pin_->data, q, v);
     }
-    const Vector gravity = computeGeneralizedGravity(pin_->model, pin_->data, q);
+    const Vector gravity = generalized_gravity(pin_->model, pin_->data, q);
     const Matrix St = S.transpose();
     const Matrix M_projected = mul(St, mul(M, S));
     M_red = 0.5 * (M_projected + M_projected.transpose());
@@ -493,13 +485,13 @@ namespace delta_pin
 
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
   {
-    forwardKinematics(pin_->model, pin_->data, q, v, Vector::Zero(pin_->model.nv));
+    forward_kinematics(pin_->model, pin_->data, q, v, Vector::Zero(pin_->model.nv));
     Vector drift(jacobian_.rows());
     Eigen::Index row = 0;
     for (const ClosureFrames & closure : closures_)
     {
-      const Motion a1 = getFrameClassicalAcceleration(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED);
-      const Motion a2 = getFrameClassicalAcceleration(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED);
+      const Motion a1 = frame_classical_acceleration(pin_->model, pin_->data, closure.frame1, LOCAL_WORLD_ALIGNED);
+      const Motion a2 = frame_classical_acceleration(pin_->model, pin_->data, closure.frame2, LOCAL_WORLD_ALIGNED);
       drift.segment<3>(row) = a1.linear() - a2.linear();
       if (closure.size == 6)
         drift.segment<3>(row + 3) = a1.angular() - a2.angular();
@@ -527,8 +519,8 @@ namespace delta_pin
   Eigen::Vector3d ClosedChainModel::end_effector_position(const Vector & q)
   {
     check_size(q, pin_->model.nq, "q");
-    forwardKinematics(pin_->model, pin_->data, q);
-    return updateFramePlacement(pin_->model, pin_->data, end_effector_).translation();
+    forward_kinematics(pin_->model, pin_->data, q);
+    return update_frame_placement(pin_->model, pin_->data, end_effector_).translation();
   }
 
   void ClosedChainModel::check_frame(FrameIndex frame) const
@@ -541,7 +533,7 @@ namespace delta_pin
     check_frame(frame);
     const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in pin_->data
     frame_jacobian1_.setZero();
-    getFrameJacobian(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
+    library::frame_jacobian(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
     return frame_jacobian1_ * S;
   }
 
@@ -562,8 +554,8 @@ namespace delta_pin
       v = velocity_map(q) * alpha_dot;
       rate = dependent_rate(q, v);
     }
-    forwardKinematics(pin_->model, pin_->data, q, v, rate);
-    return getFrameClassicalAcceleration(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED).linear();
+    forward_kinematics(pin_->model, pin_->data, q, v, rate);
+    return frame_classical_acceleration(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED).linear();
   }
 
   bool ClosedChainModel::inverse_kinematics(
@@ -582,8 +574,8 @@ namespace delta_pin
       if (!configuration(alpha, q, assembled))
         return false;
       q = assembled;
-      forwardKinematics(pin_->model, pin_->data, q);
-      const Eigen::Vector3d position = updateFramePlacement(pin_->model, pin_->data, frame).translation();
+      forward_kinematics(pin_->model, pin_->data, q);
+      const Eigen::Vector3d position = update_frame_placement(pin_->model, pin_->data, frame).translation();
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         error[r] = position[rows[r]] - target[rows[r]];
       if (largest(error) <= tolerance)
@@ -658,8 +650,8 @@ namespace delta_pin
       for (Eigen::Index r = 0; r < dof; ++r)
         task[r] = xyz_ddot(k, rows[r]) - drift[rows[r]];
       alpha_ddot.row(k) = lu.solve(task).transpose();
-      forwardKinematics(pin_->model, pin_->data, q);
-      actual.row(k) = updateFramePlacement(pin_->model, pin_->data, frame).translation().transpose();
+      forward_kinematics(pin_->model, pin_->data, q);
+      actual.row(k) = update_frame_placement(pin_->model, pin_->data, frame).translation().transpose();
     }
     return -1;
   }

@@ -6,8 +6,7 @@
 #include "axis_tree.hpp"
 #include "closed_chain.hpp"
 
-#include <pinocchio/algorithm/constrained-dynamics.hpp>
-#include <pinocchio/multibody.hpp>
+#include "pinocchio_library.hpp"
 
 #include <memory>
 #include <vector>
