@@ -36,6 +36,7 @@ whatever its options.
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import hashlib
 import json
@@ -89,9 +90,11 @@ class FolderLock:
     """An exclusive ``flock`` on ``out/LOCK``, held until :meth:`release` or the end of the process
     (the kernel drops a dead process's locks, so a SIGKILL never leaves a folder locked)."""
 
-    def __init__(self, path: Path, fd: int):
+    def __init__(self, path: Path, fd: int, created_folder: bool = False, created_file: bool = False):
         self.path = path
         self._fd: int | None = fd
+        self.created_folder = created_folder  # the folder did not exist before this lock
+        self.created_file = created_file  # nor did the lock file
 
     @property
     def held(self) -> bool:
@@ -103,6 +106,18 @@ class FolderLock:
         fd, self._fd = self._fd, None
         if fd is not None:
             os.close(fd)
+
+    def discard(self) -> None:
+        """Release, and remove what this lock alone added: the lock file it created and the folder
+        it created, where nothing else was written there (a command refused before its first
+        output leaves the disk as it found it). Removed while still locked, so that no other writer
+        can hold the lock in the meantime."""
+        if self._fd is not None and self.created_file:
+            self.path.unlink(missing_ok=True)
+            if self.created_folder:
+                with contextlib.suppress(OSError):  # not empty: something else is there, kept
+                    self.path.parent.rmdir()
+        self.release()
 
     def __del__(self):  # a safety net; the owner releases it
         self.release()
@@ -126,8 +141,10 @@ def lock(out: str | Path) -> FolderLock:
             message names its pid.
     """
     out = Path(out)
+    created_folder = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     path = out / LOCK
+    created_file = not path.exists()
     fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -143,7 +160,7 @@ def lock(out: str | Path) -> FolderLock:
         raise
     os.ftruncate(fd, 0)
     os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    return FolderLock(path, fd)
+    return FolderLock(path, fd, created_folder, created_file)
 
 
 # ---------------------------------------------------------------------------------- the manifest
@@ -306,8 +323,13 @@ class OutputFolder:
         self.release()
 
     def release(self) -> None:
-        """Unlock the folder (done by leaving the ``with`` block, or by the end of the process)."""
-        self.lock.release()
+        """Unlock the folder (done by leaving the ``with`` block, or by the end of the process).
+        Before :meth:`start` (the command refused or failed before its first output) the lock file
+        and a folder the claim created go too (:meth:`FolderLock.discard`)."""
+        if self.started:
+            self.lock.release()
+        else:
+            self.lock.discard()
 
     def _check_held(self) -> None:
         if not self.lock.held:
@@ -461,7 +483,7 @@ def claim(
             if path.resolve() not in gone
         }
     except BaseException:
-        folder_lock.release()
+        folder_lock.discard()
         raise
     header = {
         "format": MANIFEST_FORMAT,

@@ -218,6 +218,28 @@ def test_a_fit_stopped_midway_leaves_a_marked_folder_for_the_next_fit(case, tmp_
     assert not (folder / "torque.png").exists()
 
 
+def test_a_fit_refused_before_its_first_output_leaves_the_disk_as_it_was(case, tmp_path, capsys):
+    """A log the fit refuses once the folder is claimed (0.6 s of one harmonic: rank-deficient) left
+    a claimed --out behind, a folder holding only delta-pin's lock file: now the folder the claim
+    created is gone, and a user's existing folder keeps exactly its own files (no lock file)."""
+    trajectory, log = tmp_path / "short_traj.csv", tmp_path / "short_log.csv"
+    short = ["--duration", "0.6", "--period", "0.6", "--harmonics", "1", "--iterations", "0"]
+    assert main(["identify", "excite", "--robot", str(case["robot"]), "--out", str(trajectory), *short]) == 0
+    simulate = ["identify", "simulate", "--robot", str(case["robot"]), "--trajectory", str(trajectory)]
+    assert main([*simulate, "--out", str(log)]) == 0
+    fit = ["identify", "fit", "--robot", str(case["robot"]), "--data", str(log), "--no-consistent"]
+    capsys.readouterr()
+    new = tmp_path / "new" / "ident"
+    assert main([*fit, "--out", str(new)]) == 2
+    assert _one_line(capsys).startswith(f"{ERROR}rank-deficient excitation")
+    assert not new.exists() and (tmp_path / "new").exists()  # only the folder the claim made goes
+    existing = tmp_path / "mine"
+    existing.mkdir()
+    (existing / "notes.txt").write_text("the user's notes\n")
+    assert main([*fit, "--out", str(existing)]) == 2
+    assert sorted(p.name for p in existing.iterdir()) == ["notes.txt"]
+
+
 def test_fit_s_out_is_never_one_of_its_inputs(case, tmp_path, capsys):
     """--out that is the --data or --validate file (here through '..') is refused naming the flag."""
     log = case["log"]
