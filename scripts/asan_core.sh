@@ -9,8 +9,8 @@
 # delta_pin.compiled._core, in pytest and in every subprocess it starts), libasan preloaded into
 # Python and ASAN_OPTIONS=detect_leaks=0 (Python's own allocations are not leaks to report).
 #
-# Takes about 9 min from an empty build/asan on 2 cores (the build; later runs rebuild only the
-# units that changed), the tests about 20 s. Not part of .ci/run.
+# .ci/run runs it before the test suite. The build is g++'s (the libasan preloaded below is gcc's;
+# CMakeLists.txt would take clang++ where it is installed); the tests take about 20 s.
 #
 # Usage: bash scripts/asan_core.sh [extra pytest arguments]   (from anywhere; needs the venv's
 # python with pin, cmeel-eigen and nanobind: pip install nanobind)
@@ -30,7 +30,7 @@ version="$("$python" -c "import tomllib; print(tomllib.load(open('$root/pyprojec
 flags="-fsanitize=address -fno-omit-frame-pointer -g -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSKBUILD_PROJECT_NAME=delta_pin -DSKBUILD_PROJECT_VERSION="$version" \
-  -DPython_EXECUTABLE="$python" -DCMAKE_CXX_FLAGS="$flags" \
+  -DPython_EXECUTABLE="$python" -DCMAKE_CXX_COMPILER=g++ -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address" -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address" >/dev/null
 ninja -C "$build"
 so="$(ls "$build"/_core.*.so)"

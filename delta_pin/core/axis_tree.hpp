@@ -1,6 +1,6 @@
 // Constrained forward dynamics of a tree of 1-DOF axis joints closed by point constraints,
 // written out for that case: the default stage of delta-pin's compiled sampled loops on the
-// Pinocchio plant (docs/architecture.md, section 7).
+// Pinocchio plant (docs/architecture.md, section 8).
 //
 // It computes what pinocchio::constraintDynamics computes for these models (CONTACT_3D closures
 // in LOCAL frames, Baumgarte gains, proximal mu = 0 with one iteration: the exact KKT solution),

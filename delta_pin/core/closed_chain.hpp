@@ -1,5 +1,5 @@
 // The constrained plant of a closed-chain robot in the compiled core: Pinocchio's tree plus its
-// loop closures, integrated in full coordinates x = [q, v] (docs/architecture.md section 7).
+// loop closures, integrated in full coordinates x = [q, v] (docs/architecture.md section 8).
 //
 // The same physics as the Python ClosedChainPlant (delta_pin/sim/closed_chain_plant.py), which
 // the tests hold this class to: pinocchio::constraintDynamics with Baumgarte stabilisation, the

@@ -1,4 +1,4 @@
-// What the compiled core's loops need of a plant (docs/architecture.md section 7): the sampled
+// What the compiled core's loops need of a plant (docs/architecture.md section 8): the sampled
 // loop (CorePlant::run_sampled: RK4 sub-steps under a held torque) and the continuous loop
 // (continuous.hpp: Radau IIA in active coordinates) run any plant that implements CorePlant --
 // the constrained plant of a closed chain (closed_chain.hpp) or the paper's reduced Delta
