@@ -141,7 +141,13 @@ def _check_output_dir(flag: str, path: Path) -> None:
 
 
 def _check_output_file(flag: str, path: Path) -> None:
-    """Refuse, before any work, an output file that is a folder or cannot be written."""
+    """Refuse, before any work, an output file that is a folder, a dangling symbolic link (someone's
+    link, which a write would replace) or cannot be written."""
+    if path.is_symlink() and not path.exists():
+        raise InvalidParameterError(
+            f"{flag} {path} is a symbolic link to {os.readlink(path)}, which does not exist: writing would "
+            "replace the link; give another name"
+        )
     if path.is_dir():
         raise InvalidParameterError(f"{flag} {path} is a directory; give a file name")
     if path.exists() and not os.access(path, os.W_OK):
@@ -223,7 +229,7 @@ def _check_urdf_output(path: Path) -> None:
     --output``'s (its second line is :data:`URDF_MARK`): anyone else's URDF of the same name is
     refused (issue 36: it was replaced silently)."""
     _check_output_file("--output", path)
-    if not path.exists():
+    if not os.path.lexists(path):  # a dangling symbolic link is someone's too: read, and refused
         return
     try:
         with open(path, encoding="utf-8", errors="replace") as file:
@@ -929,7 +935,7 @@ def _check_identify_out_file(args: argparse.Namespace, command: str) -> None:
             f"--out {out} is the file {flag} reads ({source}): identify {command} would write over it; "
             "give another --out file"
         )
-    if not out.exists():
+    if not os.path.lexists(out):  # a dangling symbolic link is someone's too: refused below
         return
     what, first, mark = _IDENTIFY_OWN_FILES[command]
     if not _has_header(out, first, mark):

@@ -713,3 +713,31 @@ def test_urdf_output_replaces_only_its_own_file(tmp_path, capsys):
     capsys.readouterr()
     assert cli.URDF_MARK in out.read_text().splitlines()[1]
     assert dp.load_delta(out).params.l_a == pytest.approx(0.25, abs=1e-12)
+
+
+def test_a_dangling_symbolic_link_named_like_an_output_is_kept(tmp_path, capsys):
+    """A dangling symbolic link named like an output passed every existence check (Path.exists
+    follows the link) and the atomic write replaced it: urdf --output, identify excite --out and a
+    run's --out folder now refuse it like any file of someone else's, and the link is still there,
+    still pointing where it pointed."""
+    target = tmp_path / "elsewhere" / "not_yet_there"
+    cases = {
+        "urdf": (tmp_path / "robot.urdf", ["urdf", "--output", str(tmp_path / "robot.urdf")]),
+        "excite": (
+            tmp_path / "traj.csv",
+            ["identify", "excite", "--out", str(tmp_path / "traj.csv"), "--duration", "1", "--period", "1"],
+        ),
+        "run": (
+            tmp_path / "run" / "run.npz",
+            ["run", "--t-end", "0.01", "--out", str(tmp_path / "run")],
+        ),
+    }
+    for name, (link, command) in cases.items():
+        link.parent.mkdir(exist_ok=True)
+        link.symlink_to(target)
+        assert main(command) == 2, name
+        line = _one_line(capsys)
+        refusals = (f"{link} is a symbolic link to {target}, which does not exist", "it may be anyone's file")
+        assert link.name in line and any(refusal in line for refusal in refusals), line
+        assert link.is_symlink() and os.readlink(link) == str(target), name
+        assert not target.exists(), name

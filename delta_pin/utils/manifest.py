@@ -141,10 +141,10 @@ def lock(out: str | Path) -> FolderLock:
             message names its pid.
     """
     out = Path(out)
-    created_folder = not out.exists()
+    created_folder = not os.path.lexists(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / LOCK
-    created_file = not path.exists()
+    created_file = not os.path.lexists(path)
     fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -399,7 +399,7 @@ def _refuse_foreign(out: Path, old: dict | None, outputs: list[str] | None) -> N
     if outputs is not None:
         listed = _listed(old)
         for name in outputs:
-            if (out / name).exists() and name not in listed:
+            if os.path.lexists(out / name) and name not in listed:  # a dangling link too
                 raise InvalidParameterError(
                     f"the output folder {out} holds {name}, which no {MANIFEST} of delta-pin lists: it may "
                     "be anyone's file; move it away, or give another folder"
