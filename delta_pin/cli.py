@@ -1001,6 +1001,7 @@ def _claim_fit_folder(args: argparse.Namespace):
         "data": where(args.data),
         "validate": where(args.validate),
         "cutoff": args.cutoff,
+        "velocities": args.velocities,
         "consistent": not args.no_consistent,
         "figures": not args.no_figures,
     }
@@ -1135,7 +1136,10 @@ def _identify_fit(args: argparse.Namespace) -> int:
     log = read_log(args.data, robot.actuated_joints)
     unseen = None if args.validate is None else read_log(args.validate, robot.actuated_joints)
     with _claim_fit_folder(args) as folder:
-        result = identify(robot, log, cutoff=args.cutoff, consistent=not args.no_consistent, columns=columns)
+        result = identify(
+            robot, log, cutoff=args.cutoff, consistent=not args.no_consistent, columns=columns,
+            velocities=args.velocities,
+        )  # fmt: skip
         validation = None if unseen is None else validate(result, unseen)
         written = write_report(result, log, args.out, validation, figures=not args.no_figures, folder=folder)
     relative = ", ".join(f"{x:.3g}" for x in result.residual_rms / result.tau_rms)
@@ -1278,6 +1282,11 @@ def _add_identify_command(add) -> None:
     fit.add_argument(
         "--cutoff", type=_number(0, above=True), default=20.0, help="the parallel filter's cut-off [Hz]"
     )
+    fit.add_argument(
+        "--velocities", choices=("positions", "logged"), default="positions",
+        help="the joint velocities: the derivative of the filtered positions (the default), or the log's "
+        "qd columns, filtered alike; a qd's lag behind the positions' derivative is reported either way",
+    )  # fmt: skip
     fit.add_argument(
         "--friction-model", choices=("viscous", "coulomb", "stribeck"), default=None,
         help="friction columns per joint: viscous (fv), coulomb (fv, fc) or stribeck (fv, fc, fs); default: "

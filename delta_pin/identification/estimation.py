@@ -6,6 +6,11 @@
   ``STATE_CUTOFF_RATIO`` = 2 x ``cutoff``, 40 Hz by default; its gain in the pass band below
   ``cutoff`` differs from 1 by less than 4e-3, at 5 Hz by 1e-7) and differentiated by second-order
   central differences (``np.gradient``; truncation (omega h)^2 / 6: 3e-6 at 2 Hz and 1 kHz).
+  The velocities come from the positions by default, whether or not the log has ``qd`` columns:
+  a drive's velocity is often a backward difference (half a sample late) or its own filter's
+  output, and a lag there goes unseen into the friction and inertia estimates. A log's ``qd`` is
+  used on request (``velocities="logged"``, filtered by the same filter), and its lag behind the
+  derivative of the filtered positions is measured either way (:func:`velocity_lag`).
 * **Parallel filtering** (Gautier 1997). The torques hold what the filtered states lack: the
   controller's reaction to the Coulomb torque's steps at a velocity reversal is fast. Since
   tau = Y theta holds sample by sample, it holds for any linear filter F applied to both sides:
@@ -61,6 +66,7 @@ __all__ = [
     "bounded_fit",
     "check_cutoff",
     "check_identifiable",
+    "check_velocity_source",
     "essential_fit",
     "expand",
     "filtered_states",
@@ -70,11 +76,16 @@ __all__ = [
     "parallel_filter",
     "reversal_mask",
     "trimmed_samples",
+    "velocity_lag",
 ]
 
 LOG_RANK_TOLERANCE = 1e-7
 REVERSAL_SPEED = 0.1  # [rad/s or m/s] joint rows this near a reversal are dropped
 STATE_CUTOFF_RATIO = 2.0  # the states' filter cut-off over the parallel filter's
+VELOCITY_SOURCES = ("positions", "logged")  # filtered_states' velocities: d/dt q, or the log's qd
+# A logged qd lagging the derivative of q by more than this many samples is reported as a lag
+# (a backward difference lags by 0.5); below it, the estimate's own spread on noisy logs
+VELOCITY_LAG_SAMPLES = 0.1
 
 
 @dataclass
@@ -90,7 +101,11 @@ class FilteredStates:
 
 
 def filtered_states(
-    log: IdentificationLog, cutoff: float = 20.0, order: int = 4, trim: float = 0.05
+    log: IdentificationLog,
+    cutoff: float = 20.0,
+    order: int = 4,
+    trim: float = 0.05,
+    velocities: str = "positions",
 ) -> FilteredStates:
     """Zero-phase low-passed positions and their derivatives (module docstring); ``tau`` is the
     log's, paired with the states for a zero-order-hold drive (header ``torque_hold: zoh``, the
@@ -101,7 +116,13 @@ def filtered_states(
             (below half the sample rate).
         order: the filter's order (the zero-phase response has twice it).
         trim: time dropped at each end [s].
+        velocities: ``"positions"`` (the default): alpha_dot is the derivative of the filtered
+            positions, a log's ``qd`` columns unused; ``"logged"``: the log's ``qd``, filtered.
+
+    Raises:
+        InvalidParameterError: another ``velocities``, or ``"logged"`` for a log without ``qd``.
     """
+    check_velocity_source(velocities, log)
     if len(log) < 2:
         raise InvalidParameterError(f"{log.where} has {len(log)} samples; a fit needs a recorded run")
     rate = log.sample_rate
@@ -116,7 +137,7 @@ def filtered_states(
     dt = 1.0 / rate
     b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
     alpha = scipy.signal.filtfilt(b, a, log.alpha, axis=0)
-    if log.alpha_dot is not None:
+    if velocities == "logged":
         alpha_dot = scipy.signal.filtfilt(b, a, log.alpha_dot, axis=0)
     else:
         alpha_dot = np.gradient(alpha, dt, axis=0)
@@ -127,6 +148,47 @@ def filtered_states(
         tau = tau.copy()
         tau[1:] = 0.5 * (log.tau[1:] + log.tau[:-1])
     return FilteredStates(log.t[keep], alpha[keep], alpha_dot[keep], alpha_ddot[keep], tau[keep])
+
+
+def check_velocity_source(velocities: str, log: IdentificationLog) -> None:
+    """Refuse a ``velocities`` outside :data:`VELOCITY_SOURCES`, or ``"logged"`` for a log without
+    ``qd`` columns, in one line."""
+    if velocities not in VELOCITY_SOURCES:
+        raise InvalidParameterError(
+            f"velocities={velocities!r} must be 'positions' (the derivative of the filtered positions) or "
+            "'logged' (the log's qd columns)"
+        )
+    if velocities == "logged" and log.alpha_dot is None:
+        raise InvalidParameterError(
+            f"{log.where} has no qd columns: its velocities can only come from the positions "
+            "(velocities='positions', identify fit --velocities positions)"
+        )
+
+
+def velocity_lag(
+    log: IdentificationLog, cutoff: float = 20.0, order: int = 4, trim: float = 0.05
+) -> np.ndarray:
+    """How late the log's ``qd`` is against the derivative of its filtered positions, per joint
+    [s] (positive: ``qd`` lags); NaN per joint for a log without ``qd``.
+
+    Both are low-passed by the states' zero-phase filter; with g the derivative of the positions,
+    qd(t) = g(t - lag) ~ g(t) - lag g'(t) to first order in the lag, so lag is the least-squares
+    solution <g - qd, g'> / <g', g'> over the trimmed samples. A backward difference
+    (q_k - q_(k-1)) / dt lags by half a sample; a central difference by none."""
+    dof = log.alpha.shape[1]
+    if log.alpha_dot is None:
+        return np.full(dof, np.nan)
+    rate = log.sample_rate
+    dt = 1.0 / rate
+    b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
+    g = np.gradient(scipy.signal.filtfilt(b, a, log.alpha, axis=0), dt, axis=0)
+    qd = scipy.signal.filtfilt(b, a, log.alpha_dot, axis=0)
+    g_dot = np.gradient(g, dt, axis=0)
+    keep = (log.t >= log.t[0] + trim) & (log.t <= log.t[-1] - trim)
+    g, qd, g_dot = g[keep], qd[keep], g_dot[keep]
+    energy = (g_dot**2).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(energy > 0.0, ((g - qd) * g_dot).sum(axis=0) / energy, np.nan)
 
 
 def check_cutoff(cutoff: float, rate: float) -> None:

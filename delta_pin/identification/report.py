@@ -131,6 +131,8 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
         },
         "torque_scale": {k: v if isinstance(v, str) else _float(v) for k, v in result.torque_scale.items()},
         "warnings": list(result.warnings),
+        "velocities": result.velocities,
+        "velocity_lag_s": None if result.velocity_lag is None else [_float(x) for x in result.velocity_lag],
     }
     if consistent is not None:
         bodies = {}
@@ -349,7 +351,16 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
         f"{', '.join(record['fixed_bodies']) or 'none'}.",
         "",
         f"Fit: {result.samples} rows per joint after the parallel filter ({result.cutoff:g} Hz) "
-        "and decimation; "
+        "and decimation; velocities "
+        + ("from the log's qd" if result.velocities == "logged" else "from the positions")
+        + (
+            ""
+            if result.velocity_lag is None
+            else " (qd's lag behind the positions' derivative "
+            + ", ".join(f"{x * 1e3:.3g} ms" for x in result.velocity_lag)
+            + ")"
+        )
+        + "; "
         f"cond of the column-scaled base regressor {result.condition:.4g}; residual RMS "
         + ", ".join(f"{x:.3g}" for x in record["fit"]["residual_relative"])
         + " of the torque's RMS per joint; "

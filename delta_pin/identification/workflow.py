@@ -23,10 +23,12 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.base import BaseParameters, base_parameters
 from delta_pin.identification.consistent import ConsistentEstimate, consistent_estimate
 from delta_pin.identification.estimation import (
+    VELOCITY_LAG_SAMPLES,
     Estimate,
     bounded_fit,
     check_cutoff,
     check_identifiable,
+    check_velocity_source,
     essential_fit,
     expand,
     filtered_states,
@@ -36,6 +38,7 @@ from delta_pin.identification.estimation import (
     parallel_filter,
     reversal_mask,
     trimmed_samples,
+    velocity_lag,
 )
 from delta_pin.identification.excitation import FourierExcitation
 from delta_pin.identification.log import (
@@ -208,7 +211,11 @@ class IdentificationResult:
             values beside it.
         torque_scale: the log's torque against the CAD model's (:func:`torque_scale`).
         warnings: one line each, for stdout and report.md (a torque scale beyond
-            :data:`TORQUE_SCALE_LIMIT`).
+            :data:`TORQUE_SCALE_LIMIT`, a logged velocity that lags q's derivative).
+        velocities: where the velocities came from: ``"positions"`` or ``"logged"`` (the log's qd).
+        velocity_lag: a log with qd: how late qd is against the derivative of the filtered
+            positions, per joint [s] (:func:`~delta_pin.identification.estimation.velocity_lag`);
+            ``None`` for a log without qd.
     """
 
     regressor: ClosedChainRegressor
@@ -234,6 +241,8 @@ class IdentificationResult:
     bounded_beta: np.ndarray | None = None
     torque_scale: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    velocities: str = "positions"
+    velocity_lag: np.ndarray | None = None
 
     @property
     def beta(self) -> np.ndarray:
@@ -249,7 +258,9 @@ class IdentificationResult:
         return predicted, measured
 
     def _predict_states(self, log: IdentificationLog, estimate: str = "wls", **options):
-        """:meth:`predict` and the filtered states' alpha_dot (N, dof) it was made along."""
+        """:meth:`predict` and the filtered states' alpha_dot (N, dof) it was made along (the
+        velocities from where the fit took them, unless ``options`` say otherwise)."""
+        options.setdefault("velocities", self.velocities if log.alpha_dot is not None else "positions")
         states = filtered_states(log, cutoff=self.cutoff, **options)
         Y, tau = parallel_filter(log_regressor(self.regressor, states, _stride(log)), states.tau,
                                  log.sample_rate, self.cutoff)  # fmt: skip
@@ -304,10 +315,19 @@ def torque_scale(regressor, Y: np.ndarray, tau: np.ndarray, mask: np.ndarray, no
     return out
 
 
+DECIMATION_ROUNDING = 1e-6  # relative: a rate measured from rounded time stamps is still its own
+
+
 def decimation(rate: float, cutoff: float) -> int:
     """Rows kept after the parallel filter: every rate / (2 cutoff)-th (the Nyquist interval of the
-    filtered band)."""
-    return max(1, int(rate // (2.0 * cutoff)))
+    filtered band), rounded down; a ratio within :data:`DECIMATION_ROUNDING` of a whole number is
+    that number (a 1 kHz log whose time stamps measure 999.99999 Hz keeps every 25th row at 20 Hz,
+    not every 24th)."""
+    ratio = rate / (2.0 * cutoff)
+    nearest = round(ratio)
+    if abs(ratio - nearest) <= DECIMATION_ROUNDING * ratio:
+        return max(1, int(nearest))
+    return max(1, math.floor(ratio))
 
 
 def minimum_samples(rate: float, cutoff: float, rank: int, dof: int, trim: float = 0.05) -> int:
@@ -399,6 +419,7 @@ def identify(
     prior_robot=None,
     refine_stribeck: bool = False,
     essential: bool = True,
+    velocities: str = "positions",
 ) -> IdentificationResult:
     """Identify ``robot``'s base parameters from a log (docs/identification.md).
 
@@ -415,6 +436,12 @@ def identify(
         essential: set the base parameters not significantly different from 0 to 0 and re-fit the
             rest (:func:`~delta_pin.identification.estimation.essential_fit`; listed in
             ``result.dropped``); ``False`` fits every base parameter.
+        velocities: ``"positions"`` (the default): the joint velocities are the derivative of the
+            filtered positions, a log's ``qd`` columns unused; ``"logged"``: the log's ``qd``. A log
+            with ``qd`` has its lag behind q's derivative measured either way
+            (``result.velocity_lag``), and a lag beyond
+            :data:`~delta_pin.identification.estimation.VELOCITY_LAG_SAMPLES` of a sample is a
+            warning.
 
     Raises:
         InvalidParameterError: a bad log (one line: column, line), another robot's log (its
@@ -437,8 +464,10 @@ def identify(
     base = base_parameters(regressor)
     timings["base_parameters"] = time.perf_counter() - start
     _check_log_length(data, cutoff, base.rank, regressor)
+    check_velocity_source(velocities, data)
     t0 = time.perf_counter()
-    states = filtered_states(data, cutoff=cutoff)
+    states = filtered_states(data, cutoff=cutoff, velocities=velocities)
+    lag = None if data.alpha_dot is None else velocity_lag(data, cutoff=cutoff)
     timings["filter"] = time.perf_counter() - t0
     if refine_stribeck and regressor.columns.stribeck_velocity is not None:
         regressor = _refine_stribeck(regressor, states, data, massless, cutoff)
@@ -508,7 +537,11 @@ def identify(
         dropped=[(names[k], t) for k, t in dropped],
         torque_scale=scale,
         warnings=[scale["warning"]] if scale.get("warning") else [],
+        velocities=velocities,
+        velocity_lag=lag,
     )
+    if lag is not None:
+        result.warnings.extend(_velocity_lag_lines(lag, data, velocities))
     if estimate is not None and not estimate.success:
         result.warnings.append(
             f"warning: the physically consistent estimate did not converge ({estimate.message}): it is "
@@ -526,6 +559,29 @@ def identify(
         timings["lumped"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
     return result
+
+
+def _velocity_lag_lines(lag: np.ndarray, log: IdentificationLog, velocities: str) -> list[str]:
+    """One line for the joints whose logged qd lags q's derivative by more than
+    VELOCITY_LAG_SAMPLES of a sample: a warning where the fit used qd, a note where it did not."""
+    samples = lag * log.sample_rate
+    late = [
+        f"{joint} {lag_j * 1e3:.3g} ms ({n:.2f} samples)"
+        for joint, lag_j, n in zip(log.joints, lag, samples)
+        if np.isfinite(n) and abs(n) > VELOCITY_LAG_SAMPLES
+    ]
+    if not late:
+        return []
+    what = "; ".join(late)
+    if velocities == "logged":
+        return [
+            f"warning: the log's qd lags the derivative of q ({what}; a backward difference lags by 0.5 "
+            "samples): the fit used qd (--velocities logged), whose lag biases friction and inertia; "
+            "the default takes the velocities from the positions"
+        ]
+    return [
+        f"note: the log's qd lags the derivative of q ({what}); unused: the velocities are the positions'"
+    ]
 
 
 def _check_log_length(log: IdentificationLog, cutoff: float, rank: int, regressor) -> None:

@@ -60,7 +60,7 @@ def test_a_10_sample_log_is_refused_naming_the_samples_a_fit_needs(tmp_path, cap
     filtering, naming the minimum (minimum_samples: 46 base parameters over 3 joints at 1 kHz)."""
     path = write_log(tmp_path / "short.csv", _log(10))
     need = minimum_samples(_log(10).sample_rate, 20.0, 46, 3)
-    assert 460 <= need <= 480  # (46 // 3) x 24 or 25 + 1 after 2 x 51 trimmed
+    assert need == 478  # (46 // 3) x 25 + 1 after 2 x 51 trimmed
     capsys.readouterr()
     assert main([*FIT, "--data", str(path), "--out", str(tmp_path / "fit")]) == 2
     line = _one_line(capsys)
@@ -72,7 +72,8 @@ def test_a_10_sample_log_is_refused_naming_the_samples_a_fit_needs(tmp_path, cap
 def test_the_minimum_is_what_the_fit_takes(delta):
     """One sample fewer than minimum_samples is refused; at the minimum the fit gets past its
     filters with just more rows than base parameters, and what it says next is the log's motion
-    (necessary, not sufficient: a joint that never reverses cannot tell Coulomb from the offset)."""
+    (necessary, not sufficient: a joint that never reverses cannot tell Coulomb from the offset,
+    and which of the two is named depends on the rows kept)."""
     need = minimum_samples(_log(600).sample_rate, 20.0, 46, 3)
     with pytest.raises(InvalidParameterError, match=f"has {need - 1} samples; .* needs at least {need}"):
         identify(delta, _log(need - 1), consistent=False)
@@ -80,7 +81,9 @@ def test_the_minimum_is_what_the_fit_takes(delta):
     states = filtered_states(log)
     rows = len(range(0, len(states.t), decimation(log.sample_rate, 20.0)))
     assert rows * 3 > 46 and (rows - 1) * 3 <= 46  # the fewest rows least squares take
-    with pytest.raises(InvalidParameterError, match=r"rank-deficient excitation: 2 of 46 .*\(fc\[active_2\]"):
+    with pytest.raises(
+        InvalidParameterError, match=r"rank-deficient excitation: 2 of 46 .*\((fc|off)\[active_\d\]"
+    ):
         identify(delta, log, consistent=False)
 
 
@@ -175,3 +178,16 @@ def test_simulate_refuses_another_delta_s_excitation(tmp_path, delta, capsys):
     assert code == 2
     assert f"trajectory {path} was excited for a robot 'delta' of other kinematics" in line
     assert not out.exists()
+
+
+def test_decimation_keeps_a_rate_measured_from_rounded_time_stamps():
+    """A 1 kHz log whose time stamps are arange(n) / 1000 written with finite digits measures
+    999.99999 Hz, and decimation rounded 24.99999975 down to 24 (a 4 % denser, more correlated set
+    of rows than the same log's 25); a ratio within 1e-6 of a whole number is now that number,
+    and a rate genuinely below it still rounds down."""
+    assert decimation(999.99999, 20.0) == 25
+    assert decimation(1000.00001, 20.0) == 25
+    assert decimation(1000.0, 20.0) == 25
+    assert decimation(990.0, 20.0) == 24  # 24.75: down
+    assert decimation(999.9, 20.0) == 24  # 24.9975: 1e-4 off, a rate of its own
+    assert decimation(10.0, 20.0) == 1
