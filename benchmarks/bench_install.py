@@ -1,6 +1,7 @@
 """The install a newcomer waits for: ``pip install -e '.[viz]'`` from a fresh clone (issue 38, item 4).
 
-Run: ``python benchmarks/bench_install.py [--cache warm|cold|both] [--cxx g++|clang++] [--extra viz]``
+Run: ``python benchmarks/bench_install.py [--cache warm|cold|both] [--cxx g++|clang++] [--extra viz]
+[--commit REV]``
 
 Each case clones the repository's committed ``HEAD`` into a temporary folder, makes a fresh
 virtual environment there and runs the README's install into it with ``HOME`` in that folder too.
@@ -12,7 +13,8 @@ ratio is the compiled core's price. The compile's own figures come from ninja's 
 clone's build folder: the wall time from the first unit to the link and the seconds of every unit.
 
 ``--cxx`` compiles with that compiler (``CXX``); by default CMakeLists.txt picks clang++ where it
-is installed, else the system's c++.
+is installed, else the system's c++. ``--commit`` measures another commit (an earlier one, for a
+before and after on one machine).
 """
 
 from __future__ import annotations
@@ -97,11 +99,12 @@ def main() -> int:
         "--cxx", default=None, help="the C++ compiler (CXX); default: CMakeLists.txt's choice"
     )
     parser.add_argument("--extra", default="viz", help="the extra of the README's install (default viz)")
+    parser.add_argument("--commit", default="HEAD", help="the commit to install (default HEAD)")
     args = parser.parse_args()
     dirty = subprocess.run(
         ["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True, text=True
     )
-    if dirty.stdout.strip():
+    if dirty.stdout.strip() and args.commit == "HEAD":
         print("note: uncommitted changes are not measured (the clone is of HEAD)")
     print(f"machine: {machine_info()}")
     caches = ("warm", "cold") if args.cache == "both" else (args.cache,)
@@ -113,6 +116,7 @@ def main() -> int:
             env = _environment(home, cache, args.cxx)
             clone = scratch / "delta-pin"
             subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+            subprocess.run(["git", "-C", str(clone), "checkout", "-q", args.commit], check=True)
             ours = _install(clone / ".venv", ["-e", f".[{args.extra}]"], env, clone)
             wall, unit_seconds, units = _compile_log(clone)
             compiler = _compiler(clone)
@@ -123,7 +127,9 @@ def main() -> int:
         mine = Timing(
             f"delta-pin, compiled by {Path(compiler).name}", [ours], note=f"compile {wall:.0f} s wall"
         )
-        title = f"pip install -e '.[{args.extra}]', fresh clone, venv and HOME, {cache} pip cache"
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", args.commit],
+                                capture_output=True, text=True).stdout.strip()  # fmt: skip
+        title = f"pip install -e '.[{args.extra}]' of {commit}, fresh clone, venv and HOME, {cache} pip cache"
         print_table(title, [deps, mine], reference=deps)
         print(f"\ncompile: {wall:.1f} s wall, {unit_seconds:.1f} s of units ({compiler}); the longest:")
         for name, seconds in units[:6]:
