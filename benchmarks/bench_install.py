@@ -85,10 +85,11 @@ def _compile_log(clone: Path) -> tuple[float, float, list[tuple[str, float]]]:
 
 
 def _compiler(clone: Path) -> str:
-    for cache in (clone / "build").glob("*/CMakeCache.txt"):
-        for line in cache.read_text().splitlines():
-            if line.startswith("CMAKE_CXX_COMPILER:"):
-                return line.split("=", 1)[1]
+    """The compiler CMake used (its compiler file: CMakeLists.txt may set it without the cache)."""
+    for found in (clone / "build").glob("*/CMakeFiles/*/CMakeCXXCompiler.cmake"):
+        for line in found.read_text().splitlines():
+            if line.startswith("set(CMAKE_CXX_COMPILER "):
+                return line.split('"')[1]
     return "?"
 
 
