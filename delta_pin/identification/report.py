@@ -208,9 +208,11 @@ def consistent_status(result: IdentificationResult) -> str:
 
 def identified_urdf(result: IdentificationResult) -> str | None:
     """The robot's URDF with every moving link's inertial replaced by the physically consistent
-    estimate (mass, COM, inertia about the COM in the link frame), or ``None`` where the robot has
-    no URDF text, a body gathers several links (fixed joints) or the estimate did not converge
-    (``result.consistent.success`` False: not the optimum, so not a model to hand on)."""
+    estimate (mass, COM, inertia about the COM in the link frame), and a ``<transmission>`` for
+    each actuated joint the file did not already drive (so that ``load_robot`` finds the motors
+    without ``actuated=``), or ``None`` where the robot has no URDF text, a body gathers several
+    links (fixed joints) or the estimate did not converge (``result.consistent.success`` False:
+    not the optimum, so not a model to hand on)."""
     if result.consistent is None or not result.consistent.success or not result.regressor.robot.urdf:
         return None
     from lxml import etree
@@ -238,6 +240,17 @@ def identified_urdf(result: IdentificationResult) -> str | None:
         etree.SubElement(inertial, "inertia", ixx=f"{inertia_c[0, 0]:.12g}", ixy=f"{inertia_c[0, 1]:.12g}",
                          ixz=f"{inertia_c[0, 2]:.12g}", iyy=f"{inertia_c[1, 1]:.12g}",
                          iyz=f"{inertia_c[1, 2]:.12g}", izz=f"{inertia_c[2, 2]:.12g}")  # fmt: skip
+    driven = {j.get("name") for t in root.iter("transmission") for j in t.iter("joint")}
+    for joint in regressor.robot.actuated_joints:
+        if joint in driven:
+            continue
+        # ROS's simple transmission, which load_robot reads as the joint's motor
+        transmission = etree.SubElement(root, "transmission", name=f"{joint}_transmission")
+        etree.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
+        element = etree.SubElement(transmission, "joint", name=joint)
+        etree.SubElement(element, "hardwareInterface").text = "hardware_interface/EffortJointInterface"
+        actuator = etree.SubElement(transmission, "actuator", name=f"{joint}_motor")
+        etree.SubElement(actuator, "mechanicalReduction").text = "1"
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8").decode()
 
 

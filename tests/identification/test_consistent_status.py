@@ -28,7 +28,7 @@ def test_the_consistent_estimate_converges_and_says_so(delta_log, tmp_path):
     """Optimal (duality gap <= 1e-8 of the cost) in at most 400 Newton steps (measured 98, 0.05 s;
     scipy's least_squares before stopped at its 100 evaluations here, cost 2245.8 against the
     optimum's 2241.71); physical (pseudo-inertias' eigenvalues >= -1e-12); its status in
-    parameters.json and report.md, and robot.urdf written from it."""
+    parameters.json and report.md, and robot.urdf written from it, which loads with its motors."""
     nominal, log = delta_log
     result = identify(nominal, log, essential=False)
     c = result.consistent
@@ -45,7 +45,9 @@ def test_the_consistent_estimate_converges_and_says_so(delta_log, tmp_path):
     assert record["consistent"]["duality_gap"] <= 1e-8 * 2300
     report = (tmp_path / "ident" / "report.md").read_text()
     assert "consistent estimate: converged (optimal: duality gap" in report
-    back = dp.load_robot(str(tmp_path / "ident" / "robot.urdf"), actuated=list(nominal.actuated_joints))
+    # its motors from the file: a <transmission> per actuated joint (before, actuated= was needed)
+    back = dp.load_robot(str(tmp_path / "ident" / "robot.urdf"))
+    assert back.actuated_joints == nominal.actuated_joints
     inertias = [back.model.inertias[j] for j in range(1, back.model.njoints)]
     masses = sorted(inertia.mass for inertia in inertias if inertia.mass)
     expected = sorted(m for m in c.theta[: result.regressor.inertial_count : 10] if m)
