@@ -33,6 +33,7 @@ BENCHMARKS = {
     "bench_continuous.py": ["--repeats", "3"],
     "bench_unactuated.py": ["--repeats", "3"],
     "bench_identification.py": ["--repeats", "3"],
+    "bench_install.py": ["--cache", "warm"],  # ~5 min: two fresh installs
 }
 QUICK = {
     "bench_model.py": ["--repeats", "3", "--calls", "500"],
