@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import sys
-import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -333,7 +332,7 @@ def plot_error_comparison(
         The figure; each run's line has gid ``"error:<label>"``.
     """
     runs = _check_runs(runs)
-    fig, ax = _new_axes(ax, (7.0, 3.8))
+    fig, ax = _new_axes(ax, (8.0, 3.8))
     symbol, unit = (_RDOT_NORM, "rad/s") if rate else (_R_NORM, "rad")
     t0, t1 = math.inf, -math.inf
     for i, (label, run) in enumerate(runs.items()):
@@ -348,7 +347,8 @@ def plot_error_comparison(
     ax.grid(True, which="both" if log else "major", alpha=0.3)
     path = _common_path_name(runs)
     ax.set_title(f"Tracking error {symbol} by controller" + (f" — {path}" if path else ""))
-    ax.legend(loc="best")
+    # beside the axes: the curves fill the whole time axis, so any place inside covers some
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5))
     return fig
 
 
@@ -624,13 +624,16 @@ def plot_against_rate(
             xs, ys = zip(*kept)
             ax.plot(xs, ys, "o-", color=color, label=label, gid=f"rate:{label}", linewidth=_linewidth(i))
         lost = [(x, when) for x, v, when in points if v is None]
+        # each controller's diverged runs on a row of their own above the data, so that the
+        # markers of several controllers diverging at one rate do not hide each other
+        row = top * 2.0 * DIVERGED_ROW_STEP**i
         if lost:
-            ax.plot([x for x, _ in lost], [top * 2.0] * len(lost), "x", color=color,
+            ax.plot([x for x, _ in lost], [row] * len(lost), "x", color=color,
                     label=None if kept else f"{label} (diverged)", gid=f"diverged:{label}")  # fmt: skip
         for x, when in lost:
             if when is not None and not math.isnan(when):
-                ax.annotate(f"{when:.2g} s", (x, top * 2.0), fontsize=7, color=color,
-                            textcoords="offset points", xytext=(6, -8 * i))  # fmt: skip
+                ax.annotate(f"{when:.2g} s", (x, row), fontsize=7, color=color, va="center",
+                            textcoords="offset points", xytext=(6, 0))  # fmt: skip
     ax.set_xscale("log")
     ax.set_yscale("log")
     name, unit = METRIC_LABELS.get(metric, (metric, ""))
@@ -643,10 +646,13 @@ def plot_against_rate(
     return fig
 
 
+DIVERGED_ROW_STEP = 1.35  # plot_against_rate: the ratio between two controllers' rows of x marks
+
+
 def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) -> Figure:
     """Tracking error against torque roughness, one line per controller through its gain values
-    (log-log; each point labelled with its gain's value; diverged runs left out and listed in the
-    title).
+    (log-log; each point labelled with its gain's value, the later controllers' markers smaller so
+    that coinciding points stay visible; diverged runs left out and listed in the legend).
 
     Args:
         rows: dicts with ``controller``, ``gain``, ``value``, ``max_joint_error_last_5s`` [rad],
@@ -661,24 +667,24 @@ def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) ->
     }
     gains = {str(r["controller"]): str(r.get("gain", "")) for r in rows}
     fig, ax = _new_axes(ax, (9.0, 5.0))
-    diverged = []
     for i, (label, points) in enumerate(lines.items()):
         kept = [(roughness[(label, x)], v, x) for x, v, _ in points if v is not None]
-        diverged += [f"{label} {gains[label]}={x:g}" for x, v, _ in points if v is None]
+        lost = [x for x, v, _ in points if v is None]
+        if lost:  # a legend entry of its own: a title that lists them is clipped at the figure's edge
+            values = ", ".join(f"{x:g}" for x in lost)
+            ax.plot([], [], "x", color=f"C{i}", label=f"{label}: diverged at {gains[label]}={values}")
         if not kept:
             continue
         xs, ys, _ = zip(*kept)
-        ax.plot(xs, ys, "o-", color=f"C{i}", label=f"{label} (over {gains[label]})", gid=f"trade-off:{label}")
+        ax.plot(xs, ys, "o-", color=f"C{i}", markersize=max(3.0, 8.0 - 1.5 * i),
+                label=f"{label} (over {gains[label]})", gid=f"trade-off:{label}")  # fmt: skip
         for x, y, value in kept:
             ax.annotate(f"{value:g}", (x, y), fontsize=7, textcoords="offset points", xytext=(4, 2))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("torque roughness, RMS ‖τₖ − τₖ₋₁‖ over the last 5 s [N·m]")
     ax.set_ylabel("max ‖r‖, last 5 s [rad]")
-    title = "error against roughness over each design's main gain"
-    if diverged:
-        title += "\n" + textwrap.fill("diverged: " + ", ".join(diverged), 100)
-    ax.set_title(title, fontsize=9)
+    ax.set_title("error against roughness over each design's main gain", fontsize=9)
     if ax.get_legend_handles_labels()[0]:  # a study whose rows all lack a value draws no line
         ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     ax.grid(True, which="both", alpha=0.3)

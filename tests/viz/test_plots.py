@@ -386,7 +386,31 @@ def test_plot_trade_off_pairs_roughness_and_error_per_gain():
     line = find_artist(fig, "trade-off:C")
     np.testing.assert_array_equal(line.get_xdata(), [0.01, 0.05])
     np.testing.assert_array_equal(line.get_ydata(), [1e-3, 5e-4])
-    assert "C k=4" in fig.axes[0].get_title()
+    # the diverged gains in the legend (a title listing them was clipped at the figure's edge)
+    legend = [text.get_text() for text in fig.axes[0].get_legend().get_texts()]
+    assert "C: diverged at k=4" in legend and "diverged" not in fig.axes[0].get_title()
+
+
+def test_diverged_marks_of_controllers_at_one_rate_do_not_pile_up():
+    """Fig. 30 drew the x of every controller that diverged at 1 kHz at one point (only the last
+    one visible): each controller's marks now have a row of their own, DIVERGED_ROW_STEP apart."""
+    from delta_pin.viz.plots import DIVERGED_ROW_STEP
+
+    rows = [*RATE_ROWS, {"controller": "C", "rate_hz": 1000.0, "metric": None, "diverged_at": 0.05}]
+    fig = plot_against_rate(rows, "metric")
+    b, c = find_artist(fig, "diverged:B").get_ydata()[0], find_artist(fig, "diverged:C").get_ydata()[0]
+    assert c / b == pytest.approx(DIVERGED_ROW_STEP, rel=1e-12)
+
+
+def test_the_error_comparison_s_legend_is_beside_the_curves(path1):
+    """Fig. 22's legend sat on the curves (loc="best" on curves that fill the axes): it is now
+    outside the axes, to their right (checked on the rendered figure)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plot_error_comparison(path1, log=True)
+    FigureCanvasAgg(fig).draw()
+    ax = fig.axes[0]
+    assert ax.get_legend().get_window_extent().x0 >= ax.get_window_extent().x1
 
 
 def test_rate_plots_refuse_rows_without_a_rate():
