@@ -50,6 +50,7 @@ __all__ = [
     "ReproduceSettings",
     "ReproductionResult",
     "compare",
+    "markdown_html",
     "markdown_table",
     "reproduce",
     "settling_time",
@@ -544,6 +545,46 @@ def _slug(text: str) -> str:
     return text.replace(" ", "_").replace("(", "").replace(")", "")
 
 
+def _column_header(column: str) -> str:
+    """A metrics column's name with its unit: ``iae [rad·s]`` (viz.plots.METRIC_LABELS' units)."""
+    from delta_pin.viz.plots import METRIC_LABELS
+
+    unit = {"settling_time": "s"}.get(column) or METRIC_LABELS.get(column, ("", ""))[1]
+    return f"{column} [{unit}]" if unit else column
+
+
+def markdown_html(lines: list[str]) -> str:
+    """The report's Markdown lines as HTML: each block of ``| ... |`` rows a table (its first row
+    the header, the ``|---|`` row dropped), any other line a paragraph; everything escaped. What
+    index.html shows of the digital study (before, one ``<pre>`` of raw Markdown pipes)."""
+    parts, rows = [], []
+
+    def cells(row: str) -> list[str]:
+        return [cell.strip() for cell in row.strip().strip("|").split("|")]
+
+    def close_table() -> None:
+        if rows:
+            kept = [cells(row) for row in rows if not set(row.replace("|", "").strip()) <= set("-: ")]
+            head, *rest = kept
+
+            def row_html(values: list[str], tag: str) -> str:
+                return "<tr>" + "".join(f"<{tag}>{html.escape(c)}</{tag}>" for c in values) + "</tr>"
+
+            table = [row_html(head, "th"), *(row_html(row, "td") for row in rest)]
+            parts.append("<table border=1 cellpadding=4>" + "".join(table) + "</table>")
+            rows.clear()
+
+    for line in lines:
+        if line.lstrip().startswith("|"):
+            rows.append(line)
+            continue
+        close_table()
+        if line.strip():
+            parts.append(f"<p>{html.escape(line)}</p>")
+    close_table()
+    return "\n".join(parts)
+
+
 COLUMNS = (
     "controller",
     "path",
@@ -666,7 +707,7 @@ def _write_report(
         )
     body.append(
         "</table><h2>Metrics</h2><table border=1 cellpadding=4><tr>"
-        + "".join(f"<th>{c}</th>" for c in COLUMNS)
+        + "".join(f"<th>{html.escape(_column_header(c))}</th>" for c in COLUMNS)
         + "</tr>"
     )
     for row in result.metrics:
@@ -675,7 +716,7 @@ def _write_report(
         )
     body.append("</table>")
     if digital:
-        body.append(f"<h2>Digital implementation</h2><pre>{html.escape(chr(10).join(digital[2:]))}</pre>")
+        body.append("<h2>Digital implementation</h2>" + markdown_html(digital[2:]))
     if pages:
         body.append(
             "<h2>Animations</h2><ul>" + "".join(f'<li><a href="{p}">{p}</a></li>' for p in pages) + "</ul>"

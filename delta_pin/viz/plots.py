@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from delta_pin.control.registry import label as controller_name
@@ -667,12 +668,14 @@ def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) ->
     }
     gains = {str(r["controller"]): str(r.get("gain", "")) for r in rows}
     fig, ax = _new_axes(ax, (9.0, 5.0))
+    lost_entries = []  # legend-only marks (an empty line on log axes breaks their autoscale)
     for i, (label, points) in enumerate(lines.items()):
         kept = [(roughness[(label, x)], v, x) for x, v, _ in points if v is not None]
         lost = [x for x, v, _ in points if v is None]
         if lost:  # a legend entry of its own: a title that lists them is clipped at the figure's edge
             values = ", ".join(f"{x:g}" for x in lost)
-            ax.plot([], [], "x", color=f"C{i}", label=f"{label}: diverged at {gains[label]}={values}")
+            mark = Line2D([], [], marker="x", linestyle="", color=f"C{i}")
+            lost_entries.append((mark, f"{label}: diverged at {gains[label]}={values}"))
         if not kept:
             continue
         xs, ys, _ = zip(*kept)
@@ -685,8 +688,11 @@ def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) ->
     ax.set_xlabel("torque roughness, RMS ‖τₖ − τₖ₋₁‖ over the last 5 s [N·m]")
     ax.set_ylabel("max ‖r‖, last 5 s [rad]")
     ax.set_title("error against roughness over each design's main gain", fontsize=9)
-    if ax.get_legend_handles_labels()[0]:  # a study whose rows all lack a value draws no line
-        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    handles, labels = ax.get_legend_handles_labels()
+    handles += [mark for mark, _ in lost_entries]
+    labels += [text for _, text in lost_entries]
+    if handles:  # a study whose rows all lack a value and none diverged draws nothing
+        ax.legend(handles, labels, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     ax.grid(True, which="both", alpha=0.3)
     return fig
 

@@ -57,6 +57,53 @@ def test_every_output_is_written(tiny):
     assert len(result.claims) == len(json.loads((out / "claims.json").read_text())) >= 10
 
 
+def test_index_html_renders_every_table_as_html_with_units(tiny):
+    """index.html showed the digital study as one <pre> of raw Markdown pipes and the metrics'
+    headers without units (issue 39): every table of report.md's digital section is now an HTML
+    table with the same rows and cells (parsed back here), no Markdown pipe row is left in the
+    page, and the metrics' headers carry their units."""
+    from html.parser import HTMLParser
+
+    class Tables(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.tables, self.cell = [], None
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "table":
+                self.tables.append([])
+            elif tag == "tr":
+                self.tables[-1].append([])
+            elif tag in ("td", "th"):
+                self.cell = ""
+
+        def handle_data(self, data):
+            if self.cell is not None:
+                self.cell += data
+
+        def handle_endtag(self, tag):
+            if tag in ("td", "th"):
+                self.tables[-1][-1].append(self.cell.strip())
+                self.cell = None
+
+    out, _ = tiny
+    page = (out / "index.html").read_text()
+    assert "<pre>" not in page and "|---|" not in page
+    parser = Tables()
+    parser.feed(page)
+    report = (out / "report.md").read_text().split("## Digital")[1].split("## Figures")[0]
+    markdown = [
+        [cell.strip() for cell in line.strip().strip("|").split("|")]
+        for line in report.splitlines()
+        if line.startswith("|") and not line.startswith("|---")
+    ]
+    html_rows = [row for table in parser.tables[2:] for row in table]  # after the claims and metrics
+    assert html_rows == markdown and len(markdown) >= 4
+    metrics_header = parser.tables[1][0]
+    assert "iae [rad·s]" in metrics_header and "settling_time [s]" in metrics_header
+    assert "wall_time [s]" in metrics_header and "controller" in metrics_header
+
+
 def test_figures_drawn_by_two_processes_are_the_ones_one_process_draws(tiny, tmp_path):
     """With two workers a forked child draws every other figure (studies.reproduce._write_figures):
     the same files, byte for byte, as the one-process run (matplotlib's Agg output is
