@@ -740,7 +740,11 @@ _MODE_HELP = "sampled: a digital drive (zero-order hold); continuous: the contro
 
 
 def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--plant", choices=("pinocchio", "analytic"), default="analytic", help=_PLANT_HELP)
+    parser.add_argument(
+        "--plant", choices=("pinocchio", "analytic"), default="analytic",
+        help=_PLANT_HELP + "; studies of many runs default to the analytic model (the paper's own, "
+        "and faster), while `run` defaults to Pinocchio's",
+    )  # fmt: skip
     _add_choice_argument(parser, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(parser, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     parser.add_argument(
@@ -1358,7 +1362,11 @@ def build_parser() -> argparse.ArgumentParser:
     run = add("run", help="simulate one controller on one path (the paper's Section V scenario)")
     _add_choice_argument(run, "--controller", CONTROLLERS, default="design1", help="the control law")
     _add_choice_argument(run, "--path", PATHS, default="I", help="the reference path")
-    run.add_argument("--plant", choices=("pinocchio", "analytic"), default="pinocchio", help=_PLANT_HELP)
+    run.add_argument(
+        "--plant", choices=("pinocchio", "analytic"), default="pinocchio",
+        help=_PLANT_HELP + "; one run defaults to Pinocchio's exact model, while compare, sweep and "
+        "reproduce --quick default to the analytic one",
+    )  # fmt: skip
     _add_choice_argument(run, "--mode", MODES, default="continuous", help=_MODE_HELP)
     _add_choice_argument(run, "--integrator", INTEGRATOR_CHOICES, default="auto", help=_INTEGRATOR_HELP)
     run.add_argument(
