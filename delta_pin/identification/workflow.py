@@ -28,7 +28,6 @@ from delta_pin.identification.estimation import (
     bounded_fit,
     check_cutoff,
     check_identifiable,
-    check_velocity_source,
     essential_fit,
     expand,
     filtered_states,
@@ -464,7 +463,6 @@ def identify(
     base = base_parameters(regressor)
     timings["base_parameters"] = time.perf_counter() - start
     _check_log_length(data, cutoff, base.rank, regressor)
-    check_velocity_source(velocities, data)
     t0 = time.perf_counter()
     states = filtered_states(data, cutoff=cutoff, velocities=velocities)
     lag = None if data.alpha_dot is None else velocity_lag(data, cutoff=cutoff)
