@@ -5,10 +5,12 @@ columns was fitted on its qd, whatever its timing, and nothing measured it."""
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import delta_pin as dp
 from delta_pin.cli import main
 from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.estimation import VELOCITY_LAG_SAMPLES, velocity_lag
@@ -97,3 +99,34 @@ def test_fit_velocities_on_the_command_line(logs, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "has no qd columns" in err, err
     assert not none.exists()
+
+
+@pytest.mark.parametrize(("integrator", "lag"), [("RK4", 0.0), ("EULER", 0.5), ("IMPLICITFAST", 0.5)])
+def test_the_lag_of_mujoco_s_own_velocities(integrator, lag):
+    """A log from another simulator: the shipped 3-RRR's MJCF run by MuJoCo under a PD law along
+    three sinusoids, (qpos, qvel) of the actuated joints logged before each mj_step. MuJoCo's
+    semi-implicit Euler steps (Euler, implicitfast) set q_(k+1) = q_k + h v_(k+1), so the v logged
+    beside q_k is exactly (q_k - q_(k-1)) / h: half a sample late, which velocity_lag measures
+    (0.5000-0.5005 samples); its RK4 logs the state's own velocity (|lag| < 0.002 samples). Bound
+    0.01 samples, as for delta-pin's own logs."""
+    mujoco = pytest.importorskip("mujoco")
+    from delta_pin.identification.log import IdentificationLog
+
+    model = mujoco.MjModel.from_xml_path(str(Path(dp.__file__).parent / "robots" / "three_rrr.xml"))
+    model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+    data = mujoco.MjData(model)
+    joints = ("active_1", "active_2", "active_3")
+    q_at = [model.joint(name).qposadr[0] for name in joints]
+    v_at = [model.joint(name).dofadr[0] for name in joints]
+    h, start = model.opt.timestep, data.qpos[q_at].copy()
+    rows = []
+    for k in range(3500):  # 0.5 s to settle onto the loops, then 3 s logged
+        t = k * h
+        target = start + 0.2 * np.sin(2 * np.pi * np.array([1.0, 1.3, 0.7]) * t)
+        data.ctrl[:] = 20.0 * (target - data.qpos[q_at]) - 1.0 * data.qvel[v_at]
+        if k >= 500:
+            rows.append((t, *data.qpos[q_at], *data.qvel[v_at], *data.ctrl))
+        mujoco.mj_step(model, data)
+    table = np.array(rows)
+    log = IdentificationLog(table[:, 0], table[:, 1:4], table[:, 7:10], joints, table[:, 4:7])
+    np.testing.assert_allclose(velocity_lag(log) / h, lag, atol=0.01)
