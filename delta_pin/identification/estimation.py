@@ -135,10 +135,9 @@ def filtered_states(
             "the zero-phase filter extends each end by); record a longer run"
         )
     dt = 1.0 / rate
-    b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
-    alpha = scipy.signal.filtfilt(b, a, log.alpha, axis=0)
+    alpha = _state_filter(log.alpha, cutoff, rate, order)
     if velocities == "logged":
-        alpha_dot = scipy.signal.filtfilt(b, a, log.alpha_dot, axis=0)
+        alpha_dot = _state_filter(log.alpha_dot, cutoff, rate, order)
     else:
         alpha_dot = np.gradient(alpha, dt, axis=0)
     alpha_ddot = np.gradient(alpha_dot, dt, axis=0)
@@ -148,6 +147,14 @@ def filtered_states(
         tau = tau.copy()
         tau[1:] = 0.5 * (log.tau[1:] + log.tau[:-1])
     return FilteredStates(log.t[keep], alpha[keep], alpha_dot[keep], alpha_ddot[keep], tau[keep])
+
+
+def _state_filter(signal: np.ndarray, cutoff: float, rate: float, order: int) -> np.ndarray:
+    """The states' zero-phase low-pass (Butterworth of ``order`` at STATE_CUTOFF_RATIO x ``cutoff``
+    [Hz], ``filtfilt`` along the samples of a log at ``rate`` [Hz]): the one filter that both
+    :func:`filtered_states` and :func:`velocity_lag` apply."""
+    b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
+    return scipy.signal.filtfilt(b, a, signal, axis=0)
 
 
 def check_velocity_source(velocities: str, log: IdentificationLog) -> None:
@@ -180,9 +187,8 @@ def velocity_lag(
         return np.full(dof, np.nan)
     rate = log.sample_rate
     dt = 1.0 / rate
-    b, a = scipy.signal.butter(order, STATE_CUTOFF_RATIO * cutoff / (0.5 * rate))
-    g = np.gradient(scipy.signal.filtfilt(b, a, log.alpha, axis=0), dt, axis=0)
-    qd = scipy.signal.filtfilt(b, a, log.alpha_dot, axis=0)
+    g = np.gradient(_state_filter(log.alpha, cutoff, rate, order), dt, axis=0)
+    qd = _state_filter(log.alpha_dot, cutoff, rate, order)
     g_dot = np.gradient(g, dt, axis=0)
     keep = (log.t >= log.t[0] + trim) & (log.t <= log.t[-1] - trim)
     g, qd, g_dot = g[keep], qd[keep], g_dot[keep]
