@@ -729,9 +729,8 @@ def _failures(errors: list, args: argparse.Namespace) -> int:
 
 
 _INTEGRATOR_HELP = (
-    "auto: RK4 sampled; continuous: the compiled Radau IIA with error control for designs I/II, "
-    "else LSODA; radau, bdf2 (fixed 1 ms steps, batched by sweeps): compiled, designs I/II, either plant "
-    "(Pinocchio: native library); lsoda: SciPy's"
+    "auto: RK4 sampled, the Radau IIA with error control continuous; rk4 (sampled), radau, bdf2 (continuous, "
+    "fixed 1 ms steps, batched by sweeps): all the compiled core's"
 )
 
 

@@ -75,8 +75,9 @@ class SimulationError(DeltaPinError):
 
 
 class NativeUnavailableError(DeltaPinError, RuntimeError):
-    """The native library (Pinocchio's C++ behind delta-pin's C ABI) cannot be built or loaded
-    here: no C++ compiler, missing headers, or ``DELTA_PIN_NATIVE=0``."""
+    """The compiled core (``delta_pin/core/``) cannot be imported here: not built (a source tree
+    without an install) or built against another Pinocchio than the one installed. The message
+    names the command that rebuilds it."""
 
 
 class OptionalDependencyError(DeltaPinError, ImportError):

@@ -3,14 +3,14 @@ and checked against the running Pinocchio.
 
 The core links ``libpinocchio_default`` of the ``pin`` wheel it was built against; another
 ``pin`` installed since (another C++ ABI) is refused here in one line that says which and how to
-rebuild, instead of a crash or a wrong number later. ``DELTA_PIN_NATIVE=0`` turns the core off
-(every run then takes the Python loop).
+rebuild, instead of a crash or a wrong number later. The core is not optional: every run, model
+and law goes through it (docs/architecture.md section 7), so a core that cannot be imported is an
+error that names the rebuild command, never a silent slower path.
 """
 
 from __future__ import annotations
 
 import functools
-import os
 from types import ModuleType
 
 from delta_pin.errors import NativeUnavailableError
@@ -25,12 +25,9 @@ def core() -> ModuleType:
     """The imported core module.
 
     Raises:
-        NativeUnavailableError: the core is turned off (``DELTA_PIN_NATIVE=0``), not built (a
-            source tree without an install) or built against another Pinocchio than the one
-            installed.
+        NativeUnavailableError: the core is not built (a source tree without an install) or
+            built against another Pinocchio than the one installed.
     """
-    if os.environ.get("DELTA_PIN_NATIVE", "1") == "0":
-        raise NativeUnavailableError("the compiled core is turned off (DELTA_PIN_NATIVE=0)")
     import pinocchio  # loads libpinocchio_default, which the core links
 
     try:

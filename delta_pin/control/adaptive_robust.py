@@ -99,9 +99,6 @@ class AdaptiveRobustController(Controller):
         sampling_period: control period T [s] of a digital drive: caps the robust gain (the
             sampling-aware option); ``None`` applies the paper's law unchanged.
         sampling_margin: bound on (T_v + k) T / lambda_min(M̄) for the cap (0 < margin < 2).
-        compiled: whether the compiled core runs this law as its own C++ copy
-            (:meth:`sampled_core_law`); ``False`` keeps the readable :meth:`evaluate`, which the
-            core then calls back once per sample (sampled) or per evaluation (continuous).
     """
 
     def __init__(
@@ -114,7 +111,6 @@ class AdaptiveRobustController(Controller):
         vector_rho: bool = False,
         sampling_period: float | None = None,
         sampling_margin: float = 1.0,
-        compiled: bool = True,
     ) -> None:
         if design not in DESIGNS:
             raise InvalidParameterError(f"design={design!r} must be one of {', '.join(DESIGNS)}")
@@ -138,14 +134,7 @@ class AdaptiveRobustController(Controller):
         )
         self.T_v = self.computed_torque.T_v
         self.name = f"design{design}"
-        self._compiled = compiled
         self.reset()
-
-    @property
-    def compiled(self) -> bool:
-        """Whether the compiled core runs this law compiled (:meth:`sampled_core_law`, built with
-        ``compiled=True``, the default); ``False``: the core calls :meth:`evaluate` back."""
-        return self._compiled
 
     def initial_state(self) -> np.ndarray:
         return np.full(3 if self.vector_rho else 1, self.gains.rho0)
@@ -155,8 +144,6 @@ class AdaptiveRobustController(Controller):
         ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
         nominal model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
-        if not self._compiled:
-            return None
         ctc, g = self.computed_torque, self.gains
         gains = {
             "D": ctc.D, "T_p": ctc.T_p, "T_v": ctc.T_v, "beta": g.beta, "xi": g.xi, "epsilon": g.epsilon,

@@ -96,7 +96,7 @@ class ControllerDeclaration:
         import typing
 
         taken = {"self", "nominal", "design", "dt", "delay", "torque_limit", "alpha_linearisation",
-                 "sampling_period", "compiled", FRICTION_COMPENSATION}  # fmt: skip
+                 "sampling_period", FRICTION_COMPENSATION}  # fmt: skip
         names = []
         hints = typing.get_type_hints(self.law.__init__)
         for name in inspect.signature(self.law).parameters:

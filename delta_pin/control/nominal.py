@@ -20,7 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.errors import ForwardKinematicsError, InvalidParameterError, NativeUnavailableError
+from delta_pin.errors import ForwardKinematicsError, InvalidParameterError
 from delta_pin.model.core_model import core_chain, core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
@@ -344,13 +344,14 @@ def named_gains(module, kind: str, gains: Mapping):
 def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
     """The compiled law ``kind`` of ``delta_pin/core/controller.hpp`` for the closed chain
     ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
-    compensates, or ``None``), or ``None`` where the core cannot be imported here."""
+    compensates, or ``None``).
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
     from delta_pin.compiled.core import core
 
-    try:
-        module = core()
-    except NativeUnavailableError:
-        return None
+    module = core()
     if len(gains) == 1 and isinstance(gains[0], Mapping):  # gains by name: the law's gains struct
         gains = (named_gains(module, kind, gains[0]),)
     law = getattr(module, kind)(

@@ -109,6 +109,7 @@ namespace
 } // namespace
 
 void bind_continuous(nb::module_ & m);  // continuous_binding.cpp
+void bind_python_plant(nb::module_ & m);  // python_plant.cpp
 
 NB_MODULE(_core, m)
 {
@@ -345,6 +346,7 @@ NB_MODULE(_core, m)
       nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
       nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
       "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
+  bind_python_plant(m);
   nb::class_<ClosedChainPlant, CorePlant>(m, "ClosedChainPlant")
     .def(
       "__init__",

@@ -37,10 +37,7 @@ namespace delta_pin
     for (long k = 0; k <= steps; ++k)
     {
       poll_interrupt();
-      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
-        alpha[i] = x[actuated_q_[i]];
-      for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
-        alpha_dot[i] = x[nq + actuated_v_[i]];
+      joint_state(x, alpha, alpha_dot);
       Vector tau;
       try
       {

@@ -110,6 +110,16 @@ namespace delta_pin
     // closure gap of the result [m, rad]. May throw SimulationFailure (without a time).
     virtual double step(Vector & x, const Vector & tau, long stage, double h) = 0;
     virtual Eigen::Vector3d end_effector_position(const Vector & q) = 0;
+    // (alpha, alpha_dot) of the state x: its actuated entries (a plant whose state holds them
+    // elsewhere says where)
+    virtual void joint_state(const Vector & x, Vector & alpha, Vector & alpha_dot)
+    {
+      const int nq = this->nq();
+      for (Eigen::Index i = 0; i < actuated_q_.size(); ++i)
+        alpha[i] = x[actuated_q_[i]];
+      for (Eigen::Index i = 0; i < actuated_v_.size(); ++i)
+        alpha_dot[i] = x[nq + actuated_v_[i]];
+    }
     virtual double closure_gap(const Vector & q) = 0;
 
     // The continuous loop in active coordinates: q (warm start in, the configuration out) and

@@ -5,15 +5,14 @@ arithmetic as the robot's own Python methods (``configuration``, ``velocity_map`
 
 The core takes every robot of the one robot model: idle motions (minimum-norm Newton steps and the
 map of least kinetic energy), passive joints, a free base and joint couplings (MuJoCo's
-``<equality joint>``, closure rows of their own). :func:`core_model` answers ``None`` only where
-the core is turned off (``DELTA_PIN_NATIVE=0``) or cannot be imported.
+``<equality joint>``, closure rows of their own). :func:`core_model` answers ``None`` only for a
+model the core refuses (its ``ValueError``); a core that cannot be imported is an error
+(:class:`~delta_pin.errors.NativeUnavailableError`).
 """
 
 from __future__ import annotations
 
 import numpy as np
-
-from delta_pin.errors import NativeUnavailableError
 
 __all__ = ["core_chain", "core_model"]
 
@@ -45,11 +44,15 @@ def core_chain(robot):
 
 
 def core_model(robot):
-    """The core's ``ClosedChainModel`` of ``robot``, or ``None`` where the core cannot be
-    imported here."""
+    """The core's ``ClosedChainModel`` of ``robot``, or ``None`` for a model it refuses.
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
     from delta_pin.compiled.core import core
 
+    module = core()
     try:
-        return core().ClosedChainModel(core_chain(robot))
-    except (NativeUnavailableError, ValueError, RuntimeError):
+        return module.ClosedChainModel(core_chain(robot))
+    except (ValueError, RuntimeError):
         return None

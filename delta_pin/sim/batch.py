@@ -25,20 +25,7 @@ from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import SharedReference
 from delta_pin.sim.runner import simulate
 
-__all__ = ["native_available", "simulate_batch"]
-
-
-def native_available() -> bool:
-    """Whether the compiled core (``delta_pin/core/``, :mod:`delta_pin.compiled.core`) can be
-    imported here (off with ``DELTA_PIN_NATIVE=0``): the runs of a batch then take it."""
-    from delta_pin.compiled.core import core
-    from delta_pin.errors import NativeUnavailableError
-
-    try:
-        core()
-    except NativeUnavailableError:
-        return False
-    return True
+__all__ = ["simulate_batch"]
 
 
 def simulate_batch(

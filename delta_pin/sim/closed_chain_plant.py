@@ -439,8 +439,7 @@ class ClosedChainPlant(Plant):
 
     def core_plant(self, step: float = 0.0, count: int = 0):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where it does not apply: a joint without a configuration rate there, or the core
-        turned off (``DELTA_PIN_NATIVE=0``) or not importable."""
+        ``None`` where the core refuses the model (a joint without a configuration rate)."""
         from delta_pin.sim.compiled_plant import build_core_plant
 
         return self._built_in_core(build_core_plant, step, count)

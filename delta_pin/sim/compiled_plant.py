@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.compiled.core import core
-from delta_pin.errors import NativeUnavailableError, SimulationError
+from delta_pin.errors import SimulationError
 from delta_pin.model.core_model import core_chain
 from delta_pin.model.kinematics import chain_trigonometry
 
@@ -33,18 +33,33 @@ __all__ = [
     "CompiledSampledRun",
     "build_core_analytic_plant",
     "build_core_plant",
-    "core_unavailable",
     "keep_core_projections",
+    "python_core_plant",
     "run_core_sampled",
     "set_core_truth",
 ]
 
 
 class CompiledSampledRun:
-    """What the compiled sampled loop records (steps + 1 rows): q, v, end-effector xyz, closure gap."""
+    """What the compiled sampled loop records (steps + 1 rows): q, v, end-effector xyz, closure gap.
 
-    def __init__(self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray, compiled) -> None:
+    For a plant written in Python (:func:`python_core_plant`) the core recorded its state x; the
+    joints and the multibody configuration are the plant's own reading of each row
+    (``joint_state``, ``configuration_state``)."""
+
+    def __init__(
+        self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray, compiled, plant=None
+    ) -> None:
         self.q, self.v, self.xyz, self.gap = q, v, xyz, gap
+        if isinstance(compiled, core().PythonPlant):
+            joints = [plant.joint_state(x) for x in q]
+            self.alpha = np.array([a for a, _ in joints])
+            self.alpha_dot = np.array([ad for _, ad in joints])
+            full = [plant.configuration_state(x) for x in q]
+            self.q = self.v = None
+            if full and full[0] is not None:
+                self.q, self.v = np.array([c[0] for c in full]), np.array([c[1] for c in full])
+            return
         self.alpha = q[:, np.asarray(compiled.actuated_q)]  # the actuated joints (rad)
         self.alpha_dot = v[:, np.asarray(compiled.actuated_v)]  # (rad/s)
         if not compiled.has_configuration:  # the reduced Delta: q, v are alpha, alpha_dot
@@ -69,9 +84,10 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
     with the payload and the uncertainty profile's truth tabulated at t = i step, i < count [s]
     (:func:`set_core_truth`; ``count=0``: the caller sets it later).
 
+    Returns ``None`` for a model the core refuses (a joint without a configuration rate).
+
     Raises:
-        NativeUnavailableError: the core cannot be imported here, or rejects the model (a joint
-            without a configuration rate).
+        NativeUnavailableError: the core cannot be imported here.
     """
     robot = plant.robot
     module = core()
@@ -92,8 +108,8 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
             core_chain(robot), constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
             settings.max_iter, plant.projection_tolerance,
         )  # fmt: skip
-    except (ValueError, RuntimeError) as exc:
-        raise NativeUnavailableError(f"the compiled plant does not take {robot.name!r}: {exc}") from None
+    except (ValueError, RuntimeError):
+        return None
     as_indices = np.int32
     compiled.set_springs(
         plant._spring_q.astype(as_indices), plant._spring_v.astype(as_indices), plant._spring_k,
@@ -159,6 +175,36 @@ def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
     return compiled
 
 
+def python_core_plant(plant, states: int):
+    """A plant written in Python (``derivative``, ``finish_step_residual``, ``joint_state``,
+    ``platform_position``, ``closure_residual`` of :class:`~delta_pin.sim.plants.Plant`) in the
+    core's sampled loop (``PythonPlant`` of ``delta_pin/core/python_plant.cpp``), its state of
+    ``states`` entries: the core's RK4 calls its derivative back at every stage.
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+
+    def derivative(t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        return np.asarray(plant.derivative(t, x, tau), dtype=float)
+
+    def finish(x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
+        x, gap = plant.finish_step_residual(x, t)
+        return np.asarray(x, dtype=float), float(gap)
+
+    def joints(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        alpha, alpha_dot = plant.joint_state(x)
+        return np.asarray(alpha, dtype=float), np.asarray(alpha_dot, dtype=float)
+
+    def position(x: np.ndarray) -> np.ndarray:
+        return np.asarray(plant.platform_position(x), dtype=float)
+
+    def gap(x: np.ndarray) -> float:
+        return float(plant.closure_residual(x))
+
+    return core().PythonPlant(states, plant.dof, derivative, finish, joints, position, gap)
+
+
 def run_core_sampled(
     compiled,
     x: np.ndarray,
@@ -166,9 +212,11 @@ def run_core_sampled(
     substeps: int,
     dt: float,
     control: Callable[[int, np.ndarray], np.ndarray],
+    plant=None,
 ) -> CompiledSampledRun:
-    """Run the core's sampled loop of ``compiled`` (either plant) from x: ``control(k, x)`` (a
-    Python function, or a compiled law) gives the torque held over sample k.
+    """Run the core's sampled loop of ``compiled`` (any core plant) from x: ``control(k, x)`` (a
+    Python function, or a compiled law) gives the torque held over sample k; ``plant``: the
+    Python plant of a ``PythonPlant`` (:class:`CompiledSampledRun`).
 
     Raises:
         SimulationError: the loops cannot be closed again or the state is no longer finite (at
@@ -184,7 +232,7 @@ def run_core_sampled(
     except core().SimulationFailure as exc:
         time = compiled.failure_time
         raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
-    return CompiledSampledRun(q, v, xyz, gap, compiled)
+    return CompiledSampledRun(q, v, xyz, gap, compiled, plant)
 
 
 def keep_core_projections(plant, compiled) -> None:
@@ -193,13 +241,3 @@ def keep_core_projections(plant, compiled) -> None:
     if compiled.projections:  # a closed chain's (the reduced Delta has no loops to project onto)
         plant.projections += compiled.projections
         plant.largest_projected_gap = max(plant.largest_projected_gap, compiled.largest_projected_gap)
-
-
-def core_unavailable() -> str | None:
-    """Why the compiled core cannot run here (``DELTA_PIN_NATIVE=0``, not built, built against
-    another Pinocchio), or ``None`` where it can: for the messages that refuse ``compiled=True``."""
-    try:
-        core()
-    except NativeUnavailableError as exc:
-        return str(exc)
-    return None

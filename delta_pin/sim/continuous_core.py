@@ -12,13 +12,13 @@ integrated as one ODE by the core's Radau IIA of order 5 with error control
 every evaluation assembles q(alpha) by Newton, v = S alpha_dot (a closed chain's), the law's
 torque and state rate at the reference of that time, and the plant's dynamics with its truth
 (uncertainty profile, payload) interpolated linearly between the rows of a table on the
-reference's grid -- the arithmetic of the Python plant in active coordinates with LSODA
-(:mod:`delta_pin.sim.loop`), which the tests hold it to. A closed chain with idle motions or
+reference's grid -- the arithmetic of the Python plant in active coordinates, which the tests
+hold it to (``tests/reference/python_loop.py``, with LSODA). A closed chain with idle motions or
 passive joints is integrated in its whole state instead, y = [q, v, z] with the constrained
 dynamics (Baumgarte-stabilised) and the configuration coefficients' rates, projected back onto
-the loops every :data:`~delta_pin.sim.integrators.LSODA_CHUNK` samples as the Python loop does
-between its LSODA chunks. The samples t_k = k dt are read from the collocation polynomial of the
-step that covers them. Python is not called during the run unless the controller is a Python one.
+the loops every :data:`~delta_pin.sim.integrators.PROJECTION_CHUNK` samples. The samples
+t_k = k dt are read from the collocation polynomial of the step that covers them. Python is not
+called during the run unless the controller is a Python one.
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ import numpy as np
 
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Reference
-from delta_pin.errors import NativeUnavailableError, SimulationError
+from delta_pin.errors import SimulationError
 from delta_pin.sim.compiled_plant import keep_core_projections, set_core_truth
-from delta_pin.sim.integrators import LSODA_CHUNK, MAX_JOINT_SPEED
+from delta_pin.sim.integrators import MAX_JOINT_SPEED, PROJECTION_CHUNK
 from delta_pin.sim.loop import ControlLoop, LoopRecord
 
 __all__ = ["RADAU_FIRST_STEP", "RADAU_MAX_STEP", "PythonLaw", "continuous_core", "run_core_continuous"]
@@ -68,22 +68,19 @@ def continuous_core(plant, controller) -> tuple[object, object] | None:
     controller's compiled law (:meth:`Controller.sampled_core_law
     <delta_pin.control.base.Controller.sampled_core_law>`) or, for any other continuous-time
     controller (a user's own), a :class:`PythonLaw` around it --, or ``None`` where the plant has
-    no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: the
-    core off with ``DELTA_PIN_NATIVE=0`` or not importable, a joint without a configuration
-    rate), the controller is a discrete-time law or the plant has no actuated joint. The
-    plant's truth is tabulated when the run starts (:func:`run_core_continuous`)."""
+    no compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`: a
+    plant of the user's, a joint without a configuration rate), the controller is a
+    discrete-time law or the plant has no actuated joint. The plant's truth is tabulated when
+    the run starts (:func:`run_core_continuous`)."""
     if getattr(controller, "dt", None) is not None:  # a discrete-time law: sampled mode only
         return None
     if plant.dof == 0:  # a mechanism without motors: the core's continuous loop takes dof >= 1
         return None
-    try:
-        compiled_plant = plant.core_plant()  # its truth on the reference's grid, when the run starts
-        if compiled_plant is None:
-            return None
-        make_law = getattr(controller, "sampled_core_law", None)
-        law = make_law() if make_law is not None else None
-    except NativeUnavailableError:
+    compiled_plant = plant.core_plant()  # its truth on the reference's grid, when the run starts
+    if compiled_plant is None:
         return None
+    make_law = getattr(controller, "sampled_core_law", None)
+    law = make_law() if make_law is not None else None
     return compiled_plant, PythonLaw(controller, plant) if law is None else law
 
 
@@ -133,7 +130,7 @@ def run_core_continuous(
         module.run_continuous(
             core_plant, law, table.step, *arrays, *start, float(t[1] - t[0]),
             len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run, bdf2_substeps,
-            LSODA_CHUNK,
+            PROJECTION_CHUNK,
         )  # fmt: skip
     except module.SimulationFailure as exc:
         time = run.failure_time

@@ -1,8 +1,8 @@
-"""The integrators of the Python loop and the one divergence check of every loop.
+"""The one divergence check of every loop, and the readable RK4 step.
 
-:func:`rk4_step` is the readable RK4 (the reference of the compiled core's RK4 steps);
-:func:`integrate_lsoda` drives scipy's LSODA in chunks for continuous mode; :func:`check_state` is
-the divergence rule, the same predicate the compiled loops apply, with its error message.
+:func:`check_state` is the divergence rule, the same predicate the compiled loops apply, with its
+error message; :func:`rk4_step` is the readable RK4 of ``validate``'s free motion (the runs of
+``simulate`` take the compiled core's RK4, :mod:`delta_pin.sim.loop`).
 """
 
 from __future__ import annotations
@@ -17,16 +17,15 @@ from delta_pin.errors import SimulationError
 
 __all__ = [
     "INTEGRATORS",
-    "LSODA_CHUNK",
     "MAX_JOINT_SPEED",
+    "PROJECTION_CHUNK",
     "all_finite",
     "check_state",
-    "integrate_lsoda",
     "rk4_step",
 ]
 
 MAX_JOINT_SPEED = 1e3  # [rad/s] a state beyond this has diverged
-LSODA_CHUNK = 1000  # samples per LSODA call (each restart costs a start-up; finish_step runs between)
+PROJECTION_CHUNK = 1000  # samples between the whole-state continuous loop's projections onto the loops
 
 
 def rk4_step(f: Callable[[float, np.ndarray], np.ndarray], t: float, y: np.ndarray, h: float) -> np.ndarray:
@@ -58,50 +57,3 @@ def check_state(t: float, x: np.ndarray, z: np.ndarray, alpha: np.ndarray, alpha
         raise SimulationError(f"the state became non-finite (alpha={alpha.tolist()})", t)
     speed = np.abs(alpha_dot).max()
     raise SimulationError(f"the run diverged: |alpha_dot| = {speed:.3g} rad/s > {MAX_JOINT_SPEED:g} rad/s", t)
-
-
-def integrate_lsoda(closed_loop, sample, check, finish_step, x, z, t, rtol, atol, bar):
-    """Continuous mode with scipy's LSODA, in chunks of :data:`LSODA_CHUNK` samples.
-
-    Args:
-        closed_loop: f(t, [x, z]) -> d[x, z]/dt.
-        sample: ``sample(k, x, z)`` records sample k.
-        check: ``check(t, x, z)`` raises where the state diverged.
-        finish_step: the plant's correction between chunks (``finish_step(x, t) -> x``).
-        x, z: initial plant and controller states; ``t``: the sample times [s].
-        rtol, atol: LSODA's tolerances; ``bar``: a progress display.
-
-    Returns:
-        (x, z) at t[-1] (not yet recorded).
-    """
-    from scipy.integrate import solve_ivp
-
-    nx = len(x)
-    dt = t[1] - t[0]
-    k = 0
-    while k < len(t) - 1:
-        stop = min(k + LSODA_CHUNK, len(t) - 1)
-        sample(k, x, z)
-        solution = solve_ivp(
-            closed_loop,
-            (t[k], t[stop]),
-            np.concatenate([x, z]),
-            method="LSODA",
-            t_eval=t[k : stop + 1],
-            rtol=rtol,
-            atol=atol,
-            max_step=dt,
-        )
-        if solution.status != 0:  # the time of the last sample it reached, not the chunk's start
-            reached = float(solution.t[-1]) if len(solution.t) else float(t[k])
-            raise SimulationError(f"the integrator failed: {solution.message}", reached)
-        for j in range(1, stop - k):
-            xs, zs = solution.y[:nx, j], solution.y[nx:, j]
-            check(t[k + j], xs, zs)
-            sample(k + j, xs, zs)
-        x, z = solution.y[:nx, -1], solution.y[nx:, -1]
-        check(t[stop], x, z)
-        x = finish_step(x, t[stop])
-        bar.update(round(t[stop] - t[k], 9))
-        k = stop
-    return x, z

@@ -30,7 +30,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from delta_pin.errors import ForwardKinematicsError, NativeUnavailableError, SimulationError
+from delta_pin.errors import ForwardKinematicsError, SimulationError
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
@@ -112,20 +112,23 @@ class Plant(ABC):
         return None
 
     def _built_in_core(self, build, step: float, count: int):
-        """``build(self, step, count)`` (a builder of :mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where the core is off (``DELTA_PIN_NATIVE=0``), cannot be imported or rejects
-        the model; a plant handed out marks the run's metadata (``"core_plant"``)."""
-        try:
-            compiled = build(self, step, count)
-        except NativeUnavailableError:
-            return None
-        self.stepped_in_core = True
+        """``build(self, step, count)`` (a builder of :mod:`delta_pin.sim.compiled_plant`; ``None``
+        for a model the core refuses); a plant handed out marks the run's metadata
+        (``"core_plant"``).
+
+        Raises:
+            NativeUnavailableError: the core cannot be imported here.
+        """
+        compiled = build(self, step, count)
+        if compiled is not None:
+            self.stepped_in_core = True
         return compiled
 
     def sampled_core(self, step: float, count: int):
         """This plant in the compiled core for the sampled loop with RK4 steps of ``step`` [s],
         its truth tabulated at the stage times t = i step / 2, i < count; ``None`` where it has
-        none: the Python loop then steps :meth:`derivative`."""
+        none: the core's loop then calls :meth:`derivative` back
+        (:func:`~delta_pin.sim.compiled_plant.python_core_plant`)."""
         return self.core_plant(step / 2.0, count)
 
     def metadata(self) -> dict:
@@ -226,8 +229,7 @@ class AnalyticPlant(DeltaPlant):
 
     def core_plant(self, step: float = 0.0, count: int = 0):
         """The compiled core's reduced Delta with this plant's friction and truth
-        (:func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`), or ``None`` where the
-        core is off (``DELTA_PIN_NATIVE=0``) or cannot be imported."""
+        (:func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`)."""
         from delta_pin.sim.compiled_plant import build_core_analytic_plant
 
         return self._built_in_core(build_core_analytic_plant, step, count)

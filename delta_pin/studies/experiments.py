@@ -26,7 +26,7 @@ from delta_pin.model.friction import Friction
 from delta_pin.model.robot import Delta
 from delta_pin.model.trajectory import AdeptCycle, PathI, PathII, Trajectory
 from delta_pin.sim.arguments import MODES
-from delta_pin.sim.batch import native_available, simulate_batch
+from delta_pin.sim.batch import simulate_batch
 from delta_pin.sim.drive import Encoder, check_delay, check_torque_limit
 from delta_pin.sim.integrators import INTEGRATORS
 from delta_pin.sim.run import Run
@@ -61,10 +61,9 @@ class RunSpec:
         path: ``"I"`` (eq. 66), ``"II"`` (eq. 69) or ``"adept"`` (pick-and-place cycle).
         plant: ``"pinocchio"`` or ``"analytic"``.
         mode: ``"continuous"`` or ``"sampled"``.
-        integrator: ``"auto"`` (RK4 sampled; continuous: the compiled Radau IIA for designs I/II,
-            LSODA for the others), ``"rk4"``, ``"lsoda"``, ``"radau"`` (compiled, error-controlled)
-            or ``"bdf2"`` (compiled, fixed steps; batched by sweeps), the compiled ones for designs
-            I/II on either plant.
+        integrator: ``"auto"`` (RK4 sampled, the compiled Radau IIA continuous), ``"rk4"``
+            (sampled), ``"radau"`` (continuous, error-controlled) or ``"bdf2"`` (continuous, fixed
+            steps; batched by sweeps); every one the compiled core's.
         t_end: duration [s]; ``None`` for the path's default (15 s, 10 s, 3 s).
         dt: sample / control period [s].
         friction_compensation: include M̄_f in the controller.
@@ -273,11 +272,9 @@ def check_specs(specs: list[RunSpec], robot: Delta | None = None) -> None:
         build_uncertainty(spec)
 
 
-def run_spec(
-    spec: RunSpec, robot: Delta | None = None, progress: bool | None = False, compiled: bool | None = None
-) -> Run:
-    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` and
-    ``compiled`` as in :func:`~delta_pin.sim.runner.simulate`."""
+def run_spec(spec: RunSpec, robot: Delta | None = None, progress: bool | None = False) -> Run:
+    """Simulate ``spec`` (on the Table 1 robot unless ``robot`` is given); ``progress`` as in
+    :func:`~delta_pin.sim.runner.simulate`."""
     robot = robot or load_delta()
     trajectory = build_trajectory(spec.path)
     controller = build_controller(spec, robot, trajectory)
@@ -294,7 +291,6 @@ def run_spec(
         friction=Friction() if spec.friction else None,
         uncertainty=build_uncertainty(spec),
         progress=progress,
-        compiled=compiled,
         sensor=spec.sensor(),
         delay=spec.delay,
         torque_limit=spec.torque_limit,
@@ -307,12 +303,12 @@ def batch_group(spec: RunSpec) -> tuple | None:
     """What runs must share to be simulated in one batch (:func:`run_batch`, one task of a sweep's
     workers), or ``None`` when ``spec`` runs alone: designs I/II in continuous mode with
     ``integrator="bdf2"`` or in sampled mode (RK4) on the analytic plant, or in continuous mode,
-    where the compiled core is available, on the Pinocchio plant."""
+    on the Pinocchio plant."""
     continuous = spec.mode == "continuous" and spec.integrator == "bdf2"
     sampled = spec.mode == "sampled" and spec.integrator in ("auto", "rk4")
     if not (declaration(spec.controller).batchable and (continuous or sampled)) or spec.drive_effects:
         return None  # designs I/II with a drive, and the digital laws, run one by one (compiled)
-    if spec.plant == "pinocchio" and (sampled or not native_available()):
+    if spec.plant == "pinocchio" and sampled:
         return None  # sampled on the Pinocchio plant: the compiled core, one run each
     vector_rho = bool(spec.gains.get("vector_rho"))
     return (spec.plant, spec.mode, spec.path, spec.duration, spec.dt, spec.alpha0, spec.friction, vector_rho)
