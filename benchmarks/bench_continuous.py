@@ -10,8 +10,9 @@ Stewart platform's legs), from the robot's home, so the run starts with a reachi
 * the core's Radau IIA (the default, ``delta_pin/core/radau.hpp``) at rtol 1e-6, atol 1e-8;
 * on the five-bar, the same with the readable design I in Python called back from the core's loop
   once per evaluation (what a user's own continuous-time law gets);
-* the Python route it replaced: the Python plant in active coordinates and the readable law under
-  LSODA (``integrator="lsoda"``), the reference of the ratio;
+* the Python route it replaced, now the test oracle: the Python plant in active coordinates and
+  the readable law under LSODA in the Python reference loop (tests/reference's
+  ``simulate_reference(..., integrator="lsoda")``), the reference of the ratio;
 * accuracy: the largest joint difference from the core's Radau at rtol 1e-10, atol 1e-12 (a
   tight run of the same ODE; tests/sim/test_core_continuous.py holds the core to LSODA at
   rtol 1e-10 over a short horizon).
@@ -20,11 +21,17 @@ Stewart platform's legs), from the robot's home, so the run starts with a reachi
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 from common import format_value, machine_info, measure, print_table, report_target
 
 import delta_pin as dp
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.reference
+from tests.reference.laws import called_back
+from tests.reference.python_loop import simulate_reference
 
 CASES = {
     "five_bar": (0.1, 0.0),
@@ -46,22 +53,23 @@ def main() -> None:
         path = dp.JointSinusoid(robot.home, amplitude=amplitude, frequency=0.5, phase=phase)
         nominal = dp.ClosedChainNominalModel(robot)
 
-        def run(robot=robot, path=path, nominal=nominal, **options):
-            return dp.simulate(
+        def run(robot=robot, path=path, nominal=nominal, simulate=dp.simulate, **options):
+            return simulate(
                 robot, dp.design1(nominal), path, t_end=args.t_end, mode="continuous", alpha0=robot.home,
                 **options,
             )  # fmt: skip
 
         core = measure(f"{name}: the core's Radau IIA", run, args.repeats)
         python = measure(
-            f"{name}: the Python plant and law under LSODA", lambda run=run: run(integrator="lsoda"), 1
+            f"{name}: the Python plant and law, LSODA, Python reference (tests/reference)",
+            lambda run=run: run(simulate=simulate_reference, integrator="lsoda"),
+            1,
         )
         cases = [core, python]
         if name == "five_bar":  # a law in Python (the readable design I) called back per evaluation
 
             def callback(robot=robot, path=path, nominal=nominal):
-                controller = dp.design1(nominal)
-                controller.sampled_core_law = lambda: None
+                controller = called_back(dp.design1(nominal))
                 return dp.simulate(
                     robot, controller, path, t_end=args.t_end, mode="continuous", alpha0=robot.home
                 )  # fmt: skip

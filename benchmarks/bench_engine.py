@@ -8,10 +8,12 @@ at 1 kHz with RK4, with a 0-0.4 kg payload the controller does not know:
 
 * plant, loop and law compiled (the default: design I in the core, no Python during the run);
 * the compiled plant and loop with the readable law called back once per sample (what any
-  other controller, a user's own included, gets);
-* the Python loop on the Python plant (``compiled=False``; the projection and IK still compiled);
-* the same without the core at all (``DELTA_PIN_NATIVE=0``: the path before it), the reference;
+  other controller, a user's own included, gets; tests/reference's ``called_back``);
+* the Python reference loop on the Python plant (tests/reference's ``simulate_reference``; the
+  projection and IK still compiled), the reference;
 * the joint reference alone (``FramePath.joint_reference``): the core's loop and the Python loop.
+
+The core can no longer be turned off (``DELTA_PIN_NATIVE`` is gone): there is no row without it.
 
 And the 3-RRR's MJCF for ``mujoco.rollout`` (MuJoCo's C++ loop, zero control, RK4 1 ms) against
 the compiled plant under a user's PD law from Python, both 15 s: the issue's reference figure.
@@ -20,15 +22,18 @@ the compiled plant under a user's PD law from Python, both 15 s: the issue's ref
 from __future__ import annotations
 
 import argparse
-import os
+import sys
 from pathlib import Path
 
 import numpy as np
 from common import machine_info, measure, print_table, report_target
 
 import delta_pin as dp
-from delta_pin.compiled.core import core
 from delta_pin.model import frame_path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.reference
+from tests.reference.laws import called_back
+from tests.reference.python_loop import simulate_reference
 
 
 def _five_bar_case(t_end: float):
@@ -40,15 +45,12 @@ def _five_bar_case(t_end: float):
     path = dp.FramePath(circle)
     nominal = dp.ClosedChainNominalModel(robot)
 
-    def run(compiled, law_in_core=True):
+    def run(simulate=dp.simulate, law_in_core=True):
         plant = dp.ClosedChainPlant(robot, payload_mass=lambda t: 0.2 * (1.0 + np.sin(np.pi * t)))
         controller = dp.design1(nominal, sampling_period=1e-3)
         if not law_in_core:  # the readable law, called back from the compiled loop
-            controller.sampled_core_law = lambda: None
-        return dp.simulate(
-            robot, controller, path, plant=plant, t_end=t_end, mode="sampled", alpha0=robot.home,
-            compiled=compiled,
-        )  # fmt: skip
+            controller = called_back(controller)
+        return simulate(robot, controller, path, plant=plant, t_end=t_end, mode="sampled", alpha0=robot.home)
 
     return robot, path, run
 
@@ -116,8 +118,8 @@ def delta_cases(args) -> None:
         measure("the law on the compiled plant (plant=ClosedChainPlant)",
                 lambda: dp.simulate(delta, law, None, plant=dp.ClosedChainPlant(delta), **options),
                 args.repeats),
-        measure("the law on the Delta's Pinocchio plant (the Python loop)",
-                lambda: dp.simulate(delta, law, None, **options), 1),
+        measure("the law on the Delta's Pinocchio plant (the Python reference loop, tests/reference)",
+                lambda: simulate_reference(delta, law, None, **options), 1),
         measure("a compiled PD + gravity instead (the plant and loop's own cost)",
                 lambda: dp.simulate(delta, dp.PDGravity(dp.DeltaNominalModel(delta), K_p=5.0, K_d=0.5),
                                     None, plant=dp.ClosedChainPlant(delta), **options),
@@ -140,35 +142,23 @@ def main() -> None:
     args = parser.parse_args()
     print(f"machine: {machine_info()}")
     robot, path, run = _five_bar_case(args.t_end)
-    compiled = measure(
-        "five-bar, design I, sampled 1 kHz: plant, loop and law compiled", lambda: run(None), args.repeats
-    )
+    compiled = measure("five-bar, design I, sampled 1 kHz: plant, loop and law compiled", run, args.repeats)
     callback = measure(
         "the same, the readable law called back from the compiled loop",
-        lambda: run(None, False),
+        lambda: run(law_in_core=False),
         args.repeats,
     )
     python = measure(
-        "the same run: the Python plant and loop (compiled=False)", lambda: run(False), args.repeats
+        "the same run: the Python plant in the Python reference loop (tests/reference)",
+        lambda: run(simulate_reference),
+        args.repeats,
     )
-    os.environ["DELTA_PIN_NATIVE"] = "0"  # no core at all: the Python projection and IK too
-    core.cache_clear()  # the core is looked up once per process
-    try:
-        _, _, bare = _five_bar_case(args.t_end)  # a robot and a nominal model built without the core
-        before = measure(
-            "the same run without the core (DELTA_PIN_NATIVE=0: as before it)", lambda: bare(None), 1
-        )
-        c = bare(None)
-    finally:
-        del os.environ["DELTA_PIN_NATIVE"]
-        core.cache_clear()
-    cases = [compiled, callback, python, before]
-    print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", cases, before)
-    a, b, d = run(None), run(False), run(None, False)
+    cases = [compiled, callback, python]
+    print_table(f"{args.t_end:g} s on the five-bar, whole simulate call", cases, python)
+    a, b, d = run(), run(simulate_reference), run(law_in_core=False)
     print(
         f"\nlargest difference from the compiled run: {np.abs(a.alpha - d.alpha).max():.1e} rad (law called "
-        f"back), {np.abs(a.alpha - b.alpha).max():.1e} rad (compiled=False), "
-        f"{np.abs(a.alpha - c.alpha).max():.1e} rad (no core)"
+        f"back), {np.abs(a.alpha - b.alpha).max():.1e} rad (the Python reference loop)"
     )
     report_target(f"five-bar, {args.t_end:g} s design I sampled 1 kHz", compiled.median, 0.5)
 

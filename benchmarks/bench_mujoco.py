@@ -111,13 +111,11 @@ def core_stage_calls(plant: PinocchioPlant, x0: np.ndarray, calls: int, repeats:
     (``ClosedChainPlant.accelerations``: delta-pin's axis-tree algorithms and Pinocchio's
     ``constraintDynamics``), ``calls`` evaluations per repeat at x0 with a small velocity that
     changes each call, each call from Python (about 1 us of nanobind's dispatch included); empty
-    where the core is unavailable."""
-    from delta_pin.errors import NativeUnavailableError
+    where the core refuses the plant's model."""
     from delta_pin.sim.compiled_plant import build_core_plant
 
-    try:
-        compiled = build_core_plant(plant)
-    except NativeUnavailableError:
+    compiled = build_core_plant(plant)
+    if compiled is None:
         return []
     nq = plant.nq
     q, v = x0[:nq].copy(), x0[nq:].copy()

@@ -2,15 +2,17 @@
 
 Run: ``python benchmarks/bench_unactuated.py [--repeats 3] [--t-end 1]``
 
-Each case is a whole ``dp.simulate`` call as a user waits for it, the core (the default) against
-the Python loop on the Python plant (``compiled=False``), the reference of the ratio:
+Each case is a whole ``dp.simulate`` call as a user waits for it, the core (the only engine of
+``dp.simulate``) against the Python reference loop on the Python plant (tests/reference's
+``simulate_reference``), the reference of the ratio:
 
 * Gepetto's ``5bar_linkage`` and ``robot_delta`` as shipped (tests/data/gepetto: welded coaxial
   revolutes that spin freely) and the ball-ball Delta (six rod spins): design I on the projected
   nominal model along a 0.02 rad, 1 Hz joint sinusoid, started on it; sampled at 1 kHz with the
   sampling-aware gains (robot_delta's gram-weight links put any 1 kHz loop with these gains past
   stability: it runs continuous only), and continuous (the core's Radau IIA on the whole state
-  [q, v, rho_hat] against LSODA on the Python plant in full coordinates, both at rtol 1e-6;
+  [q, v, rho_hat] against LSODA, Python reference (tests/reference), on the Python plant in full
+  coordinates, both at rtol 1e-6;
   robot_delta's stiff whole state makes Radau IIA slower than LSODA there, timed once);
 * menagerie's Robotiq 2F-85 (two sprung passive links, the drivers tied by a joint coupling) under
   a constant 1 N tendon force of the user's (a Python function), sampled with 4 RK4 sub-steps.
@@ -19,6 +21,7 @@ the Python loop on the Python plant (``compiled=False``), the reference of the r
 from __future__ import annotations
 
 import argparse
+import sys
 import warnings
 from pathlib import Path
 
@@ -26,6 +29,9 @@ import numpy as np
 from common import machine_info, measure, print_table
 
 import delta_pin as dp
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.reference
+from tests.reference.python_loop import simulate_reference
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 
@@ -55,23 +61,27 @@ def main() -> None:
             period = 1e-3 if mode == "sampled" else None
 
             def run(
-                compiled, robot=robot, path=path, nominal=nominal, mode=mode, period=period, v0=alpha_dot0
+                simulate, robot=robot, path=path, nominal=nominal, mode=mode, period=period, v0=alpha_dot0
             ):
                 law = dp.design1(nominal, sampling_period=period)
-                return dp.simulate(
-                    robot, law, path, t_end=args.t_end, mode=mode, alpha_dot0=v0, compiled=compiled
-                )
+                return simulate(robot, law, path, t_end=args.t_end, mode=mode, alpha_dot0=v0)
 
             # robot_delta's continuous run takes seconds per simulated second (module docstring): once
             repeats = 1 if name == "robot_delta" else args.repeats
-            core = measure(f"{name}, {mode}: the core", lambda run=run: run(None), repeats)
-            python = measure(f"{name}, {mode}: the Python loop", lambda run=run: run(False), 1)
+            core = measure(f"{name}, {mode}: the core", lambda run=run: run(dp.simulate), repeats)
+            python = measure(
+                f"{name}, {mode}: "
+                + ("LSODA, Python reference" if mode == "continuous" else "the Python reference loop")
+                + " (tests/reference)",
+                lambda run=run: run(simulate_reference),
+                1,
+            )
             print_table(
                 f"{args.t_end:g} s of {name} ({robot.dof} actuated, {robot.idle_dof} idle), design I {mode}",
                 [core, python],
                 python,
             )
-            meta = run(None).metadata
+            meta = run(dp.simulate).metadata
             if mode == "continuous":
                 print(
                     f"  Radau: {meta['radau_steps']} steps ({meta['radau_rejected']} rejected), "
@@ -84,14 +94,17 @@ def main() -> None:
     def pull(t, alpha, alpha_dot):
         return np.array([1.0])
 
-    def gripper(compiled):
-        return dp.simulate(
-            robotiq, pull, None, t_end=args.t_end, mode="sampled", substeps=4, alpha0=robotiq.home,
-            compiled=compiled,
-        )  # fmt: skip
+    def gripper(simulate):
+        return simulate(
+            robotiq, pull, None, t_end=args.t_end, mode="sampled", substeps=4, alpha0=robotiq.home
+        )
 
-    core = measure("Robotiq, sampled: the core", lambda: gripper(None), args.repeats)
-    python = measure("Robotiq, sampled: the Python loop", lambda: gripper(False), 1)
+    core = measure("Robotiq, sampled: the core", lambda: gripper(dp.simulate), args.repeats)
+    python = measure(
+        "Robotiq, sampled: the Python reference loop (tests/reference)",
+        lambda: gripper(simulate_reference),
+        1,
+    )
     print_table(f"{args.t_end:g} s of the Robotiq 2F-85 (joint coupling, 2 passive)", [core, python], python)
 
 

@@ -165,7 +165,7 @@ class AdaptiveRobustController(Controller):
     def boundary_layer(self, alpha_dot_d: np.ndarray, alpha_ddot_d: np.ndarray) -> float:
         """Thinnest boundary layer [rad/s] in s along a reference (N, 3): xi / Lambda_max, with
         Lambda of eq. 67 at perfect tracking and rho_hat_0. A continuous-mode integrator has to
-        resolve it (:func:`delta_pin.sim.runner.simulate` tightens LSODA's rtol to do so): ~7e-5
+        resolve it (the LSODA reference of ``tests/reference`` tightens its rtol to do so): ~7e-5
         rad/s on path II, ~1.4e-5 on path I, ~4e-6 on the Adept cycle (87 rad/s^2: Lambda ~240)."""
         kappa = np.stack(
             [

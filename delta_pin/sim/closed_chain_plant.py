@@ -11,7 +11,8 @@ the paper's Delta included (``PinocchioPlant`` is its older name):
   every step; idle motions and passive joints need this representation;
 * ``coordinates="active"`` -- x = [alpha, alpha_dot]: every evaluation assembles q(alpha)
   (warm-started) and v = S alpha_dot, then reads alpha_ddot from ``constraintDynamics``; the
-  loops are closed by construction, and any joint type works (what LSODA needs).
+  loops are closed by construction, and any joint type works (the core's continuous loop
+  completes (q, v) this way too).
 
 The truth is pluggable and kept apart from what a controller knows (eq. 13 of the paper,
 

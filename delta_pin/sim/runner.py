@@ -68,10 +68,14 @@ def _continuous_core(plant, controller):
     says why the plant or controller has none."""
     in_core = continuous_core(plant, controller)
     if in_core is None:
+        if getattr(controller, "dt", None) is not None:
+            why = f"controller {controller.name!r} is discrete-time (dt={controller.dt})"
+        elif plant.dof == 0:
+            why = "the robot has no actuated joint (a free motion)"
+        else:
+            why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
         raise InvalidParameterError(
-            f"mode='continuous' runs in the compiled core's Radau IIA, on a plant with a compiled copy "
-            f"and a continuous-time controller with actuated joints; plant {getattr(plant, 'name', plant)!r} "
-            f"with controller {getattr(controller, 'name', controller)!r} has none here: use mode='sampled'"
+            f"mode='continuous' runs in the compiled core's Radau IIA, and {why}: use mode='sampled'"
         )
     return in_core
 

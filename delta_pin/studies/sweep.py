@@ -334,7 +334,8 @@ def estimated_cost(spec: RunSpec) -> float:
     samples of a sampled run (one compiled step each); for the compiled continuous Radau IIA/BDF2
     (the laws declared compiled_continuous) 1.5 times that on the Pinocchio plant and a tenth of that on the
     analytic plant (in ``reproduce --full``, 15 s on the Pinocchio plant took 0.8-1.1 s for designs
-    I/II, 1.2-1.4 s for the LQR, 0.6-0.7 s for a sampled 1 kHz run); fifteen times that for LSODA."""
+    I/II, 1.2-1.4 s for the LQR, 0.6-0.7 s for a sampled 1 kHz run); fifteen times that for a
+    Python law called back by the continuous loop."""
     samples = spec.duration / spec.dt
     if spec.mode == "sampled":
         return samples

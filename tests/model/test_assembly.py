@@ -12,6 +12,7 @@ import pytest
 import delta_pin as dp
 from delta_pin.cli import main
 from delta_pin.errors import AssemblyError, InvalidParameterError
+from tests.reference.python_loop import simulate_reference
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 ROBOTS = Path(dp.__file__).resolve().parent / "robots"
@@ -93,15 +94,19 @@ def test_a_cad_rounded_hinge_is_re_anchored_and_said(tmp_path):
 
 def test_a_mechanism_without_motors_simulates_and_controllers_refuse_it():
     """MuJoCo's own test model (no actuator): a passive mechanism, not an error. A free motion
-    (controller=None) in the sampled loop (RK4 at 1 ms) against LSODA (rtol 1e-6): 1e-5 rad, the
-    RK4 and LSODA error over 0.1 s of a swinging loop (measured 2e-9 rad); a controller refuses
-    it in one line."""
+    (controller=None) in the core's sampled loop (RK4 at 1 ms) against the Python reference under
+    LSODA (rtol 1e-6, tests/reference): 1e-5 rad, the RK4 and LSODA error over 0.1 s of a
+    swinging loop (measured 2e-9 rad); continuous mode (the core's Radau IIA needs an actuated
+    joint) and a controller refuse it in one line."""
     robot = dp.load_robot(DATA / "mujoco" / "jdotv_connect_2d.xml")
     assert robot.dof == 0 and len(robot.passive_joints) == 2
     sampled = dp.simulate(robot, None, None, t_end=0.1)
-    continuous = dp.simulate(robot, None, None, t_end=0.1, mode="continuous")
+    continuous = simulate_reference(robot, None, None, t_end=0.1, mode="continuous")
     assert np.ptp(sampled.q[:, 0]) > 0.05  # it swings
     np.testing.assert_allclose(sampled.q[-1], continuous.q[-1], atol=1e-5, rtol=0)
+    with pytest.raises(InvalidParameterError, match=r"no actuated joint.*mode='sampled'") as error:
+        dp.simulate(robot, None, None, t_end=0.1, mode="continuous")
+    assert "\n" not in str(error.value)
     with pytest.raises(InvalidParameterError, match=r"underactuated") as error:
         dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
     assert "\n" not in str(error.value)

@@ -4,12 +4,12 @@ references.
 * Equivalence, one parametrised test (plant x controller x substeps): in sampled mode a compiled
   run -- the compiled core's plant and law: the reduced Delta, or on the Pinocchio plant the
   axis-tree stage (equal to constraintDynamics to ~1e-13 relative per call) with its own
-  projections, the law's arithmetic in C++ -- gives the arrays of the Python loop
-  (``simulate(..., compiled=False)``, the reference) to CORE_RTOL over these 0.2 s runs (on the
-  analytic plant measured up to 1.5e-11 relative, in a time-delay run that leaves the path by
+  projections, the law's arithmetic in C++ -- gives the arrays of the readable Python loop
+  (``simulate_reference``, tests/reference/python_loop.py) to CORE_RTOL over these 0.2 s runs (on
+  the analytic plant measured up to 1.5e-11 relative, in a time-delay run that leaves the path by
   2.8 rad).
-* Accuracy of BDF2 (the core's, delta_pin/core/bdf2.hpp; it exists only compiled): against LSODA
-  at rtol 1e-9, an independent adaptive integrator, on both plants.
+* Accuracy of BDF2 (the core's, delta_pin/core/bdf2.hpp): against LSODA at rtol 1e-9 in the
+  Python loop (``simulate_reference``), an independent adaptive integrator, on both plants.
 * Batches: each run of a batch is the run made alone, bit for bit.
 """
 
@@ -21,21 +21,21 @@ import pytest
 import delta_pin as dp
 from delta_pin.control.base import Reference
 from delta_pin.errors import InvalidParameterError, SimulationError
-from delta_pin.sim.batch import native_available, simulate_batch
+from delta_pin.sim.batch import simulate_batch
 from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.studies.experiments import (
     RunSpec,
     batch_group,
     build_controller,
+    build_trajectory,
     build_uncertainty,
     run_batch,
     run_spec,
 )
+from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
 RUN_ARRAYS = ("alpha", "alpha_dot", "tau", "xyz", "closure_residual")
-needs_core = pytest.mark.skipif(not native_available(), reason="the compiled core is unavailable here")
-needs_native = needs_core
 
 
 #: the core's run against the Python loop, relative (absolute 1e-12 in SI units): the same RK4
@@ -45,8 +45,7 @@ CORE_RTOL = 1e-9
 
 def _assert_same_run(fast, reference, rtol: float = 1e-12, atol: float = 1e-14):
     """Equal to ``rtol`` relative, every array and every internal."""
-    compiled = fast.metadata.get("compiled") or fast.metadata.get("core_plant")
-    assert compiled and not (reference.metadata.get("compiled") or reference.metadata.get("core_plant"))
+    assert fast.metadata.get("core_plant") and not reference.metadata.get("core_plant")
     for name in RUN_ARRAYS:
         np.testing.assert_allclose(getattr(fast, name), getattr(reference, name), rtol=rtol, atol=atol)
     assert fast.internals.keys() == reference.internals.keys()
@@ -54,7 +53,7 @@ def _assert_same_run(fast, reference, rtol: float = 1e-12, atol: float = 1e-14):
         np.testing.assert_allclose(fast.internals[name], values, rtol=rtol, atol=atol)
 
 
-PLANTS = ["analytic", pytest.param("pinocchio", marks=needs_core)]
+PLANTS = ["analytic", "pinocchio"]
 
 
 @pytest.mark.parametrize("substeps", [1, 3])
@@ -66,24 +65,21 @@ def test_compiled_sampled_run_equals_the_python_loop(robot, plant, design, subst
     the same projections happen."""
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     make = dp.design1 if design == "design1" else dp.design2
-    runs, plants = [], []
-    for compiled in (None, False):
+    runs = []
+    for simulate in (dp.simulate, simulate_reference):
         if plant == "pinocchio":
-            plants.append(
-                PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
-            )
+            made = PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
         else:
-            plants.append(dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty()))
+            made = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
         runs.append(
-            dp.simulate(
+            simulate(
                 robot,
                 make(nominal, sampling_period=1e-3),
                 dp.PathI(),
-                plant=plants[-1],
+                plant=made,
                 t_end=0.2,
                 substeps=substeps,
                 alpha0=ALPHA0,
-                compiled=compiled,
             )
         )
     fast, reference = runs
@@ -107,7 +103,7 @@ def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, su
 
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     runs = []
-    for compiled in (None, False):
+    for simulate in (dp.simulate, simulate_reference):
         if plant == "pinocchio":
             made = PinocchioPlant(robot, dp.Friction(), dp.PaperUncertainty(), projection_tolerance=1e-15)
         else:
@@ -118,7 +114,7 @@ def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, su
             "design1": lambda: dp.design1(nominal, sampling_period=1e-3),
         }[law]()
         runs.append(
-            dp.simulate(
+            simulate(
                 robot,
                 controller,
                 dp.PathI(),
@@ -129,7 +125,6 @@ def test_compiled_digital_drive_run_equals_the_python_loop(robot, plant, law, su
                 sensor=Encoder(bits=17, noise=1e-5, seed=11),
                 delay=1,
                 torque_limit=4.0,
-                compiled=compiled,
             )
         )
     fast, reference = runs
@@ -146,34 +141,47 @@ def test_a_diverging_digital_run_fails_when_the_python_loop_does(robot):
     circle; both loops stop at the same sample."""
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     times = []
-    for compiled in (None, False):
+    for simulate in (dp.simulate, simulate_reference):
         with pytest.raises(SimulationError) as failure:
-            dp.simulate(
+            simulate(
                 robot, dp.tdc(nominal, 1e-3, bandwidth=1600.0), dp.PathI(), plant="analytic", t_end=1.0,
-                alpha0=ALPHA0, compiled=compiled,
+                alpha0=ALPHA0,
             )  # fmt: skip
         times.append(failure.value.time)
     assert times[0] == pytest.approx(times[1], abs=1e-12) and times[0] < 1.0
 
 
-@pytest.mark.parametrize("plant", ["analytic", pytest.param("pinocchio", marks=needs_native)])
+def _run_spec_reference(spec: RunSpec, robot):
+    """:func:`run_spec`'s run of ``spec`` in the readable Python loop."""
+    trajectory = build_trajectory(spec.path)
+    return simulate_reference(
+        robot, build_controller(spec, robot, trajectory), trajectory, plant=spec.plant, t_end=spec.duration,
+        dt=spec.dt, mode=spec.mode, integrator=None if spec.integrator == "auto" else spec.integrator,
+        alpha0=None if spec.alpha0 is None else np.full(3, spec.alpha0),
+        friction=dp.Friction() if spec.friction else None, uncertainty=build_uncertainty(spec),
+        sensor=spec.sensor(), delay=spec.delay, torque_limit=spec.torque_limit,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("plant", ["analytic", "pinocchio"])
 def test_a_failing_run_fails_as_the_python_loop_does(robot, plant):
     """The paper's gains sampled at 1 kHz destabilise the loop (docs/architecture.md section 6):
     the compiled run stops at the sample where the Python loop stops."""
     spec = RunSpec(controller="design1", plant=plant, mode="sampled", t_end=0.3)
     errors = []
-    for compiled in (None, False):
+    for run in (run_spec, _run_spec_reference):
         with pytest.raises(SimulationError) as caught:
-            run_spec(spec, robot, compiled=compiled)
+            run(spec, robot)
         errors.append(caught.value)
     assert errors[0].time == pytest.approx(errors[1].time) == pytest.approx(0.11, abs=0.003)
 
 
-def _continuous(robot, plant, t_end, **options):
-    """Design I, paper gains and scenario (friction, Delta = 0.3), continuous mode."""
+def _continuous(robot, plant, t_end, simulate=dp.simulate, **options):
+    """Design I, paper gains and scenario (friction, Delta = 0.3), continuous mode, by ``simulate``
+    (the package's, or ``simulate_reference``: the Python loop's LSODA)."""
     spec = RunSpec(controller="design1", t_end=t_end)
     trajectory = dp.PathI()
-    return dp.simulate(
+    return simulate(
         robot, build_controller(spec, robot, trajectory), trajectory, plant=plant, t_end=t_end,
         mode="continuous", alpha0=ALPHA0, friction=dp.Friction(), uncertainty=build_uncertainty(spec),
         **options,
@@ -185,7 +193,7 @@ def paper_runs(robot):
     """Design I, paper scenario, 2 s, analytic plant: LSODA (rtol 1e-9) and BDF2 with 1 ms and
     0.25 ms steps."""
     return (
-        _continuous(robot, "analytic", 2.0, integrator="lsoda", rtol=1e-9, atol=1e-11),
+        _continuous(robot, "analytic", 2.0, simulate_reference, integrator="lsoda", rtol=1e-9, atol=1e-11),
         _continuous(robot, "analytic", 2.0, integrator="bdf2"),
         _continuous(robot, "analytic", 2.0, integrator="bdf2", substeps=4),
     )
@@ -227,7 +235,6 @@ def test_recorded_outputs_are_the_readable_law_at_the_recorded_states(robot, pap
         np.testing.assert_allclose(run.xyz[k], robot.forward_kinematics(run.alpha[k]), atol=1e-12)
 
 
-@needs_native
 def test_continuous_pinocchio_bdf2_equals_the_analytic_bdf2_on_the_lumped_robot(robot):
     """On the Table 1 robot the two plants agree to ~1e-13 (tests/model/test_validation.py), so
     the same integrator gives the same run: the tree is completed and solved at every evaluation."""
@@ -242,14 +249,15 @@ def test_continuous_pinocchio_bdf2_equals_the_analytic_bdf2_on_the_lumped_robot(
     assert tree.metadata["plant"] == "pinocchio" and tree.metadata["integrator"] == "bdf2"
 
 
-@needs_native
 def test_continuous_pinocchio_bdf2_follows_lsoda_on_the_same_plant():
     """Forearms as uniform rods: a plant the analytic model does not describe. BDF2 at 1 ms
     against LSODA (rtol 1e-9) on the Pinocchio plant: the bounds of the analytic plant's test
     above, and 1e-5 rad away from the analytic plant's run."""
     rod_robot = dp.load_delta(forearm_inertia="rod")
     t_end = 1.2
-    lsoda = _continuous(rod_robot, "pinocchio", t_end, integrator="lsoda", rtol=1e-9, atol=1e-11)
+    lsoda = _continuous(
+        rod_robot, "pinocchio", t_end, simulate_reference, integrator="lsoda", rtol=1e-9, atol=1e-11
+    )
     bdf2 = _continuous(rod_robot, "pinocchio", t_end, integrator="bdf2")
     analytic = _continuous(rod_robot, "analytic", t_end, integrator="bdf2")
     error = np.abs(bdf2.alpha - lsoda.alpha).max(axis=1)
@@ -266,7 +274,7 @@ def test_continuous_pinocchio_bdf2_follows_lsoda_on_the_same_plant():
     [
         ("analytic", "continuous"),
         ("analytic", "sampled"),
-        pytest.param("pinocchio", "continuous", marks=needs_native),
+        ("pinocchio", "continuous"),
     ],
 )
 def test_a_batch_equals_its_runs_made_alone(robot, plant, mode):
@@ -301,32 +309,28 @@ def test_a_batch_returns_a_failing_run_in_its_place(robot):
 
 def test_what_the_compiled_loops_cannot_run_is_refused(robot):
     """Every controller runs in the core's loops (computed torque with BDF2 too); what is refused
-    is named in one line: BDF2 in sampled mode, the compiled integrators without the core
-    (compiled=False), compiled=True with LSODA, a batch without controllers or with a profile
-    count that does not match."""
+    is named in one line: BDF2 in sampled mode, LSODA (gone with the Python loop; Radau or BDF2
+    run continuous mode), a batch without controllers or with a profile count that does not
+    match."""
     nominal = dp.DeltaNominalModel(robot)
     ctc = dp.simulate(
         robot, dp.ComputedTorque(nominal), dp.PathI(), t_end=0.1, mode="continuous", integrator="bdf2"
     )
     assert ctc.metadata["core_plant"] and ctc.metadata["integrator"] == "bdf2"
-    with pytest.raises(InvalidParameterError, match="integrator='bdf2'"):
+    with pytest.raises(InvalidParameterError, match="integrator='bdf2' does not run mode='sampled'"):
         dp.simulate(robot, dp.design1(nominal), dp.PathI(), t_end=0.1, mode="sampled", integrator="bdf2")
-    with pytest.raises(InvalidParameterError, match="integrator='bdf2' is the compiled core's"):
-        dp.simulate(
-            robot, dp.design1(nominal), dp.PathI(), t_end=0.1, mode="continuous", integrator="bdf2",
-            compiled=False,
-        )  # fmt: skip
-    # computed torque runs in the core on the reduced Delta; compiled=True in continuous mode asks for
-    # a compiled integrator
-    ctc = dp.simulate(
-        robot, dp.ComputedTorque(nominal), dp.PathI(), plant="analytic", t_end=0.1, compiled=True
-    )
+    # computed torque runs in the core on the reduced Delta, sampled as continuous
+    ctc = dp.simulate(robot, dp.ComputedTorque(nominal), dp.PathI(), plant="analytic", t_end=0.1)
     assert ctc.metadata["core_plant"]
-    with pytest.raises(InvalidParameterError, match="integrator='radau' or 'bdf2'"):
+    with pytest.raises(
+        InvalidParameterError,
+        match=r"integrator='lsoda' does not run mode='continuous': .*'radau' or 'bdf2' continuous mode",
+    ) as info:
         dp.simulate(
             robot, dp.ComputedTorque(nominal), dp.PathI(), plant="analytic", t_end=0.1, mode="continuous",
-            integrator="lsoda", compiled=True,
+            integrator="lsoda",
         )  # fmt: skip
+    assert "\n" not in str(info.value)
     with pytest.raises(InvalidParameterError, match="at least one controller"):
         simulate_batch(robot, [], dp.PathI(), t_end=0.1)
     with pytest.raises(InvalidParameterError, match="uncertainties has 1 entries for 2 controllers"):
@@ -335,27 +339,6 @@ def test_what_the_compiled_loops_cannot_run_is_refused(robot):
         RunSpec(integrator="euler")
     with pytest.raises(InvalidParameterError, match="batch group"):
         run_batch([RunSpec(plant="analytic", integrator="bdf2"), RunSpec(plant="analytic")], robot)
-
-
-def test_without_the_core_simulate_falls_back_to_python(robot, monkeypatch):
-    """DELTA_PIN_NATIVE=0 (or a core that cannot be imported): a sampled run on the Pinocchio
-    plant takes the Python plant's RK4; compiled=True then says why it cannot."""
-    from delta_pin.compiled import core
-
-    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
-    core.core.cache_clear()  # the core is looked up once per process
-    try:
-        spec = RunSpec(
-            controller="design1", plant="pinocchio", mode="sampled", sampling_aware=True, t_end=0.05
-        )
-        run = run_spec(spec, robot)
-        assert not run.metadata.get("core_plant") and not run.metadata.get("compiled")
-        assert np.abs(run.alpha - run.alpha_d).max() < 0.1  # it ran (the paper's start: 0.083 rad off)
-        with pytest.raises(InvalidParameterError, match="compiled=True"):
-            run_spec(spec, robot, compiled=True)
-    finally:
-        monkeypatch.delenv("DELTA_PIN_NATIVE")
-        core.core.cache_clear()
 
 
 def test_bdf2_crosses_a_sweep_point_that_needs_split_steps(robot):

@@ -1,7 +1,8 @@
 """The continuous mode of closed chains in the compiled core (delta_pin/sim/continuous_core.py:
 the core's plant and law integrated by its Radau IIA, delta_pin/core/radau.hpp) against the
-Python route it replaces: the Python plant in active coordinates with the readable law, integrated
-by LSODA at tight tolerances (rtol 1e-10, atol 1e-12), the reference.
+Python route it replaced (``simulate_reference``, tests/reference/python_loop.py): the Python plant
+in active coordinates with the readable law, integrated by LSODA at tight tolerances (rtol 1e-10,
+atol 1e-12), the reference.
 
 Tolerance: both integrate the same ODE (the core's completion and law equal the Python ones to
 ~1e-12, tests/sim/test_core_plant.py and test_core_laws.py); what differs is the integration
@@ -14,6 +15,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, SimulationError
+from tests.reference.python_loop import simulate_reference
 
 T_END = 0.4  # [s]: the reaching phase and a stretch of tracking; the LSODA reference costs ~seconds
 TOLERANCE = 1e-6  # [rad], the issue's bound (module docstring)
@@ -41,7 +43,7 @@ def test_core_radau_follows_the_tight_python_reference(name):
     assert (
         core.metadata["radau_steps"] > 0 and core.metadata["rhs_evaluations"] > core.metadata["radau_steps"]
     )
-    reference = dp.simulate(
+    reference = simulate_reference(
         robot, dp.design1(nominal), path, t_end=T_END, mode="continuous", alpha0=alpha0, integrator="lsoda",
         rtol=1e-10, atol=1e-12,
     )  # fmt: skip
@@ -75,7 +77,7 @@ def test_a_python_law_runs_per_evaluation_in_the_core_loop():
     options = {"t_end": 0.3, "mode": "continuous", "alpha0": robot.home + 0.05}
     run = dp.simulate(robot, law, None, **options)
     assert run.metadata["integrator"] == "radau" and run.metadata["core_plant"]
-    reference = dp.simulate(robot, law, None, integrator="lsoda", rtol=1e-10, atol=1e-12, **options)
+    reference = simulate_reference(robot, law, None, integrator="lsoda", rtol=1e-10, atol=1e-12, **options)
     assert reference.metadata["integrator"] == "lsoda" and not reference.metadata.get("core_plant")
     assert np.abs(run.alpha - reference.alpha).max() < TOLERANCE
     assert np.abs(run.alpha - run.alpha[0]).max() > 1e-2  # it moved (PD towards home)
@@ -115,27 +117,52 @@ def test_a_python_law_that_fails_inside_the_core_loop():
         dp.simulate(robot, wide_law, None, **options)
 
 
-def test_radau_names_why_a_plant_has_no_core_loop(monkeypatch):
-    """The ball-ball Delta's idle rod spins run in the core's Radau (its whole state); with the
-    core turned off the default is LSODA, and asking for the core's Radau is refused in one line
-    that says why and what works; compiled=False is the Python route."""
-    from delta_pin.compiled import core as core_module
-
+def test_continuous_mode_names_why_a_run_has_no_core_loop():
+    """The ball-ball Delta's idle rod spins run in the core's Radau (its whole state), the default
+    continuous integrator. What has no core loop in continuous mode -- a plant without a compiled
+    copy (a user's Plant in Python), a discrete-time law, LSODA -- is refused in one line that
+    says why and what works (sampled mode, or Radau/BDF2); the user's plant runs sampled (the
+    core's loop calls its derivative back)."""
     robot = dp.load_robot("delta_ballrods")
     path = dp.JointSinusoid(robot.home, amplitude=0.05, frequency=0.5)
     ctc = dp.ComputedTorque(dp.ClosedChainNominalModel(robot))
     options = {"t_end": 0.01, "mode": "continuous"}
-    assert dp.simulate(robot, ctc, path, **options).metadata["integrator"] == "radau"
-    assert dp.simulate(robot, ctc, path, compiled=False, **options).metadata["integrator"] == "lsoda"
-    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
-    core_module.core.cache_clear()  # the core is looked up once per process
-    try:
-        assert dp.simulate(robot, ctc, path, **options).metadata["integrator"] == "lsoda"
-        with pytest.raises(
-            InvalidParameterError, match=r"integrator='radau'.*NATIVE=0.*takes integrator='lsoda'"
-        ) as info:
-            dp.simulate(robot, ctc, path, integrator="radau", **options)
-        assert "\n" not in str(info.value)
-    finally:
-        monkeypatch.delenv("DELTA_PIN_NATIVE")
-        core_module.core.cache_clear()
+    run = dp.simulate(robot, ctc, path, **options)
+    assert run.metadata["integrator"] == "radau" and run.metadata["core_plant"]
+    refused = r"integrator='lsoda' does not run mode='continuous': .*'radau' or 'bdf2' continuous mode"
+    with pytest.raises(InvalidParameterError, match=refused) as info:
+        dp.simulate(robot, ctc, path, integrator="lsoda", **options)
+    assert "\n" not in str(info.value)
+
+    five_bar, five_bar_path = _case("five_bar")
+    nominal = dp.ClosedChainNominalModel(five_bar)
+
+    class UsersPlant(dp.Plant):  # a plant written in Python: no compiled copy
+        def __init__(self):
+            self.inner = dp.ClosedChainPlant(five_bar, coordinates="active")
+            super().__init__(five_bar)
+
+        def initial_state(self, alpha, alpha_dot):
+            return self.inner.initial_state(alpha, alpha_dot)
+
+        def derivative(self, t, x, tau):
+            return self.inner.derivative(t, x, tau)
+
+        def joint_state(self, x):
+            return self.inner.joint_state(x)
+
+        def platform_position(self, x):
+            return self.inner.platform_position(x)
+
+    no_copy = r"mode='continuous' runs in the compiled core's Radau IIA.*no compiled copy.*use mode='sampled'"
+    with pytest.raises(InvalidParameterError, match=no_copy) as info:
+        dp.simulate(five_bar, dp.ComputedTorque(nominal), five_bar_path, plant=UsersPlant(), **options)
+    assert "\n" not in str(info.value)
+    digital = r"is discrete-time \(dt=0\.001\): only in mode='sampled'"
+    with pytest.raises(InvalidParameterError, match=digital) as info:
+        dp.simulate(five_bar, dp.tdc(nominal, 1e-3), five_bar_path, **options)
+    assert "\n" not in str(info.value)
+    sampled = dp.simulate(five_bar, dp.ComputedTorque(nominal), five_bar_path, plant=UsersPlant(), t_end=0.1)
+    assert sampled.metadata["integrator"] == "rk4" and not sampled.metadata.get("core_plant")
+    assert np.abs(sampled.alpha - sampled.alpha[0]).max() > 1e-3  # it moved along the path
+    assert np.abs(sampled.alpha - sampled.alpha_d).max() < 1e-3  # computed torque on the exact model

@@ -24,6 +24,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.control.base import ControlOutput, Reference
+from tests.reference.python_loop import simulate_reference
 
 DT = 1e-3
 
@@ -275,14 +276,14 @@ def test_the_delta_analytic_nominal_model_in_the_core(kind, delta):
 def test_a_recognised_delta_with_the_analytic_nominal_model_runs_in_the_core_as_in_python():
     """Design I (sampling-aware) on the analytic nominal model of a Delta written in MJCF (a
     recognised Delta: robot.delta), sampled at 1 kHz: the default run takes the core's plant and
-    law, and equals the Python loop (compiled=False) within 1e-10 (rad, N m, internals) over 0.5 s
-    of path I (one RK4 arithmetic; the law's arithmetic equal to ~1e-16, above)."""
+    law, and equals the Python reference loop (simulate_reference) within 1e-10 (rad, N m,
+    internals) over 0.5 s of path I (one RK4 arithmetic; the law's arithmetic equal to ~1e-16, above)."""
     robot = dp.load_robot("delta_mjcf")
     controllers = [dp.design1(dp.DeltaNominalModel(robot), sampling_period=DT) for _ in range(2)]
     options = {"t_end": 0.5, "mode": "sampled"}
     runs = [
-        dp.simulate(robot, controller, dp.PathI(), compiled=compiled, **options)
-        for controller, compiled in zip(controllers, (None, False))
+        simulate(robot, controller, dp.PathI(), **options)
+        for controller, simulate in zip(controllers, (dp.simulate, simulate_reference))
     ]
     core, python = runs
     assert core.metadata.get("core_plant") and not python.metadata.get("core_plant")

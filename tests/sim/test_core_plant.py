@@ -1,7 +1,7 @@
 """The compiled core's closed-chain model and plant (delta_pin/core/closed_chain.cpp) against the
 Python references they replace in the loops: ``ClosedChainRobot.configuration``, ``velocity_map``
 and ``reduced_terms``, ``ClosedChainPlant.derivative`` under the generic RK4 step with
-``finish_step``, and the Python sampled loop.
+``finish_step``, and the Python sampled loop (tests/reference/python_loop.py).
 
 Tolerances: the core calls the same compiled Pinocchio algorithms on the same numbers, so the
 accelerations agree bit for bit; what differs is Eigen's LU against LAPACK's in the closure
@@ -15,10 +15,11 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.compiled.core import core
-from delta_pin.errors import InvalidParameterError, SimulationError
+from delta_pin.errors import NativeUnavailableError, SimulationError
 from delta_pin.model.core_model import core_model
 from delta_pin.sim.compiled_plant import build_core_plant
 from delta_pin.sim.integrators import rk4_step
+from tests.reference.python_loop import simulate_reference
 
 FULLY_ACTUATED = ["five_bar", "three_rrr", "three_rrr_mjcf", "stewart"]
 
@@ -79,8 +80,8 @@ def test_rk4_steps_and_projections_equal_the_python_plant(robot_name):
 
 def test_the_sampled_loop_equals_the_python_loop_with_any_controller():
     """Design I on the five-bar along a circle of its tip with an unknown payload, and a user's
-    own function as a controller: the compiled plant and loop (compiled=None) against the Python
-    loop (compiled=False), 1e-9 rad and 1e-9 relative in torque over 0.3 s."""
+    own function as a controller: the compiled plant and loop (dp.simulate) against the Python
+    reference loop (simulate_reference), 1e-9 rad and 1e-9 relative in torque over 0.3 s."""
     robot = dp.load_robot("five_bar", end_effector="tip")
     home = robot.frame_placement(robot.reference_configuration).translation
     above = home + np.array([0.0, 0.0, 0.03])
@@ -92,10 +93,10 @@ def test_the_sampled_loop_equals_the_python_loop_with_any_controller():
 
     for controller, path in ((dp.design1(nominal, sampling_period=1e-3), circle), (user_law, None)):
         runs = []
-        for compiled in (False, None):
+        for simulate in (simulate_reference, dp.simulate):
             plant = dp.ClosedChainPlant(robot, payload_mass=lambda t: 0.2 * (1 + np.sin(np.pi * t)))
-            options = {"t_end": 0.3, "mode": "sampled", "alpha0": robot.home, "compiled": compiled}
-            runs.append(dp.simulate(robot, controller, path, plant=plant, **options))
+            options = {"t_end": 0.3, "mode": "sampled", "alpha0": robot.home}
+            runs.append(simulate(robot, controller, path, plant=plant, **options))
         python, compiled = runs
         assert compiled.q is not None and compiled.q.shape == python.q.shape
         assert np.abs(compiled.alpha - python.alpha).max() < 1e-9
@@ -116,7 +117,7 @@ def test_a_controller_that_fails_inside_the_compiled_loop_is_named():
         return np.full(robot.dof, np.nan) if t >= 0.005 else np.zeros(robot.dof)
 
     with pytest.raises(SimulationError, match=r"non-finite torque.*t=0\.005"):
-        dp.simulate(robot, law, None, t_end=0.02, mode="sampled", alpha0=robot.home, compiled=True)
+        dp.simulate(robot, law, None, t_end=0.02, mode="sampled", alpha0=robot.home)
     assert len(calls) == 6  # it stopped at the bad sample
 
     def wrong_shape(t, alpha, alpha_dot):
@@ -126,28 +127,30 @@ def test_a_controller_that_fails_inside_the_compiled_loop_is_named():
         dp.simulate(robot, wrong_shape, None, t_end=0.02, mode="sampled", alpha0=robot.home)
 
 
-def test_compiled_true_names_why_a_robot_has_no_compiled_plant(monkeypatch):
-    """Every robot has a compiled plant now (the ball-ball Delta's idle rod spins included); with
-    the core turned off, compiled=True says so in one line, and the default takes the Python loop."""
+def test_a_core_that_cannot_be_imported_names_the_rebuild_command(monkeypatch):
+    """Every robot has a compiled plant (the ball-ball Delta's idle rod spins included) and every
+    run goes through the core: a core that cannot be imported stops the run in one line naming
+    the command that rebuilds it (NativeUnavailableError), never a slower path."""
+    import sys
+
+    import delta_pin.compiled
     from delta_pin.compiled import core as core_module
 
     robot = dp.load_robot("delta_ballrods")
     assert robot.idle_dof > 0
     options = {"t_end": 0.01, "mode": "sampled", "alpha0": robot.home}
     assert dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options).metadata["core_plant"]
-    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
+    monkeypatch.setitem(sys.modules, "delta_pin.compiled._core", None)  # import then raises ImportError
+    monkeypatch.delattr(delta_pin.compiled, "_core")  # else `from delta_pin.compiled import _core` finds it
     core_module.core.cache_clear()  # the core is looked up once per process
     try:
-        with pytest.raises(
-            InvalidParameterError, match=r"compiled=True.*no compiled sampled loop.*NATIVE=0"
-        ) as info:
-            dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, compiled=True, **options)
+        with pytest.raises(NativeUnavailableError, match=r"cannot be imported.*pip install") as info:
+            dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options)
         assert "\n" not in str(info.value)
-        run = dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options)
-        assert not run.metadata.get("core_plant")
     finally:
-        monkeypatch.delenv("DELTA_PIN_NATIVE")
+        monkeypatch.undo()
         core_module.core.cache_clear()
+    assert dp.simulate(robot, lambda t, a, ad: np.zeros(3), None, **options).metadata["core_plant"]
 
 
 def test_wrong_sizes_are_refused_by_the_core_not_read_past():
@@ -354,8 +357,8 @@ def test_an_uncertainty_profile_is_the_core_plants_truth_too():
     """The paper's time-varying truth (m_o(t) of the payload body with its rotational inertia
     scaled, F_n(t) of the friction, F(t) on the joints: PaperUncertainty) tabulated into the core's
     plant: design I (sampling-aware) on a Delta written in MJCF, sampled at 1 kHz over 0.5 s of
-    path I with the paper's friction, equals the Python loop on the Python plant (compiled=False)
-    within 1e-10
+    path I with the paper's friction, equals the Python loop on the Python plant
+    (simulate_reference) within 1e-10
     (rad, N m); a profile the core held wrongly (no disturbance, say) would move it by far more:
     the run without the profile differs by > 1e-4 rad."""
     robot = dp.load_robot("delta_mjcf")
@@ -366,11 +369,11 @@ def test_an_uncertainty_profile_is_the_core_plants_truth_too():
 
     options = {"t_end": 0.5, "mode": "sampled", "friction": True}
     runs = [
-        dp.simulate(robot, design(), dp.PathI(), uncertainty=uncertainty, compiled=compiled, **options)
-        for uncertainty, compiled in (
-            (dp.PaperUncertainty(), None),
-            (dp.PaperUncertainty(), False),
-            (None, None),
+        simulate(robot, design(), dp.PathI(), uncertainty=uncertainty, **options)
+        for uncertainty, simulate in (
+            (dp.PaperUncertainty(), dp.simulate),
+            (dp.PaperUncertainty(), simulate_reference),
+            (None, dp.simulate),
         )
     ]
     core, python, nominal_truth = runs

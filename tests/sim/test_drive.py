@@ -2,9 +2,10 @@
 stepped sample by sample outside ``simulate``.
 
 References: closed forms (quantisation to round(alpha / q) q, a FIFO of commands, a clip), the
-recorded controller command against the recorded applied torque, and the Python loop of
-``simulate`` against the same controller stepped by hand on the same plant (bit for bit: the
-same arithmetic in the same order).
+recorded controller command against the recorded applied torque, and the Python reference loop
+(tests/reference/python_loop.py, what ``simulate`` ran before the core took every run) against the
+same controller stepped by hand on the same plant (bit for bit: the same arithmetic in the same
+order).
 """
 
 import math
@@ -16,6 +17,7 @@ import delta_pin as dp
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import rk4_step
+from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)
 
@@ -94,15 +96,15 @@ def test_bad_drive_arguments_are_refused(robot, options, match):
         dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, **options)
 
 
-def test_compiled_true_on_a_drive_runs_every_law_in_the_core(robot):
+def test_a_drive_runs_every_law_in_the_core(robot):
     """On a drive the core runs designs I/II and the digital laws compiled and a plain function
-    called back once per sample: compiled=True holds for both."""
+    called back once per sample: both run on the core's plant."""
     run = dp.simulate(robot, lambda t, a, v: np.zeros(3), dp.PathI(), plant="analytic", t_end=0.01,
-                      mode="sampled", sensor=Encoder(), compiled=True)  # fmt: skip
+                      mode="sampled", sensor=Encoder())  # fmt: skip
     assert run.metadata["core_plant"] and not np.any(run.tau)
     nominal = dp.DeltaNominalModel(robot)
     run = dp.simulate(robot, dp.design1(nominal), dp.PathI(), plant="analytic", t_end=0.01, mode="sampled",
-                      sensor=Encoder(), compiled=True)  # fmt: skip
+                      sensor=Encoder())  # fmt: skip
     assert run.metadata["core_plant"] and run.metadata["sensor"]["bits"] == 17
 
 
@@ -162,9 +164,9 @@ def _stepped_by_hand(robot, controller, t_end, dt=1e-3):
 def test_step_outside_simulate_is_the_sampled_loop(robot, make, moved):
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     controller = make(nominal)
-    run = dp.simulate(
+    run = simulate_reference(
         robot, controller, dp.PathI(), plant="analytic", t_end=0.2, alpha0=ALPHA0, friction=dp.Friction(),
-        uncertainty=dp.PaperUncertainty(), mode="sampled", compiled=False,
+        uncertainty=dp.PaperUncertainty(), mode="sampled",
     )  # fmt: skip
     torques, x = _stepped_by_hand(robot, controller, 0.2)
     np.testing.assert_array_equal(torques, run.tau[:-1])

@@ -58,8 +58,9 @@ def _energy(robot, plant, x, stiffness, alpha_rest):
 
 @pytest.mark.parametrize("plant_class", [AnalyticPlant, PinocchioPlant])
 def test_energy_is_conserved_without_friction(robot, plant_class):
-    """Springs to a rest pose (a conservative torque) in continuous mode: RK4 at 1 kHz keeps the
-    total energy to 1e-8 of the energy exchanged over 5 s."""
+    """Springs to a rest pose (a conservative torque) in continuous mode: the core's Radau IIA at
+    rtol 1e-9, atol 1e-11 keeps the total energy to 1e-8 of the energy exchanged over 5 s
+    (measured: 2.5e-10 analytic, 3.8e-10 Pinocchio; at the default rtol 1e-6 the drift is 3.6e-7)."""
     alpha_rest = robot.inverse_kinematics(START)
     alpha0 = alpha_rest + np.array([0.15, -0.1, 0.05])
     stiffness = 3.0  # [N m/rad]
@@ -68,9 +69,9 @@ def test_energy_is_conserved_without_friction(robot, plant_class):
         return -stiffness * (alpha - alpha_rest)
 
     plant = plant_class(robot)
-    run = simulate(
-        robot, spring, alpha0=alpha0, plant=plant, t_end=5.0, dt=1e-3, mode="continuous", integrator="rk4"
-    )
+    options = {"t_end": 5.0, "dt": 1e-3, "mode": "continuous", "rtol": 1e-9, "atol": 1e-11}
+    run = simulate(robot, spring, alpha0=alpha0, plant=plant, **options)
+    assert run.metadata["integrator"] == "radau" and run.metadata["core_plant"]
     states = [plant.initial_state(a, ad) for a, ad in zip(run.alpha[::50], run.alpha_dot[::50])]
     energy = np.array([_energy(robot, plant, x, stiffness, alpha_rest) for x in states])
     kinetic_scale = max(
@@ -90,9 +91,7 @@ def test_friction_only_dissipates(robot):
     def spring(t, alpha, alpha_dot):
         return -stiffness * (alpha - alpha_rest)
 
-    run = simulate(
-        robot, spring, alpha0=alpha0, plant=plant, t_end=2.0, dt=1e-3, mode="continuous", integrator="rk4"
-    )
+    run = simulate(robot, spring, alpha0=alpha0, plant=plant, t_end=2.0, dt=1e-3, mode="continuous")  # Radau
     energy = np.array(
         [
             _energy(robot, plant, plant.initial_state(a, ad), stiffness, alpha_rest)
@@ -125,13 +124,28 @@ def test_a_rough_torque_drifts_the_loops_and_the_plant_projects_them_back(robot)
     to sample, and one 1 ms RK4 step drifts the loops by up to 1.7e-6 m (measured). That is a
     projection, not an explosion: before issue 15 the run stopped at t = 1.323 s ("the loop-closure
     gap exploded to 1.060e-06 m"); now every such step is projected back and the run completes,
-    in the compiled core and in the Python loop alike (the same runs to PINOCCHIO_RTOL on 17-bit
+    in the compiled core and in the Python reference loop alike (the same runs to PINOCCHIO_RTOL on 17-bit
     encoders: tests/sim/test_compiled_loops.py; on 11 bits a last-digit difference can move a
     reading by one level, so the two are equally valid runs, not the same one)."""
-    from delta_pin.studies.experiments import RunSpec, run_spec
+    from delta_pin.studies.experiments import (
+        RunSpec,
+        build_controller,
+        build_trajectory,
+        build_uncertainty,
+        run_spec,
+    )
+    from tests.reference.python_loop import simulate_reference
 
     spec = RunSpec(controller="tdc", mode="sampled", t_end=3.0, encoder_bits=11, delay=1)
-    runs = [run_spec(spec, robot, compiled=compiled) for compiled in (None, False)]
+    trajectory = build_trajectory(spec.path)
+    reference = simulate_reference(
+        robot, build_controller(spec, robot, trajectory), trajectory, plant=spec.plant, t_end=spec.duration,
+        dt=spec.dt, mode=spec.mode, alpha0=np.full(3, spec.alpha0),
+        friction=Friction() if spec.friction else None, uncertainty=build_uncertainty(spec),
+        sensor=spec.sensor(), delay=spec.delay, torque_limit=spec.torque_limit,
+    )  # fmt: skip
+    assert spec.integrator == "auto"  # rk4 in sampled mode, as the reference loop's default
+    runs = [run_spec(spec, robot), reference]
     assert runs[0].metadata["core_plant"] and not runs[1].metadata.get("core_plant")
     # the Python plant keeps the largest gap it projected back (the core does not)
     assert runs[1].metadata["closure_gap_projected_max"] > 1e-6  # the old failure tolerance [m]
