@@ -10,6 +10,7 @@ import pytest
 import delta_pin as dp
 from delta_pin.model.delta_robot import analytic_delta, carries_own_delta
 from delta_pin.model.robot import Delta
+from tests.reference.python_loop import simulate_reference
 
 
 @pytest.fixture(scope="module")
@@ -51,9 +52,10 @@ def test_generic_projection_equals_the_papers_model(robot):
 
 def test_its_runs_are_the_analytic_deltas_and_the_closure_plant_agrees(robot):
     """simulate(load_delta()) runs the analytic Delta's own path (the same arithmetic: equal to
-    the last bit); the same robot on the generic closed-chain plant, given explicitly, follows
-    the same motion: measured 6e-16 rad over 0.3 s; bound 1e-12 (two implementations of the same
-    constrained dynamics, RK4 at 1 ms, projections at different moments)."""
+    the last bit); the same robot on the generic closed-chain plant, given explicitly and run in
+    the Python reference loop (its Python ``derivative``), follows the same motion: measured
+    6e-16 rad over 0.3 s; bound 1e-12 (two implementations of the same constrained dynamics, RK4
+    at 1 ms, projections at different moments)."""
     path = dp.PathI()
     nominal = dp.DeltaNominalModel(robot)
     assert nominal.robot is robot.delta
@@ -61,8 +63,7 @@ def test_its_runs_are_the_analytic_deltas_and_the_closure_plant_agrees(robot):
     direct = dp.simulate(robot.delta, dp.design1(dp.DeltaNominalModel(robot.delta)), path, t_end=0.3)
     np.testing.assert_array_equal(run.alpha, direct.alpha)
     assert run.metadata["robot"] == direct.metadata["robot"]
-    generic = dp.simulate(
-        robot, dp.design1(nominal), path, t_end=0.3, plant=dp.ClosedChainPlant(robot), compiled=False
-    )
-    assert generic.metadata["plant"] == "pinocchio" and not generic.metadata.get("compiled")
+    plant = dp.ClosedChainPlant(robot)
+    generic = simulate_reference(robot, dp.design1(nominal), path, t_end=0.3, plant=plant)
+    assert generic.metadata["plant"] == "pinocchio" and not generic.metadata.get("core_plant")
     np.testing.assert_allclose(generic.alpha, run.alpha, atol=1e-12, rtol=0)

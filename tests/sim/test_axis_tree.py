@@ -122,14 +122,3 @@ def test_a_core_built_against_another_pinocchio_is_refused_in_one_line(monkeypat
         assert "\n" not in message
     finally:
         core.core.cache_clear()
-
-
-def test_the_core_can_be_turned_off(monkeypatch):
-    """DELTA_PIN_NATIVE=0: the core is not imported (every run then takes the Python loop)."""
-    monkeypatch.setenv("DELTA_PIN_NATIVE", "0")
-    core.core.cache_clear()
-    try:
-        with pytest.raises(NativeUnavailableError, match="DELTA_PIN_NATIVE=0"):
-            core.core()
-    finally:
-        core.core.cache_clear()

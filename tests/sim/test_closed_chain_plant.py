@@ -97,7 +97,7 @@ def test_design_one_tracks_a_circle_of_the_five_bar_tip(five_bar):
     unmodelled, time-varying payload: the tip stays within 0.05 mm of the circle after 0.5 s."""
     nominal = dp.ClosedChainNominalModel(five_bar)
     payload = lambda t: 0.1 * (1.0 + np.sin(2 * np.pi * t))  # noqa: E731
-    plant = dp.ClosedChainPlant(five_bar, payload_mass=payload, coordinates="active")  # what LSODA takes
+    plant = dp.ClosedChainPlant(five_bar, payload_mass=payload, coordinates="active")  # q, v completed
     run = dp.simulate(
         five_bar, dp.design1(nominal), dp.FramePath(dp.Circle(**CIRCLE)), plant=plant, t_end=1.0,
         mode="continuous", alpha0=five_bar.home,
@@ -124,30 +124,30 @@ def test_every_controller_runs_on_a_closed_chain_robot(five_bar, controller):
     assert np.abs(run.alpha - run.alpha_d).max() < 0.05
 
 
-def test_compiled_loops_and_their_integrators_are_refused_by_name(five_bar):
+def test_the_core_runs_closed_chains_and_other_integrators_are_refused_by_name(five_bar):
     nominal = dp.ClosedChainNominalModel(five_bar)
 
     payload = dp.ClosedChainPlant(five_bar, payload_mass=lambda t: 0.1, coordinates="active")
     run = dp.simulate(
         five_bar, dp.PDGravity(nominal), None, plant=payload, t_end=0.1, alpha0=five_bar.home,
-        mode="continuous", compiled=True,
+        mode="continuous",
     )  # fmt: skip
     assert run.metadata["core_plant"] and run.metadata["integrator"] == "radau"  # a payload runs compiled
     for mode in ("sampled", "continuous"):
-        run = dp.simulate(
-            five_bar, dp.PDGravity(nominal), None, t_end=0.01, alpha0=five_bar.home, compiled=True, mode=mode
-        )
+        run = dp.simulate(five_bar, dp.PDGravity(nominal), None, t_end=0.01, alpha0=five_bar.home, mode=mode)
         assert run.q is not None and run.metadata["core_plant"]  # the full configuration, from the core
     run = dp.simulate(  # the core's BDF2 takes any closed chain
         five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, mode="continuous",
         integrator="bdf2",
     )  # fmt: skip
     assert run.metadata["core_plant"] and run.metadata["integrator"] == "bdf2"
-    with pytest.raises(InvalidParameterError, match="integrator='bdf2' is the compiled core's"):
-        dp.simulate(
-            five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, mode="continuous",
-            integrator="bdf2", compiled=False,
-        )  # fmt: skip
+    for integrator in ("rk4", "lsoda"):  # continuous RK4 and LSODA left with the Python loop
+        refused = rf"integrator='{integrator}' does not run mode='continuous'"
+        with pytest.raises(InvalidParameterError, match=refused):
+            dp.simulate(
+                five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, mode="continuous",
+                integrator=integrator,
+            )  # fmt: skip
     with pytest.raises(InvalidParameterError, match="not a recognised Delta"):
         dp.simulate(five_bar, dp.PDGravity(nominal), None, t_end=0.1, alpha0=five_bar.home, plant="analytic")
     with pytest.raises(InvalidParameterError, match="FramePath"):

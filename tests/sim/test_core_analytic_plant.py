@@ -6,13 +6,14 @@ Tolerances:
 
 * one derivative: 1e-12 relative -- the same eqs. 7-13 in C++ (the sums associated as Eigen
   does; measured ~1e-15);
-* a sampled run against the Python loop (``compiled=False``): the same RK4 steps, the law in C++
-  (the analytic nominal model through ``use_delta_model``): 1e-10 relative over 0.2 s, absolute
-  1e-12 in SI units;
+* a sampled run against the readable Python loop (``simulate_reference``,
+  tests/reference/python_loop.py): the same RK4 steps, the law in C++ (the analytic nominal model
+  through ``use_delta_model``): 1e-10 relative over 0.2 s, absolute 1e-12 in SI units;
 * a continuous run (the core's Radau at rtol 1e-6) against the Python plant under LSODA at rtol
-  1e-10, with the paper's uncertainty: the integration error only, within the issue's 1e-6 rad
-  (the truth: linear interpolation between rows dt / 4 apart in the core, the profile itself in
-  Python; the profiles are smooth, the interpolation error ~1e-7 of their amplitude).
+  1e-10 (``simulate_reference``), with the paper's uncertainty: the integration error only,
+  within the issue's 1e-6 rad (the truth: linear interpolation between rows dt / 4 apart in the
+  core, the profile itself in Python; the profiles are smooth, the interpolation error ~1e-7 of
+  their amplitude).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import pytest
 import delta_pin as dp
 from delta_pin.compiled.core import core
 from delta_pin.sim.compiled_plant import build_core_analytic_plant
+from tests.reference.laws import called_back
+from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
 TOLERANCE = 1e-6  # [rad]: the issue's bound for a continuous run
@@ -30,10 +33,8 @@ TOLERANCE = 1e-6  # [rad]: the issue's bound for a continuous run
 
 @pytest.fixture(scope="module")
 def needs_core():
-    try:
-        return core()
-    except Exception as exc:
-        pytest.skip(f"the compiled core is unavailable: {exc}")
+    """The compiled core (a core that cannot be imported is an error, never a skip)."""
+    return core()
 
 
 def test_the_core_derivative_is_the_python_plants(robot, needs_core, rng):
@@ -75,15 +76,12 @@ def test_a_sampled_run_in_the_core_is_the_python_loops(robot, needs_core, law):
         return nominal.terms(alpha, np.zeros(3))[2] - 40.0 * (alpha - ALPHA0) - 4.0 * alpha_dot
 
     runs = []
-    for compiled in (None, False):
+    for simulate in (dp.simulate, simulate_reference):
         controller = dp.design1(nominal, sampling_period=1e-3) if law == "design1" else pd
         plant = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
         runs.append(
-            dp.simulate(
-                robot, controller, dp.PathI(), plant=plant, t_end=0.2, substeps=2, alpha0=ALPHA0,
-                compiled=compiled,
-            )
-        )  # fmt: skip
+            simulate(robot, controller, dp.PathI(), plant=plant, t_end=0.2, substeps=2, alpha0=ALPHA0)
+        )
     fast, reference = runs
     assert fast.metadata.get("core_plant") and not reference.metadata.get("core_plant")
     for name in ("alpha", "alpha_dot", "tau", "xyz"):
@@ -107,7 +105,7 @@ def test_a_continuous_run_with_uncertainty_runs_in_the_core(robot, needs_core, p
     )  # fmt: skip
     run = dp.simulate(robot, dp.design1(nominal), dp.PathI(), **options)
     assert run.metadata["integrator"] == "radau" and run.metadata.get("core_plant")
-    reference = dp.simulate(
+    reference = simulate_reference(
         robot, dp.design1(nominal), dp.PathI(), integrator="lsoda", rtol=1e-10, atol=1e-12, **options
     )
     assert not reference.metadata.get("core_plant")
@@ -116,19 +114,16 @@ def test_a_continuous_run_with_uncertainty_runs_in_the_core(robot, needs_core, p
     assert np.abs(run.alpha - ALPHA0).max() > 1e-2
 
 
-def test_compiled_false_keeps_the_readable_law_on_the_core_plant(robot, needs_core):
-    """design1(compiled=False): the core's plant calls the readable evaluate back once per sample
-    instead of running its C++ copy; the two agree to the module's 1e-10."""
+def test_the_readable_law_called_back_on_the_core_plant_is_the_compiled_law(robot, needs_core):
+    """Design I with its compiled law hidden (tests/reference/laws.py: called_back): the core's
+    plant calls the readable evaluate back once per sample instead of running its C++ copy; the
+    two agree to the module's 1e-10."""
     nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
     options = dict(plant="analytic", t_end=0.1, alpha0=ALPHA0, friction=dp.Friction())
-    runs = [
-        dp.simulate(
-            robot, dp.design1(nominal, sampling_period=1e-3, compiled=compiled), dp.PathI(), **options
-        )
-        for compiled in (True, False)
-    ]
-    assert dp.design1(nominal).sampled_core_law() is not None
-    assert dp.design1(nominal, compiled=False).sampled_core_law() is None
+    compiled = dp.design1(nominal, sampling_period=1e-3)
+    readable = called_back(dp.design1(nominal, sampling_period=1e-3))
+    assert compiled.sampled_core_law() is not None and readable.sampled_core_law() is None
+    runs = [dp.simulate(robot, controller, dp.PathI(), **options) for controller in (compiled, readable)]
     assert all(run.metadata["core_plant"] for run in runs)
     np.testing.assert_allclose(runs[0].alpha, runs[1].alpha, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(runs[0].tau, runs[1].tau, rtol=1e-10, atol=1e-12)

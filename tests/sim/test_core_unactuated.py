@@ -8,8 +8,9 @@ passive links).
 The references are the Python robot and plant the core replaces: ``ClosedChainRobot``'s
 ``configuration``, ``velocity_map``, ``reduced_terms``, ``frame_acceleration_drift`` and
 ``project_state`` (numpy's LAPACK SVD where the core uses Eigen's Jacobi SVD), the Python plant's
-``derivative`` under ``rk4_step`` with ``finish_step``, the Python loop (``compiled=False``) and
-LSODA at a tight tolerance on the Python plant in full coordinates.
+``derivative`` under ``rk4_step`` with ``finish_step``, the readable Python loop
+(``simulate_reference``, tests/reference/python_loop.py) and LSODA there at a tight tolerance on
+the Python plant in full coordinates.
 
 Tolerances: the pseudo-inverses of the two SVDs agree to ~1e-15 relative on these Jacobians
 (condition numbers below 4e3), and the idle projection multiplies a handful of them, so 1e-10
@@ -36,6 +37,7 @@ from delta_pin.model.core_model import core_model
 from delta_pin.sim.compiled_plant import build_core_plant
 from delta_pin.sim.integrators import rk4_step
 from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR
+from tests.reference.python_loop import simulate_reference
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 IDLE = ["5bar_linkage", "robot_delta", "delta_ballrods"]
@@ -159,11 +161,11 @@ def test_sampled_design_one_with_idle_motions_in_the_core_equals_the_python_loop
     robot = load(name)
     path = dp.JointSinusoid(robot.home, amplitude=0.02, frequency=1.0)
     runs = []
-    for compiled in (None, False):
+    for simulate in (dp.simulate, simulate_reference):
         plant = dp.ClosedChainPlant(robot)
         law = dp.design1(dp.ClosedChainNominalModel(robot), sampling_period=1e-3)
-        runs.append(dp.simulate(robot, law, path, plant=plant, t_end=0.1, mode="sampled", compiled=compiled))
-        assert plant.stepped_in_core == (compiled is None)
+        runs.append(simulate(robot, law, path, plant=plant, t_end=0.1, mode="sampled"))
+        assert plant.stepped_in_core == (simulate is dp.simulate)
     core_run, python_run = runs
     np.testing.assert_allclose(core_run.alpha, python_run.alpha, rtol=0, atol=1e-9)
     np.testing.assert_allclose(core_run.tau, python_run.tau, rtol=0, atol=1e-8 * np.abs(python_run.tau).max())
@@ -181,11 +183,10 @@ def test_a_python_law_on_the_core_plant_of_an_underactuated_robot(sprung):
         return 2.0 * (robot.home + 0.1 - alpha) - 0.2 * alpha_dot
 
     runs = []
-    for compiled in (None, False):
+    for simulate in (dp.simulate, simulate_reference):
         plant = dp.ClosedChainPlant(robot)
-        options = {"t_end": 0.3, "mode": "sampled", "alpha0": robot.home, "compiled": compiled}
-        runs.append(dp.simulate(robot, pd, None, plant=plant, **options))
-        assert plant.stepped_in_core == (compiled is None)
+        runs.append(simulate(robot, pd, None, plant=plant, t_end=0.3, mode="sampled", alpha0=robot.home))
+        assert plant.stepped_in_core == (simulate is dp.simulate)
     np.testing.assert_allclose(runs[0].q, runs[1].q, rtol=0, atol=1e-9)
     spring = robot.model.idx_qs[robot.model.getJointId("spring_joint")]
     assert np.ptp(runs[0].q[:, spring]) > 1e-3  # the passive joint moved
@@ -202,7 +203,7 @@ def test_continuous_runs_with_idle_motions_integrate_the_whole_state_in_the_core
     options = {"t_end": 0.2, "mode": "continuous", "alpha_dot0": np.full(robot.dof, 0.02 * 2 * np.pi)}
     law = dp.design1(dp.ClosedChainNominalModel(robot))
     core_run = dp.simulate(robot, law, path, integrator="radau", rtol=1e-8, **options)
-    reference = dp.simulate(robot, law, path, compiled=False, rtol=1e-10, **options)
+    reference = simulate_reference(robot, law, path, integrator="lsoda", rtol=1e-10, **options)
     assert core_run.metadata["integrator"] == "radau" and reference.metadata["integrator"] == "lsoda"
     assert core_run.metadata["core_plant"] and core_run.metadata["coordinates"] == "full"
     np.testing.assert_allclose(core_run.alpha, reference.alpha, rtol=0, atol=1e-6)
@@ -224,7 +225,7 @@ def test_a_continuous_python_law_on_an_underactuated_robot_in_the_core(sprung):
 
     options = {"t_end": 0.3, "mode": "continuous", "alpha0": robot.home}
     core_run = dp.simulate(robot, pd, None, integrator="radau", rtol=1e-9, **options)
-    reference = dp.simulate(robot, pd, None, compiled=False, rtol=1e-10, **options)
+    reference = simulate_reference(robot, pd, None, integrator="lsoda", rtol=1e-10, **options)
     assert core_run.metadata["integrator"] == "radau"
     np.testing.assert_allclose(core_run.q, reference.q, rtol=0, atol=1e-6)
     spring = robot.model.idx_qs[robot.model.getJointId("spring_joint")]
@@ -244,23 +245,17 @@ def test_a_joint_coupling_holds_in_the_core_as_in_the_python_plant(robotiq):
         return np.array([1.0])
 
     runs = {}
-    for mode, compiled in (
-        ("sampled", None),
-        ("sampled", False),
-        ("continuous", None),
-        ("continuous", False),
-    ):
-        options = {"t_end": 0.1, "mode": mode, "alpha0": robot.home, "compiled": compiled, "substeps": 4}
+    for mode, core in (("sampled", True), ("sampled", False), ("continuous", True), ("continuous", False)):
+        options = {"t_end": 0.1, "mode": mode, "alpha0": robot.home, "substeps": 4}
         if mode == "continuous":
-            options |= {"rtol": 1e-9 if compiled is None else 1e-10}
+            options |= {"rtol": 1e-9} if core else {"integrator": "lsoda", "rtol": 1e-10}
             del options["substeps"]
-        run = dp.simulate(robot, pull, None, **options)
+        run = (dp.simulate if core else simulate_reference)(robot, pull, None, **options)
         assert np.abs(run.q[:, right] - run.q[:, left]).max() < 1e-9
-        runs[mode, compiled] = run
-    assert runs["continuous", None].metadata["integrator"] == "radau"
-    assert all(
-        run.metadata.get("core_plant", False) == (compiled is None) for (_, compiled), run in runs.items()
-    )
-    np.testing.assert_allclose(runs["sampled", None].q, runs["sampled", False].q, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(runs["continuous", None].q, runs["continuous", False].q, rtol=0, atol=1e-6)
-    assert np.ptp(runs["sampled", None].q[:, left]) > 0.05
+        runs[mode, core] = run
+    assert runs["continuous", True].metadata["integrator"] == "radau"
+    assert runs["continuous", False].metadata["integrator"] == "lsoda"
+    assert all(run.metadata.get("core_plant", False) == core for (_, core), run in runs.items())
+    np.testing.assert_allclose(runs["sampled", True].q, runs["sampled", False].q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(runs["continuous", True].q, runs["continuous", False].q, rtol=0, atol=1e-6)
+    assert np.ptp(runs["sampled", True].q[:, left]) > 0.05

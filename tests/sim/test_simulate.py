@@ -138,6 +138,9 @@ def test_missing_run_file_is_a_clear_error(tmp_path):
         ({"plant": "mujoco"}, "plant='mujoco'"),
         ({"substeps": 0}, "substeps=0"),
         ({"integrator": "lsoda"}, "integrator='lsoda'"),
+        # LSODA and continuous RK4 left the package with the Python loop (tests/reference)
+        ({"integrator": "lsoda", "mode": "continuous"}, "integrator='lsoda' does not run mode='continuous'"),
+        ({"integrator": "rk4", "mode": "continuous"}, "integrator='rk4' does not run mode='continuous'"),
     ],
 )
 def test_bad_arguments_are_refused(robot, kwargs, message):

@@ -230,7 +230,7 @@ def test_spec_key_is_the_sha256_of_the_sorted_canonical_json():
     fields = {k: v for k, v in spec.as_dict().items() if k not in later}
     text = json.dumps(fields, sort_keys=True, separators=(",", ":"))
     assert spec_key(spec) == hashlib.sha256(text.encode()).hexdigest()
-    assert spec_key(spec) != spec_key(spec.with_(integrator="lsoda"))
+    assert spec_key(spec) != spec_key(spec.with_(integrator="bdf2"))
     assert spec_key(spec) != spec_key(spec.with_(mode="sampled", encoder_bits=17, delay=1))
     assert spec_key(spec) == spec_key(RunSpec(gains={"xi": 0.01}, delta_m=0.1))
     assert spec_key(spec) != spec_key(spec.with_(gains={"xi": 0.02}))
@@ -443,20 +443,21 @@ def test_a_sweep_whose_runs_fail_says_so_and_exits_1(tmp_path, capsys):
 
 
 def test_single_runs_start_longest_first_and_batches_follow():
-    """LSODA runs and high-rate sampled runs are dispatched before short ones, so that two
-    workers end together (reproduce --full left one worker alone on a 10 kHz run)."""
+    """High-rate runs (continuous at 10 kHz on the Pinocchio plant, sampled at 10 kHz) are
+    dispatched before short ones, so that two workers end together (reproduce --full left one
+    worker alone on a 10 kHz run)."""
     from delta_pin.studies.sweep import _chunks, estimated_cost
 
     specs = {
         "sampled_1k": RunSpec(controller="tdc", mode="sampled", dt=1e-3),
-        "lqr_lsoda": RunSpec(controller="pd", integrator="lsoda"),
+        "continuous_10k": RunSpec(controller="pd", dt=1e-4),
         "sampled_10k": RunSpec(controller="tdc", mode="sampled", dt=1e-4),
         "radau": RunSpec(controller="design1", plant="analytic"),
         "bdf2_a": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.1),
         "bdf2_b": RunSpec(controller="design1", integrator="bdf2", plant="analytic", delta_m=0.2),
     }
     assert (
-        estimated_cost(specs["lqr_lsoda"])
+        estimated_cost(specs["continuous_10k"])
         > estimated_cost(specs["sampled_10k"])
         > estimated_cost(specs["sampled_1k"])
         > estimated_cost(specs["radau"])
@@ -467,5 +468,5 @@ def test_single_runs_start_longest_first_and_batches_follow():
     assert estimated_cost(lqr) == estimated_cost(design) > estimated_cost(specs["sampled_1k"])
     assert estimated_cost(specs["sampled_10k"]) > estimated_cost(lqr)
     tasks = _chunks(list(specs), specs, workers=2)
-    assert tasks[:4] == [["lqr_lsoda"], ["sampled_10k"], ["sampled_1k"], ["radau"]]
+    assert tasks[:4] == [["continuous_10k"], ["sampled_10k"], ["sampled_1k"], ["radau"]]
     assert sorted(key for task in tasks[4:] for key in task) == ["bdf2_a", "bdf2_b"]  # one batch group
