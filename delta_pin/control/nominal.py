@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import ForwardKinematicsError, InvalidParameterError
-from delta_pin.model.core_model import core_chain, core_model
+from delta_pin.model.core_model import core_chain
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
@@ -250,7 +250,7 @@ class ClosedChainNominalModel(NominalModel):
         self.payload_mass = mass
         self.dof = robot.dof
         # the compiled projection, where it applies: it carries no joint springs or dampers yet
-        self._core = None if self.robot.joint_springs else core_model(self.robot)
+        self._core = None if self.robot.joint_springs else self.robot.compiled_model
         self._last_q = self.robot.reference_configuration.copy()
         self._disturbance = (
             np.zeros(self.dof)

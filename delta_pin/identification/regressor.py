@@ -43,7 +43,6 @@ import pinocchio as pin
 
 from delta_pin.errors import AssemblyError, InvalidParameterError
 from delta_pin.model.closed_chain import ClosedChainRobot, least_squares
-from delta_pin.model.core_model import core_model
 
 __all__ = [
     "INERTIAL_NAMES",
@@ -220,7 +219,7 @@ class ClosedChainRegressor:
         self._last_q = robot.reference_configuration.copy()
         # q(alpha) and S in the compiled core where it takes the robot (the same Newton and null
         # space as the robot's methods, delta_pin.model.core_model), else the robot's own
-        self._core = core_model(robot)
+        self._core = robot.compiled_model
 
     @property
     def size(self) -> int:

@@ -1161,15 +1161,22 @@ class ClosedChainRobot:
         alpha = np.asarray(alpha, dtype=float)
         if alpha.ndim == 2:
             if frame is None or self._frame(frame) == self.end_effector:
-                core = self._core_chain()
+                core = self.compiled_model
                 if core is not None:  # the same assembly and placement, in the compiled core
                     return self._core_forward_kinematics(core, alpha)
             return np.array([self.forward_kinematics(row, frame) for row in alpha])
         return self.frame_placement(self.configuration(alpha), frame).translation.copy()
 
-    def _core_chain(self):
-        """This robot in the compiled core (:func:`~delta_pin.model.core_model.core_model`, built
-        once), or ``None`` where the core does not take it or cannot be imported."""
+    @property
+    def compiled_model(self):
+        """This robot in the compiled core (``ClosedChainModel``,
+        :func:`~delta_pin.model.core_model.core_model`): built once per end effector and shared by
+        everything that assembles, projects or differentiates this robot (its plant, nominal
+        model, frame paths, regressor, validation); ``None`` for a model the core refuses.
+
+        Raises:
+            NativeUnavailableError: the core cannot be imported here.
+        """
         cached = self.__dict__.get("_core")
         if cached is None or cached[0] != self.end_effector:  # the core holds its end effector
             from delta_pin.model.core_model import core_model

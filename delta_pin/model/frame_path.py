@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 from delta_pin.errors import AssemblyError, InvalidParameterError, UnreachablePoseError
-from delta_pin.model.core_model import core_model
 from delta_pin.model.trajectory import JointReference, Trajectory, _vectorised
 
 __all__ = ["Circle", "FramePath"]
@@ -167,7 +166,7 @@ class FramePath:
         samples (the same Newton iterations as the loop below, which stays the reference and
         names a sample that cannot be reached), or ``None`` where the core does not take the
         robot or a sample fails."""
-        model = core_model(robot)
+        model = robot.compiled_model
         if model is None:
             return None
         start = robot._last_q.copy()

@@ -30,7 +30,6 @@ import numpy as np
 
 from delta_pin.errors import DeltaPinError, InvalidParameterError
 from delta_pin.model import kinematics
-from delta_pin.model.core_model import core_model
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.robot import Delta
 
@@ -233,7 +232,7 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
     # Newton reaches from there -- in the compiled core where it is available (the same
     # arithmetic as the robot's Python methods, which tests/sim/test_core_plant.py holds it to)
     closed = robot.pinocchio
-    core = core_model(closed)
+    core = closed.compiled_model
     M_list, G_list, coriolis_list, gap_list = [], [], [], []
     starts = robot.closed_form_configurations(closed.model, closed.closures, alpha, xyz)
     for a, d, q in zip(alpha, alpha_dot, starts):

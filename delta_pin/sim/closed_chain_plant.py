@@ -60,7 +60,6 @@ from delta_pin.errors import (
     SimulationError,
 )
 from delta_pin.model.closed_chain import ClosedChainRobot, closure_rank
-from delta_pin.model.core_model import core_model
 from delta_pin.model.delta_robot import as_closed_chain
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
@@ -85,8 +84,9 @@ class ClosedChainPlant(Plant):
         payload_mass: m(t) [kg] as a function of time, a constant, or ``None``.
         payload_frame: the frame the payload rides at and whose body's mass the uncertainty sets
             (default: the end effector).
-        coordinates: ``"full"`` or ``"active"`` (default: full where nq == nv or where the robot
-            has idle motions or passive joints).
+        coordinates: ``"full"`` or ``"active"`` (default: full wherever every joint has a
+            configuration rate -- the compiled core's plant then steps the sampled loop --, else
+            active, which a plant written in Python steps through the core's loop).
         baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
         projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
         failure_tolerance: closure gap [m or rad] that stops the run instead of a projection
@@ -120,8 +120,10 @@ class ClosedChainPlant(Plant):
                 f"{self.dof} actuated joint(s): give payload_mass=m(t) [kg] at payload_frame= instead"
             )
         full_possible = robot.model.nq == robot.model.nv
-        if coordinates is None:
-            coordinates = "full" if full_possible or robot.has_unactuated_motion else "active"
+        if coordinates is None:  # full wherever it can: the core's compiled plant steps it
+            coordinates = (
+                "full" if full_possible or robot.has_unactuated_motion or _has_rates(robot) else "active"
+            )
         if coordinates not in ("full", "active"):
             raise InvalidParameterError(f"coordinates={coordinates!r} must be 'full' or 'active'")
         carried = robot.has_unactuated_motion
@@ -336,7 +338,7 @@ class ClosedChainPlant(Plant):
         robot's Python methods, :mod:`delta_pin.model.core_model`); a completion the core does not
         close is retried by the robot's own, which names the worst closure where it fails too."""
         if self._core_chain is None:
-            self._core_chain = core_model(self.robot) or False
+            self._core_chain = self.robot.compiled_model or False
         if self._core_chain:
             closed, q = self._core_chain.configuration(np.asarray(alpha, dtype=float), self._last_q)
             if closed:
@@ -493,6 +495,16 @@ def closed_chain_plant(plant: str, robot, friction=None, uncertainty=None, **opt
             )
         return AnalyticPlant(delta, friction, uncertainty)
     raise InvalidParameterError(f"plant={plant!r} must be 'pinocchio' or 'analytic' (or a Plant)")
+
+
+def _has_rates(robot: ClosedChainRobot) -> bool:
+    """Whether every joint of ``robot`` has a configuration rate (axis, ball, free, continuous,
+    planar), so its whole state x = [q, v] can be integrated."""
+    try:
+        robot.configuration_rate(robot.reference_configuration, np.zeros(robot.model.nv))
+    except InvalidParameterError:
+        return False
+    return True
 
 
 def make_plant(plant: str | Plant, robot, friction=None, uncertainty=None, **options) -> Plant:

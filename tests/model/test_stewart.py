@@ -189,8 +189,10 @@ def _pinocchio_free_fall(robot, alpha0: np.ndarray, t: np.ndarray) -> np.ndarray
 def test_free_fall_matches_pinocchios_constraint_dynamics(stewart):
     """0.2 s of zero-torque fall from rest (the platform drops ~0.2 m and tilts; every leg stays
     within its 0.15 m stroke) with ``dp.ClosedChainPlant``: the URDF in full coordinates (RK4,
-    Baumgarte, projection above 1e-10 m), the MJCF in active coordinates (RK4, loops assembled at
-    each evaluation), both at 1 ms, against the SciPy reference on the URDF's tree. Tolerance
+    Baumgarte, projection above 1e-10 m), the MJCF (ball joints) in full coordinates too, its
+    default since the compiled plant steps it, and in active coordinates (RK4, loops assembled at
+    each evaluation, the Python plant called back by the core's loop), all at 1 ms, against the
+    SciPy reference on the URDF's tree. Tolerance
     1e-9 m on the leg extensions: RK4's truncation at 1 ms is ~1e-12 m here, the full-coordinate
     projections move the state by up to the 1e-10 m projection tolerance, the
     reference is good to ~2e-11 m at rtol 1e-10 (its closure drift); 1e-9 leaves a margin of ten
@@ -200,15 +202,16 @@ def test_free_fall_matches_pinocchios_constraint_dynamics(stewart):
     reference = _pinocchio_free_fall(stewart["urdf"], alpha0, t)
     assert np.ptp(reference, axis=0).min() > 0.1  # it does fall: every leg shortens by > 0.1 m
     assert np.abs(reference).max() < 0.15  # inside the stroke (the model carries no limits)
-    for shape, coordinates in (("urdf", "full"), ("mjcf", "active")):
+    for shape, coordinates in (("urdf", None), ("mjcf", None), ("mjcf", "active")):
         robot = stewart[shape]
-        plant = dp.ClosedChainPlant(robot)
-        assert plant.coordinates == coordinates and not plant.redundant
+        plant = dp.ClosedChainPlant(robot, coordinates=coordinates)
+        assert plant.coordinates == (coordinates or "full") and not plant.redundant
         run = dp.simulate(
             robot, lambda t, a, ad: np.zeros(6), None, plant=plant, t_end=0.2, dt=1e-3, alpha0=alpha0
         )
         np.testing.assert_allclose(run.t, t, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(run.alpha, reference, rtol=0, atol=1e-9, err_msg=shape)
+        np.testing.assert_allclose(run.alpha, reference, rtol=0, atol=1e-9, err_msg=f"{shape} {coordinates}")
+        assert run.metadata.get("core_plant", False) == (plant.coordinates == "full")
         assert run.closure_residual.max() < 1e-9
 
 
