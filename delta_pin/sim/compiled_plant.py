@@ -186,7 +186,12 @@ def python_core_plant(plant, states: int):
     """
 
     def derivative(t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        return np.asarray(plant.derivative(t, x, tau), dtype=float)
+        dx = np.asarray(plant.derivative(t, x, tau), dtype=float)
+        if dx.shape != (states,):
+            raise SimulationError(
+                f"plant {plant.name!r}'s derivative returned shape {dx.shape}, expected ({states},)", t
+            )
+        return dx
 
     def finish(x: np.ndarray, t: float) -> tuple[np.ndarray, float]:
         x, gap = plant.finish_step_residual(x, t)
