@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from delta_pin.errors import ForwardKinematicsError, InvalidParameterError
-from delta_pin.model.core_model import core_chain
+from delta_pin.model.core_model import core_chain, core_friction
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
@@ -358,6 +358,5 @@ def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, frictio
         core_chain(robot), robot.reference_configuration, np.asarray(disturbance, dtype=float), name, *gains
     )
     if stribeck is not None:
-        s = stribeck
-        law.set_friction(s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, friction.sign_velocity_scale, normal_force)
+        law.set_friction(core_friction(stribeck, friction.sign_velocity_scale, normal_force))
     return law

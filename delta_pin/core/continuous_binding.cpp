@@ -18,6 +18,19 @@ namespace
 {
   using namespace delta_pin;
 
+  // What a continuous run is asked for, by name (run_continuous): the sample period [s] and count,
+  // Radau IIA's tolerances and step bounds [s], the divergence limit [rad/s], BDF2's sub-steps per
+  // sample (0: Radau IIA) and the samples between projections of a whole-state run (0: none)
+  struct ContinuousSettings
+  {
+    double dt = 1e-3;
+    long samples = 0;
+    double rtol = 1e-6, atol = 1e-8, first_step = 1e-5, max_step = 1e-2;
+    double max_joint_speed = 1e3;
+    int bdf2_substeps = 0;
+    long projection_interval = 0;
+  };
+
   // A controller in Python inside the compiled continuous loop: each call takes the GIL; an
   // exception it raises is kept and the loop unwound by CallbackError, then raised again.
   class PythonContinuousLaw : public ContinuousLaw
@@ -98,20 +111,34 @@ void bind_continuous(nb::module_ & m)
       const Bdf2Counters & c = run.bdf2_counters;
       return nb::make_tuple(c.steps, c.evaluations, c.split_steps, c.jacobians);
     }, "(steps, evaluations, split steps, Jacobians) of BDF2");
+  nb::class_<ContinuousSettings>(m, "ContinuousSettings", "What a continuous run is asked for, by name (SI units).")
+    .def(nb::init<>())
+    .def_rw("dt", &ContinuousSettings::dt, "the sample period [s]")
+    .def_rw("samples", &ContinuousSettings::samples, "the samples recorded, t_k = k dt")
+    .def_rw("rtol", &ContinuousSettings::rtol, "Radau IIA's relative tolerance")
+    .def_rw("atol", &ContinuousSettings::atol, "Radau IIA's absolute tolerance (SI units of the state)")
+    .def_rw("first_step", &ContinuousSettings::first_step, "Radau IIA's first step [s]")
+    .def_rw("max_step", &ContinuousSettings::max_step, "Radau IIA's largest step [s]")
+    .def_rw("max_joint_speed", &ContinuousSettings::max_joint_speed, "the divergence limit on |alpha_dot| [rad/s]")
+    .def_rw("bdf2_substeps", &ContinuousSettings::bdf2_substeps, "BDF2's fixed steps per sample (0: Radau IIA)")
+    .def_rw("projection_interval", &ContinuousSettings::projection_interval,
+            "samples between a whole-state run's projections onto the loops (0: none)");
   m.def(
     "run_continuous",
     [](CorePlant & plant, nb::object law, double step, const RowMatrix & alpha, const RowMatrix & alpha_dot,
        const RowMatrix & alpha_ddot, const RowMatrix & alpha_dddot, const Vector & q_start,
-       const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, double dt, long samples, double rtol,
-       double atol, double first_step, double max_step, double max_joint_speed, ContinuousRun & run,
-       int bdf2_substeps, long projection_interval)
+       const Vector & alpha0, const Vector & alpha_dot0, const Vector & z0, const ContinuousSettings & settings,
+       ContinuousRun & run)
     {
+      const double dt = settings.dt, max_joint_speed = settings.max_joint_speed;
+      const long samples = settings.samples, projection_interval = settings.projection_interval;
+      const int bdf2_substeps = settings.bdf2_substeps;
       HermiteReference reference{step, alpha, alpha_dot, alpha_ddot, alpha_dddot, bdf2_substeps > 0};
       RadauOptions options;
-      options.rtol = rtol;
-      options.atol = atol;
-      options.first_step = first_step;
-      options.max_step = max_step;
+      options.rtol = settings.rtol;
+      options.atol = settings.atol;
+      options.first_step = settings.first_step;
+      options.max_step = settings.max_step;
       ProjectedLaw * compiled = nullptr;
       if (nb::try_cast<ProjectedLaw *>(law, compiled) && compiled != nullptr)
       {
@@ -138,12 +165,11 @@ void bind_continuous(nb::module_ & m)
     },
     nb::arg("plant"), nb::arg("law"), nb::arg("step"), nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"),
     nb::arg("alpha_dddot"), nb::arg("q_start"), nb::arg("alpha0"), nb::arg("alpha_dot0"),
-    nb::arg("z0"), nb::arg("dt"), nb::arg("samples"), nb::arg("rtol"), nb::arg("atol"), nb::arg("first_step"),
-    nb::arg("max_step"), nb::arg("max_joint_speed"), nb::arg("run"), nb::arg("bdf2_substeps") = 0,
-    nb::arg("projection_interval") = 0,
+    nb::arg("z0"), nb::arg("settings"), nb::arg("run"),
     "Continuous mode: a plant (ClosedChainPlant, AnalyticDeltaPlant) and a law integrated by Radau IIA, or with "
-    "bdf2_substeps > 0 by BDF2 with fixed steps dt / bdf2_substeps (continuous.hpp); a plant with idle motions or "
-    "passive joints in its whole state, projected back onto the loops every projection_interval samples; the law is a compiled "
+    "settings.bdf2_substeps > 0 by BDF2 with fixed steps dt / bdf2_substeps (continuous.hpp); a plant with idle "
+    "motions or passive joints in its whole state, projected back onto the loops every "
+    "settings.projection_interval samples; the law is a compiled "
     "ProjectedLaw, or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, "
     "z) -> (tau, z_dot) and keep(k, tau, z) called from the loop (what it raises passes through "
     "unchanged). The records go to `run` (kept up to a SimulationFailure).");

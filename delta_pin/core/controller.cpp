@@ -100,10 +100,13 @@ namespace delta_pin
     throw std::logic_error("law '" + name_ + "' overrides neither compute() nor law()");
   }
 
-  void ProjectedLaw::set_drive(
-    bool sensor, double resolution, const RowMatrix & noise, bool exact_velocity, bool drive, int delay,
-    const Vector & torque_limit)
+  void ProjectedLaw::set_drive(const DriveSettings & settings)
   {
+    const bool sensor = settings.sensor, drive = settings.drive;
+    const double resolution = settings.resolution;
+    const RowMatrix & noise = settings.noise;
+    const int delay = settings.delay;
+    const Vector & torque_limit = settings.torque_limit;
     const Eigen::Index n = nominal_.dof();
     if (sensor && !(resolution > 0.0))
       throw std::invalid_argument("the encoder needs a resolution > 0 [rad]");
@@ -116,7 +119,7 @@ namespace delta_pin
     sensor_ = sensor;
     resolution_ = resolution;
     noise_ = noise;
-    exact_velocity_ = exact_velocity;
+    exact_velocity_ = settings.exact_velocity;
     drive_ = drive;
     delay_ = drive ? delay : 0;
     limit_ = drive ? torque_limit : Vector();

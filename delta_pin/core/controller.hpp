@@ -45,6 +45,21 @@ namespace delta_pin
     std::function<Vector(long, const Vector &)> function_;
   };
 
+  // The encoder and the drive between the plant and a law (ProjectedLaw::set_drive), by name:
+  // the encoder's resolution [rad] and noise per sample [rad] (rows of one column per actuated
+  // joint, or none), whether it gives the exact velocity; the drive's delay [samples] and torque
+  // limit [N m] (one per actuated joint, or none).
+  struct DriveSettings
+  {
+    bool sensor = false;
+    double resolution = 0.0;
+    RowMatrix noise;
+    bool exact_velocity = false;
+    bool drive = false;
+    int delay = 0;
+    Vector torque_limit;
+  };
+
   // A law on the projected nominal model of a closed chain, sampled once per period: the part
   // every such law shares -- the nominal model (assembled from the previous sample), the
   // reference table, the loop's checks of each sample (state finite, |alpha_dot| within the
@@ -83,8 +98,7 @@ namespace delta_pin
     // the readings (zero at the first sample); with `drive`, the command of sample k acts from
     // sample k + delay (zero before), clipped to +-torque_limit [N m] (empty: none), and `hits`
     // counts the samples at which the limit bound.
-    void set_drive(bool sensor, double resolution, const RowMatrix & noise, bool exact_velocity, bool drive, int delay,
-                   const Vector & torque_limit);
+    void set_drive(const DriveSettings & settings);
     Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) override;
     // one evaluation at a state: tau and the state's derivative
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,

@@ -58,20 +58,10 @@ namespace
     return Eigen::Map<RowMatrix>(table.data(), (Eigen::Index)table.shape(0), (Eigen::Index)table.shape(1));
   }
 
-  // eq. 12's Stribeck friction, switched on, from the numbers Python passes
-  delta_pin::FrictionSpec friction_of(
-    double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
-    const Eigen::VectorXd & normal_force)
+  // eq. 12's Stribeck friction as Python gives it (StribeckFriction, by name), switched on
+  delta_pin::FrictionSpec switched_on(delta_pin::FrictionSpec friction)
   {
-    delta_pin::FrictionSpec friction;
     friction.enabled = true;
-    friction.r_a = r_a;
-    friction.v_s = v_s;
-    friction.mu_s = mu_s;
-    friction.mu_d = mu_d;
-    friction.mu_v = mu_v;
-    friction.sign_scale = sign_scale;
-    friction.normal_force = normal_force;
     return friction;
   }
 
@@ -280,6 +270,28 @@ NB_MODULE(_core, m)
           PyErr_SetNone(PyExc_KeyboardInterrupt);
       }
     });
+  nb::class_<delta_pin::FrictionSpec>(
+    m, "StribeckFriction", "Eq. 12's friction by name (SI units): r_a [m], v_s [m/s], mu_s, mu_d, mu_v [s/m], "
+    "sign_scale [rad/s] (tanh's velocity scale), normal_force [N] per actuated joint.")
+    .def(nb::init<>())
+    .def_rw("r_a", &delta_pin::FrictionSpec::r_a)
+    .def_rw("v_s", &delta_pin::FrictionSpec::v_s)
+    .def_rw("mu_s", &delta_pin::FrictionSpec::mu_s)
+    .def_rw("mu_d", &delta_pin::FrictionSpec::mu_d)
+    .def_rw("mu_v", &delta_pin::FrictionSpec::mu_v)
+    .def_rw("sign_scale", &delta_pin::FrictionSpec::sign_scale)
+    .def_rw("normal_force", &delta_pin::FrictionSpec::normal_force);
+  nb::class_<delta_pin::DriveSettings>(
+    m, "DriveSettings", "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive "
+    "(delay [samples], torque limit [N m] per actuated joint, or empty) between a plant and a law.")
+    .def(nb::init<>())
+    .def_rw("sensor", &delta_pin::DriveSettings::sensor)
+    .def_rw("resolution", &delta_pin::DriveSettings::resolution)
+    .def_rw("noise", &delta_pin::DriveSettings::noise)
+    .def_rw("exact_velocity", &delta_pin::DriveSettings::exact_velocity)
+    .def_rw("drive", &delta_pin::DriveSettings::drive)
+    .def_rw("delay", &delta_pin::DriveSettings::delay)
+    .def_rw("torque_limit", &delta_pin::DriveSettings::torque_limit);
   bind_continuous(m);
   using delta_pin::AnalyticDeltaPlant;
   using delta_pin::CorePlant;
@@ -366,9 +378,8 @@ NB_MODULE(_core, m)
     .def("set_springs", &ClosedChainPlant::set_springs)
     .def(
       "set_friction",
-      [](ClosedChainPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v, double sign_scale,
-         const Eigen::VectorXd & normal_force)
-      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
+      [](ClosedChainPlant & self, const delta_pin::FrictionSpec & friction) { self.set_friction(switched_on(friction)); },
+      nb::arg("friction"), "The actuated joints' friction (StribeckFriction).")
     .def("set_truth", &ClosedChainPlant::set_truth, nb::arg("joint"), nb::arg("point"), nb::arg("step"),
          nb::arg("body_masses"), nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
          "The time-varying truth at t = i step [s]: the joint's body mass [kg] (COM kept, rotational inertia "
@@ -412,9 +423,8 @@ NB_MODULE(_core, m)
       "g [m/s^2], the chain azimuths' cos and sin, 3/2 m_b and the nominal m_o [kg]).")
     .def(
       "set_friction",
-      [](AnalyticDeltaPlant & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
-         double sign_scale, const Eigen::VectorXd & normal_force)
-      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); })
+      [](AnalyticDeltaPlant & self, const delta_pin::FrictionSpec & friction) { self.set_friction(switched_on(friction)); },
+      nb::arg("friction"))
     .def(
       "set_truth",
       [](AnalyticDeltaPlant & self, double step, const Eigen::VectorXd & platform_masses,
@@ -439,9 +449,8 @@ NB_MODULE(_core, m)
   nb::class_<delta_pin::ProjectedLaw>(m, "ProjectedLaw")
     .def(
       "set_friction",
-      [](delta_pin::ProjectedLaw & self, double r_a, double v_s, double mu_s, double mu_d, double mu_v,
-         double sign_scale, const Eigen::VectorXd & normal_force)
-      { self.set_friction(friction_of(r_a, v_s, mu_s, mu_d, mu_v, sign_scale, normal_force)); },
+      [](delta_pin::ProjectedLaw & self, const delta_pin::FrictionSpec & friction) { self.set_friction(switched_on(friction)); },
+      nb::arg("friction"),
       "The nominal friction the law compensates (eq. 12).")
     .def(
       "use_delta_model",
@@ -472,9 +481,8 @@ NB_MODULE(_core, m)
       },
       nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("ref_alpha"), nb::arg("ref_alpha_dot"), nb::arg("ref_alpha_ddot"),
       nb::arg("state"), "(tau, the state's derivative) at one state.")
-    .def("set_drive", &delta_pin::ProjectedLaw::set_drive,
-         "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive (delay "
-         "[samples], torque limit [N m] or empty) between the plant and the law, before start().")
+    .def("set_drive", &delta_pin::ProjectedLaw::set_drive, nb::arg("settings"),
+         "The encoder and the drive between the plant and the law (DriveSettings), before start().")
     .def_prop_ro(
       "records",
       [](const delta_pin::ProjectedLaw & self)

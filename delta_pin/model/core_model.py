@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["core_chain", "core_model"]
+__all__ = ["core_chain", "core_friction", "core_model"]
 
 
 def core_chain(robot):
@@ -56,3 +56,21 @@ def core_model(robot):
         return module.ClosedChainModel(core_chain(robot))
     except (ValueError, RuntimeError):
         return None
+
+
+def core_friction(stribeck, sign_velocity_scale: float, normal_force):
+    """Eq. 12's friction as the core takes it (its ``StribeckFriction``, by name): the Stribeck
+    parameters (r_a [m], v_s [m/s], mu_s, mu_d, mu_v [s/m]), tanh's velocity scale [rad/s] and the
+    normal force [N] of each actuated joint.
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    from delta_pin.compiled.core import core
+
+    friction = core().StribeckFriction()
+    friction.r_a, friction.v_s = stribeck.r_a, stribeck.v_s
+    friction.mu_s, friction.mu_d, friction.mu_v = stribeck.mu_s, stribeck.mu_d, stribeck.mu_v
+    friction.sign_scale = float(sign_velocity_scale)
+    friction.normal_force = np.asarray(normal_force, dtype=float)
+    return friction

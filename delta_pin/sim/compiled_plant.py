@@ -26,7 +26,7 @@ import pinocchio as pin
 
 from delta_pin.compiled.core import core
 from delta_pin.errors import SimulationError
-from delta_pin.model.core_model import core_chain
+from delta_pin.model.core_model import core_chain, core_friction
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = [
@@ -116,9 +116,8 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         plant._spring_ref, plant._spring_d, plant._damper_v.astype(as_indices), plant._damper_d,
     )  # fmt: skip
     if plant.friction is not None:
-        s = plant.stribeck
         compiled.set_friction(
-            s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale, plant._normal_force
+            core_friction(plant.stribeck, plant.friction.sign_velocity_scale, plant._normal_force)
         )
     if step is not None and count > 0:
         set_core_truth(compiled, plant, step, count)
@@ -165,11 +164,8 @@ def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
         *chain_trigonometry(), 1.5 * p.m_b, p.m_o,
     )  # fmt: skip
     if plant.friction is not None:
-        s = plant.stribeck
-        compiled.set_friction(
-            s.r_a, s.v_s, s.mu_s, s.mu_d, s.mu_v, plant.friction.sign_velocity_scale,
-            np.full(3, float(plant.friction.normal_force)),
-        )  # fmt: skip
+        normal_force = np.full(3, float(plant.friction.normal_force))
+        compiled.set_friction(core_friction(plant.stribeck, plant.friction.sign_velocity_scale, normal_force))
     if step is not None and count > 0:
         set_core_truth(compiled, plant, step, count)
     return compiled

@@ -126,12 +126,14 @@ def run_core_continuous(
         np.asarray(alpha_dot0, float),
         z0,
     )
+    settings = module.ContinuousSettings()
+    settings.dt, settings.samples = float(t[1] - t[0]), len(t)
+    settings.rtol, settings.atol = rtol, atol
+    settings.first_step, settings.max_step = RADAU_FIRST_STEP, RADAU_MAX_STEP
+    settings.max_joint_speed = MAX_JOINT_SPEED
+    settings.bdf2_substeps, settings.projection_interval = bdf2_substeps, PROJECTION_CHUNK
     try:
-        module.run_continuous(
-            core_plant, law, table.step, *arrays, *start, float(t[1] - t[0]),
-            len(t), rtol, atol, RADAU_FIRST_STEP, RADAU_MAX_STEP, MAX_JOINT_SPEED, run, bdf2_substeps,
-            PROJECTION_CHUNK,
-        )  # fmt: skip
+        module.run_continuous(core_plant, law, table.step, *arrays, *start, settings, run)
     except module.SimulationFailure as exc:
         time = run.failure_time
         last = np.array(run.q[run.samples - 1]) if core_plant.has_configuration and run.samples > 0 else None

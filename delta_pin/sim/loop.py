@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from delta_pin.compiled.core import core
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import NonFiniteError, SimulationError
 from delta_pin.sim.compiled_plant import keep_core_projections, python_core_plant, run_core_sampled
@@ -184,19 +185,17 @@ def _set_core_drive(law, sensor: Encoder | None, drive: Drive | None, samples: i
     readings (the encoder's noise drawn from its seed in the order :meth:`Encoder.read
     <delta_pin.sim.drive.Encoder.read>` draws it, one row of ``dof`` angles per sample), delay and
     torque limit."""
-    noise = np.zeros((0, dof))
-    if sensor is not None and sensor.noise > 0.0:
-        noise = np.random.default_rng(sensor.seed).normal(0.0, sensor.noise, (samples, dof))
-    limit = np.zeros(0) if drive is None or drive.torque_limit is None else drive.torque_limit
-    law.set_drive(
-        sensor is not None,
-        0.0 if sensor is None else sensor.resolution,
-        noise,
-        sensor is not None and sensor.velocity == "exact",
-        drive is not None,
-        0 if drive is None else drive.delay,
-        limit,
-    )
+    settings = core().DriveSettings()
+    settings.noise = np.zeros((0, dof))
+    if sensor is not None:
+        settings.sensor, settings.resolution = True, sensor.resolution
+        settings.exact_velocity = sensor.velocity == "exact"
+        if sensor.noise > 0.0:
+            settings.noise = np.random.default_rng(sensor.seed).normal(0.0, sensor.noise, (samples, dof))
+    if drive is not None:
+        settings.drive, settings.delay = True, drive.delay
+        settings.torque_limit = np.zeros(0) if drive.torque_limit is None else drive.torque_limit
+    law.set_drive(settings)
 
 
 def _stacked(internals: dict[str, list]) -> dict[str, np.ndarray]:

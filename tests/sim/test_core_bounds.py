@@ -177,7 +177,11 @@ case("closure_gap of an empty q", "q", lambda: plant.closure_gap(np.zeros(0)))
 case("step: empty x", "x", lambda: plant.step(np.zeros(0), tau, 0, 1e-3))
 case("step: NaN h", "h", lambda: plant.step(x, tau, 0, NAN))
 case("step: NaN tau", "tau", lambda: plant.step(x, np.full(3, NAN), 0, 1e-3))
-case("set_friction: 2 normal forces", "normal_force", lambda: plant.set_friction(0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(2)))
+def friction(normal_forces):  # eq. 12's friction by name, as the package builds it
+    f = m.StribeckFriction()
+    f.r_a, f.v_s, f.mu_s, f.mu_d, f.mu_v, f.sign_scale, f.normal_force = 0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(normal_forces)
+    return f
+case("set_friction: 2 normal forces", "normal_force", lambda: plant.set_friction(friction(2)))
 case("set_truth: normal forces of 2 columns", "normal_forces", lambda: plant.set_truth(1e-3, np.zeros(0), np.zeros((4, 2)), np.zeros((0, 3))))
 case("run_sampled: v of too few rows", "v", lambda: sampled(steps=2000, v=np.zeros((1, 3))))
 case("run_sampled: xyz of 2 columns", "xyz", lambda: sampled(xyz=np.zeros((5, 2))))
@@ -261,6 +265,12 @@ def ct(D=ones, T_p=ones, T_v=ones):
     return gains("ComputedTorque", D=D, T_p=T_p, T_v=T_v)
 def law():
     return m.ComputedTorque(chain, q0, zeros, "ct", ct())
+def drive(**fields):  # the encoder and drive by name, as the package builds them
+    settings = m.DriveSettings()
+    settings.noise = np.zeros((0, DOF))
+    for name, value in fields.items():
+        setattr(settings, name, value)
+    return settings
 def table(rows, cols=DOF):
     return np.tile(alpha0, (rows, 1))[:, :cols].copy(), np.zeros((rows, cols)), np.zeros((rows, cols))
 python_plant = dp.ClosedChainPlant(robot)
@@ -292,17 +302,21 @@ case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5, 
 case("run_sampled past the samples of start()", "steps", lambda: run(started(3, table(3))))
 def noise_after_start():
     controller = started(5, table(5))
-    controller.set_drive(True, 1e-4, np.zeros((1, DOF)), False, False, 0, np.zeros(0))
+    controller.set_drive(drive(sensor=True, resolution=1e-4, noise=np.zeros((1, DOF))))
     run(controller)
 case("set_drive after start(): noise of 1 row", "noise", noise_after_start)
 def delay_after_start():
     controller = started(5, table(5))
-    controller.set_drive(False, 0.0, np.zeros((0, DOF)), True, True, 2, np.zeros(0))
+    controller.set_drive(drive(exact_velocity=True, drive=True, delay=2))
     run(controller)
 case("set_drive after start(): a delay of 2", "set_drive", delay_after_start)
-case("set_drive: noise of 3 columns", "noise", lambda: law().set_drive(True, 1e-4, np.zeros((5, 3)), False, False, 0, np.zeros(0)))
-case("set_drive: delay -1", "delay", lambda: law().set_drive(False, 0.0, np.zeros((0, DOF)), True, True, -1, np.zeros(0)))
-case("set_friction: 3 normal forces", "normal_force", lambda: law().set_friction(0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(3)))
+case("set_drive: noise of 3 columns", "noise", lambda: law().set_drive(drive(sensor=True, resolution=1e-4, noise=np.zeros((5, 3)))))
+case("set_drive: delay -1", "delay", lambda: law().set_drive(drive(exact_velocity=True, drive=True, delay=-1)))
+def friction(normal_forces):  # eq. 12's friction by name, as the package builds it
+    f = m.StribeckFriction()
+    f.r_a, f.v_s, f.mu_s, f.mu_d, f.mu_v, f.sign_scale, f.normal_force = 0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(normal_forces)
+    return f
+case("set_friction: 3 normal forces", "normal_force", lambda: law().set_friction(friction(3)))
 """,
     "continuous": """
 analytic = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))
@@ -318,8 +332,10 @@ def reference(rows, cols=3, dddot_rows=None):
 def go(tables=None, step=1e-3, alpha0=a0, dt=1e-3, samples=5, rtol=1e-8, atol=1e-10, first=1e-5, max_step=1e-2, plant=analytic):
     tables = reference(10) if tables is None else tables
     run = m.new_continuous_run()
-    m.run_continuous(plant, Law(), step, *tables, np.zeros(0), alpha0, np.zeros(3), np.zeros(0), dt, samples,
-                     rtol, atol, first, max_step, 100.0, run, 0, 0)
+    settings = m.ContinuousSettings()
+    settings.dt, settings.samples, settings.rtol, settings.atol = dt, samples, rtol, atol
+    settings.first_step, settings.max_step, settings.max_joint_speed = first, max_step, 100.0
+    m.run_continuous(plant, Law(), step, *tables, np.zeros(0), alpha0, np.zeros(3), np.zeros(0), settings, run)
     return run
 case("valid", "alpha:ok", lambda: go())
 case("an empty reference table", "alpha", lambda: go(tables=reference(0)))
