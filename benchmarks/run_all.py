@@ -33,6 +33,7 @@ BENCHMARKS = {
     "bench_continuous.py": ["--repeats", "3"],
     "bench_unactuated.py": ["--repeats", "3"],
     "bench_identification.py": ["--repeats", "3"],
+    "bench_identification_mujoco.py": [],  # ~1 min: three noise draws
     "bench_install.py": ["--cache", "warm"],  # ~5 min: two fresh installs
 }
 QUICK = {
@@ -49,6 +50,7 @@ QUICK = {
     "bench_continuous.py": ["--repeats", "1", "--t-end", "3"],
     "bench_unactuated.py": ["--repeats", "1", "--t-end", "0.2"],
     "bench_identification.py": ["--repeats", "1", "--quick"],
+    "bench_identification_mujoco.py": ["--quick"],
 }
 # targets of issue 7 measured by a script that may not report them (missing, skipped or failed)
 EXPECTED = {
