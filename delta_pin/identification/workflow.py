@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from threadpoolctl import threadpool_limits
 
 from delta_pin.errors import InvalidParameterError
 from delta_pin.identification.base import BaseParameters, base_parameters
@@ -407,6 +408,14 @@ def _stride(log: IdentificationLog) -> int:
     return max(1, int(log.sample_rate // 200))
 
 
+# The fit is hundreds of least-squares and QR calls on matrices of a few hundred columns: BLAS's
+# threads cost more than they give there, and many times more when the cores are shared (a sweep, a
+# CI job beside it); one thread is faster on an idle machine too (benchmarks/bench_identification_mujoco.py,
+# docs/benchmarks.md)
+ONE_BLAS_THREAD = threadpool_limits.wrap(limits=1, user_api="blas")
+
+
+@ONE_BLAS_THREAD
 def identify(
     robot,
     data: IdentificationLog | str | Path,
@@ -723,6 +732,7 @@ def _torque_error(error: np.ndarray, measured: np.ndarray, rows: np.ndarray) -> 
     }
 
 
+@ONE_BLAS_THREAD
 def validate(
     result: IdentificationResult, log: IdentificationLog | str | Path, estimate: str = "wls"
 ) -> dict:
