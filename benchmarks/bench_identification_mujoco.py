@@ -664,7 +664,8 @@ def main() -> None:
         worst["design"] = deviation
         rows.append(
             (
-                "design I 1 kHz (MuJoCo, path I), |identified / true - 1| of max ||r|| last 5 s",
+                "design I 1 kHz (MuJoCo, path I): identified / true - 1 of the largest tracking error, "
+                "last 5 s",
                 "design",
                 f"{deviation:.2%} (ratios {', '.join(f'{r:.3f}' for r in design['ratio'])}; true "
                 f"{design['true']:.3g} rad, CAD {design['cad']:.3g}; true with m_o +0.2 % "
@@ -674,7 +675,7 @@ def main() -> None:
         )
     rows.append(
         (
-            f"the fit: identify(CAD, {args.duration:g} s CSV at 1 kHz), defaults, default BLAS threads",
+            f"the fit: identify(CAD, {args.duration:g} s CSV at 1 kHz), defaults",
             "time",
             f"{worst['time']:.2f} s (without the consistent estimate "
             f"{max(d['fit_plain_s'] for d in draws):.2f} s; first call {warm:.2f} s)",
@@ -683,7 +684,7 @@ def main() -> None:
     )
     rows.append(
         (
-            "the same fit, one BLAS thread (OPENBLAS_NUM_THREADS=1)",
+            "the same fit with OPENBLAS_NUM_THREADS=1 (a check: identify takes one BLAS thread itself)",
             "time",
             f"{worst['time_one_thread']:.2f} s",
             worst["time_one_thread"],
