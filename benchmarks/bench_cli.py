@@ -12,6 +12,7 @@ import argparse
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 from common import machine_info, measure, print_table, report_target
 
@@ -26,7 +27,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
-    cli = shutil.which("delta-pin") or "delta-pin"
+    # the script of this interpreter's environment (a venv not activated has it beside python), else PATH's
+    beside = Path(sys.executable).with_name("delta-pin")
+    cli = str(beside) if beside.is_file() else shutil.which("delta-pin") or "delta-pin"
     timings = [measure("python -c pass (the floor)", _run([sys.executable, "-c", "pass"]), args.repeats)]
     for command in ("run", "sweep", "reproduce", "validate"):
         timings.append(measure(f"delta-pin {command} --help", _run([cli, command, "--help"]), args.repeats))

@@ -234,7 +234,7 @@ def main() -> None:
         rms <= TARGETS["torque"])  # fmt: skip
     if "design1" in d:
         g = d["design1"]
-        row("design I identified vs true, path I, max |r| last 5 s", "within 10 %",
+        row("design I identified vs true, path I, max norm of r, last 5 s", "within 10 %",
             f"{g['identified']:.4g} vs {g['true']:.4g} rad ({g['ratio'] - 1:+.1%}; CAD model {g['cad']:.4g})",
             abs(g["ratio"] - 1) <= TARGETS["design"])  # fmt: skip
     if "design1_rtol_1e-8" in d:
