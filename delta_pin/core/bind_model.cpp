@@ -1,0 +1,169 @@
+// The closed chain's model in Python (issue 38, item 2: one binding file per part): ChainDescription,
+// what the core needs of a robot, and ClosedChainModel, its kinematics and projected dynamics.
+
+#include "binding.hpp"
+#include "interrupt.hpp"
+
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/function.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+namespace nb = nanobind;
+using namespace delta_pin::binding;
+using delta_pin::RowMatrix;
+using delta_pin::check_finite;
+
+void bind_model(nb::module_ & m)
+{
+  using delta_pin::ClosedChainModel;
+  using delta_pin::ClosedChainPlant;
+  using delta_pin::ChainDescription;
+  nb::class_<ChainDescription>(m, "ChainDescription", "What the core needs of a closed-chain robot (closed_chain.hpp).")
+    .def(
+      "__init__",
+      [](
+        ChainDescription * self, const std::string & model_text,
+        const std::vector<std::tuple<size_t, size_t, int>> & closures,
+        const std::vector<std::tuple<int, int, int, int, double, double, Eigen::VectorXd>> & couplings,
+        const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
+        int idle_dof, size_t end_effector)
+      {
+        std::vector<delta_pin::JointCouplingSpec> specs;
+        for (const auto & [q1, v1, q2, v2, reference1, reference2, coefficients] : couplings)
+          specs.push_back({q1, v1, q2, v2, reference1, reference2, coefficients});
+        new (self) ChainDescription{
+          model_text, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector};
+      },
+      nb::arg("model_text"), nb::arg("closures"), nb::arg("couplings"), nb::arg("actuated_q"), nb::arg("actuated_v"),
+      nb::arg("dependent_v"), nb::arg("idle_dof"), nb::arg("end_effector"),
+      "The robot's Pinocchio model as text (closure frames included), its closures (frame 1, frame 2, 3 or 6 "
+      "rows), its joint couplings (q1, v1, q2, v2 entries -- -1 without joint 2 --, reference1, reference2, the "
+      "polynomial's coefficients), the actuated joints' entries in q and v, the dependent joints' entries in v, "
+      "the number of idle motions and the end-effector frame.")
+    .def_ro("idle_dof", &ChainDescription::idle_dof)
+    .def_ro("end_effector", &ChainDescription::end_effector);
+  nb::class_<ClosedChainModel>(m, "ClosedChainModel")
+    .def(nb::init<const ChainDescription &>(), nb::arg("chain"))
+    .def_prop_ro("dof", &ClosedChainModel::dof)
+    .def_prop_ro("unactuated", &ClosedChainModel::unactuated,
+                 "Whether the robot moves in ways the actuated joints do not determine (idle motions, passive joints).")
+    .def("closure_gap", &ClosedChainModel::closure_gap)
+    .def(
+      "configuration",
+      [](ClosedChainModel & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & guess, double tolerance,
+         int iterations)
+      {
+        Eigen::VectorXd q;
+        const bool closed = self.configuration(alpha, guess, q, tolerance, iterations);
+        return std::make_tuple(closed, q);
+      },
+      nb::arg("alpha"), nb::arg("guess"), nb::arg("tolerance") = 1e-12, nb::arg("iterations") = 60,
+      "(closed, q): Newton on the closures from guess with the actuated joints at alpha.")
+    .def(
+      "velocity_map",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q)
+      {
+        check_finite(q, "q");
+        return self.velocity_map(q);
+      },
+      nb::arg("q"), "S = dq/dalpha (nv, dof) at a closed q.")
+    .def(
+      "project_state",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & v)
+      {
+        check_finite(v, "v");  // a non-finite q: Newton does not close (closed False)
+        Eigen::VectorXd q_out = q, v_out = v;
+        const bool closed = self.project_state(q_out, v_out);
+        return std::make_tuple(closed, q_out, v_out);
+      },
+      nb::arg("q"), nb::arg("v"),
+      "(closed, q, v): the nearest closure-consistent state keeping the actuated and passive joints and the idle "
+      "motions (ClosedChainRobot.project_state).")
+    .def(
+      "reduced_terms",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot)
+      {
+        check_finite(q, "q");
+        check_finite(alpha_dot, "alpha_dot");
+        Eigen::MatrixXd M, C;
+        Eigen::VectorXd G, C_alpha_dot;
+        self.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
+        return std::make_tuple(M, C, G, C_alpha_dot);
+      },
+      nb::arg("q"), nb::arg("alpha_dot"), "(M, C, G, C alpha_dot) on the actuated joints by projection at a closed q.")
+    .def(
+      "end_effector_position",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q)
+      {
+        check_finite(q, "q");
+        return self.end_effector_position(q);
+      },
+      nb::arg("q"))
+    .def(
+      "end_effector_positions",
+      [](ClosedChainModel & self, const RowMatrix & alpha, const Eigen::VectorXd & guess)
+      {
+        // rows assembled in turn, each warm-started from the one before, up to the first that
+        // does not close (its index, or -1)
+        delta_pin::check_shape(alpha, -1, self.dof(), "alpha");  // one column per actuated joint
+        delta_pin::check_size(guess, self.nq(), "guess");
+        RowMatrix xyz = RowMatrix::Zero(alpha.rows(), 3);
+        Eigen::VectorXd q = guess, next;
+        long failed = -1;
+        {
+          nb::gil_scoped_release release;
+          for (Eigen::Index k = 0; k < alpha.rows(); ++k)
+          {
+            delta_pin::poll_interrupt();
+            if (!self.configuration(alpha.row(k).transpose(), q, next))
+            {
+              failed = (long)k;
+              break;
+            }
+            q = next;
+            xyz.row(k) = self.end_effector_position(q).transpose();
+          }
+        }
+        return std::make_tuple(failed, q, xyz);
+      },
+      nb::arg("alpha"), nb::arg("guess"),
+      "(first row that does not close or -1, the last closed q, end-effector positions (N, 3)) along the "
+      "rows of alpha (N, dof), each assembled from the one before.")
+    .def(
+      "frame_jacobian",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, size_t frame)
+      {
+        check_finite(q, "q");
+        return self.frame_jacobian(q, frame);
+      },
+      nb::arg("q"), nb::arg("frame"), "The closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED).")
+    .def(
+      "frame_acceleration_drift",
+      [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot, size_t frame)
+      {
+        check_finite(q, "q");
+        check_finite(alpha_dot, "alpha_dot");
+        return self.frame_acceleration_drift(q, alpha_dot, frame);
+      },
+      nb::arg("q"), nb::arg("alpha_dot"), nb::arg("frame"),
+      "The frame's classical linear acceleration at zero actuated acceleration [m/s^2].")
+    .def(
+      "joint_reference",
+      [](ClosedChainModel & self, size_t frame, const Eigen::VectorXi & rows, const Eigen::VectorXd & times,
+         const RowMatrix & xyz, const RowMatrix & xyz_dot, const RowMatrix & xyz_ddot, const Eigen::VectorXd & alpha0,
+         const Eigen::VectorXd & q_start)
+      {
+        Eigen::VectorXd q = q_start;
+        RowMatrix alpha, alpha_dot, alpha_ddot, actual;
+        const long failed =
+          self.joint_reference(frame, rows, times, xyz, xyz_dot, xyz_ddot, alpha0, q, alpha, alpha_dot, alpha_ddot, actual);
+        return std::make_tuple(failed, q, alpha, alpha_dot, alpha_ddot, actual);
+      },
+      nb::arg("frame"), nb::arg("rows"), nb::arg("times"), nb::arg("xyz"), nb::arg("xyz_dot"), nb::arg("xyz_ddot"),
+      nb::arg("alpha0"), nb::arg("q_start"),
+      "(failed sample or -1, last q, alpha, alpha_dot, alpha_ddot, reached xyz) of a frame's path.");
+}
