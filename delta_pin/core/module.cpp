@@ -10,13 +10,20 @@
 // Nothing here is compiled at run time: scikit-build-core builds this module when the package
 // is installed (CMakeLists.txt).
 
-#include "binding.hpp"
 #include "failure.hpp"
 #include "interrupt.hpp"
 
 #include <nanobind/nanobind.h>
 
 namespace nb = nanobind;
+
+// the binders, one per part (binding.hpp declares them for the binding files; declared again here
+// so that this unit parses neither Eigen nor the core's headers)
+void bind_model(nb::module_ & m);
+void bind_plants(nb::module_ & m);
+void bind_python_plant(nb::module_ & m);
+void bind_continuous(nb::module_ & m);
+void bind_laws(nb::module_ & m);
 
 namespace
 {
