@@ -42,7 +42,7 @@ RADAU_MAX_STEP = 1e-2  # [s]
 
 class PythonLaw:
     """A controller's own :meth:`~delta_pin.control.base.Controller.evaluate` called from the
-    core's continuous loop once per evaluation (with the checks of the Python loop's
+    core's continuous loop once per evaluation (with the checks of the sampled loop's
     :class:`~delta_pin.sim.loop.ControlLoop`: a torque of the wrong shape or not finite is a
     :class:`~delta_pin.errors.SimulationError` naming the controller and the time), and its
     internals recorded at the samples."""

@@ -175,8 +175,8 @@ def _check_seconds(name: str, value, hint: str) -> None:
 
 
 # bytes per sample that a run holds at its peak, measured with the peak RSS of 10-30 s Adept runs
-# on the analytic plant (2.4 kB continuous: the reference on a dt/4 grid, the Python loop's
-# internals; 0.63 kB sampled), rounded up
+# on the analytic plant (2.4 kB continuous: the reference on a dt/4 grid, the loop's internals;
+# 0.63 kB sampled; measured when the Python loop ran them), rounded up
 BYTES_PER_SAMPLE = {"continuous": 2560, "sampled": 1024}
 
 
