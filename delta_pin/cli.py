@@ -1149,7 +1149,7 @@ def _identify_fit(args: argparse.Namespace) -> int:
     print(f"{result.base.rank} base parameters identified in {result.timings['total']:.2f} s; "
           f"residual {relative} "
           f"of the torque's RMS; cond {result.condition:.4g}")  # fmt: skip
-    for line in result.warnings:  # one line each (a torque scale far from the CAD model's)
+    for line in [*result.warnings, *result.notes]:  # one line each (a torque scale far from the CAD model's)
         print(line)
     if result.consistent is not None:
         from delta_pin.identification.report import consistent_status

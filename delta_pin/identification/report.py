@@ -131,6 +131,7 @@ def parameters_record(result: IdentificationResult, validation: dict | None = No
         },
         "torque_scale": {k: v if isinstance(v, str) else _float(v) for k, v in result.torque_scale.items()},
         "warnings": list(result.warnings),
+        "notes": list(result.notes),
         "velocities": result.velocities,
         "velocity_lag_s": None if result.velocity_lag is None else [_float(x) for x in result.velocity_lag],
     }
@@ -357,6 +358,7 @@ def _markdown(result: IdentificationResult, record: dict, validation: dict | Non
         f"# Identification of {record['robot']}",
         "",
         *(f"**{line}**\n" for line in record["warnings"]),
+        *(f"{line}\n" for line in record["notes"]),
         f"{r['base_parameters']} base parameters of {r['standard_parameters']} standard ones "
         "(pivoted QR, rank "
         f"tolerance {r['rtol']:g} of |R_11|: smallest kept {r['smallest_kept']:.3g}, largest dropped "

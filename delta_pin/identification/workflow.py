@@ -212,6 +212,8 @@ class IdentificationResult:
         torque_scale: the log's torque against the CAD model's (:func:`torque_scale`).
         warnings: one line each, for stdout and report.md (a torque scale beyond
             :data:`TORQUE_SCALE_LIMIT`, a logged velocity that lags q's derivative).
+        notes: one line each, after the warnings in stdout and report.md: each Stribeck term the
+            fit kept, with the fit without it (:func:`_stribeck_notes`).
         velocities: where the velocities came from: ``"positions"`` or ``"logged"`` (the log's qd).
         velocity_lag: a log with qd: how late qd is against the derivative of the filtered
             positions, per joint [s] (:func:`~delta_pin.identification.estimation.velocity_lag`);
@@ -241,6 +243,7 @@ class IdentificationResult:
     bounded_beta: np.ndarray | None = None
     torque_scale: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    notes: list = field(default_factory=list)  # one line each, after the warnings: the kept Stribeck terms
     velocities: str = "positions"
     velocity_lag: np.ndarray | None = None
 
@@ -506,6 +509,7 @@ def identify(
     if essential:
         kept, dropped, ols, wls = essential_fit(Y_base, tau, mask)
         ols, wls = expand(ols, kept, base.rank), expand(wls, kept, base.rank)
+    kept_columns = kept
     # physical friction: the WLS problem with fc, fs, fv, Ia >= 0 where each is a base parameter alone
     lower = _friction_lower_bounds(regressor, base)
     bounded = np.zeros(base.rank)
@@ -549,6 +553,7 @@ def identify(
     )
     if lag is not None:
         result.warnings.extend(_velocity_lag_lines(lag, data, velocities))
+    result.notes.extend(_stribeck_notes(regressor, Y_base, tau, mask, kept_columns, names, wls))
     if estimate is not None and not estimate.success:
         result.warnings.append(
             f"warning: the physically consistent estimate did not converge ({estimate.message}): it is "
@@ -566,6 +571,40 @@ def identify(
         timings["lumped"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
     return result
+
+
+def _stribeck_notes(regressor, Y_base, tau, mask, kept, names, wls) -> list[str]:
+    """One note per Stribeck column the fit kept (``fs[joint]``, |beta| / sigma >= 3): what the fit
+    without that column gives -- the joint's torque residual and its Coulomb term -- so that a
+    statistically significant but physically small term shows as what it is. On a robot whose dry
+    friction is not tanh-shaped (MuJoCo's ``frictionloss``) the Stribeck column fits that difference
+    and takes from the Coulomb term (docs/identification.md, "Friction")."""
+    notes = []
+    joints = list(regressor.robot.actuated_joints)
+    for k in kept:
+        name = names[k]
+        if not name.startswith("fs[") or name[3:-1] not in joints:
+            continue
+        joint = name[3:-1]
+        j = joints.index(joint)
+        others = np.array([i for i in kept if i != k])
+        _, without = least_squares_fit(Y_base[:, :, others], tau, mask)
+        rows = mask[:, j]
+        with_fs = float(np.sqrt(np.mean((tau[rows, j] - Y_base[rows, j, :] @ wls.beta) ** 2)))
+        without_fs = float(np.sqrt(np.mean((tau[rows, j] - Y_base[rows, j][:, others] @ without.beta) ** 2)))
+        coulomb = f"fc[{joint}]"
+        change = ""
+        if coulomb in names and names.index(coulomb) in others:
+            c = names.index(coulomb)
+            after = without.beta[list(others).index(c)]
+            change = f", and {coulomb} from {wls.beta[c]:.4g} to {after:.4g}"
+        t = abs(wls.beta[k]) / wls.std[k]
+        notes.append(
+            f"note: {name} = {wls.beta[k]:.4g} kept (|beta|/sigma = {t:.1f}); without it joint {joint}'s "
+            f"torque residual changes by {100.0 * (without_fs / with_fs - 1.0):+.3g} %{change} "
+            "(--friction-model coulomb fits without Stribeck terms)"
+        )
+    return notes
 
 
 def _velocity_lag_lines(lag: np.ndarray, log: IdentificationLog, velocities: str) -> list[str]:
