@@ -11,9 +11,10 @@ Each case is a whole ``dp.simulate`` call as a user waits for it, the core (the 
   nominal model along a 0.02 rad, 1 Hz joint sinusoid, started on it; sampled at 1 kHz with the
   sampling-aware gains (robot_delta's gram-weight links put any 1 kHz loop with these gains past
   stability: it runs continuous only), and continuous (the core's Radau IIA on the whole state
-  [q, v, rho_hat] against LSODA, Python reference (tests/reference), on the Python plant in full
-  coordinates, both at rtol 1e-6;
-  robot_delta's stiff whole state makes Radau IIA slower than LSODA there, timed once);
+  [q, v, rho_hat] and its fixed-step BDF2 at 1 ms against LSODA, Python reference
+  (tests/reference), on the Python plant in full coordinates, both at rtol 1e-6, and each one's
+  largest deviation from LSODA at rtol 1e-9; robot_delta's stiff whole state makes Radau IIA
+  slower than LSODA there, timed once: its Newton iterations fail, not its error test);
 * menagerie's Robotiq 2F-85 (two sprung passive links, the drivers tied by a joint coupling) under
   a constant 1 N tendon force of the user's (a Python function), sampled with 4 RK4 sub-steps.
 """
@@ -61,10 +62,17 @@ def main() -> None:
             period = 1e-3 if mode == "sampled" else None
 
             def run(
-                simulate, robot=robot, path=path, nominal=nominal, mode=mode, period=period, v0=alpha_dot0
+                simulate,
+                robot=robot,
+                path=path,
+                nominal=nominal,
+                mode=mode,
+                period=period,
+                v0=alpha_dot0,
+                **options,
             ):
                 law = dp.design1(nominal, sampling_period=period)
-                return simulate(robot, law, path, t_end=args.t_end, mode=mode, alpha_dot0=v0)
+                return simulate(robot, law, path, t_end=args.t_end, mode=mode, alpha_dot0=v0, **options)
 
             # robot_delta's continuous run takes seconds per simulated second (module docstring): once
             repeats = 1 if name == "robot_delta" else args.repeats
@@ -76,16 +84,28 @@ def main() -> None:
                 lambda run=run: run(simulate_reference),
                 1,
             )
+            cases = [core, python]
+            if mode == "continuous":  # the core's fixed-step BDF2 (1 ms) too
+                bdf2 = measure(
+                    f"{name}, {mode}: the core's BDF2 (1 ms)",
+                    lambda run=run: run(dp.simulate, integrator="bdf2"),
+                    repeats,
+                )
+                cases.insert(1, bdf2)
             print_table(
                 f"{args.t_end:g} s of {name} ({robot.dof} actuated, {robot.idle_dof} idle), design I {mode}",
-                [core, python],
+                cases,
                 python,
             )
             meta = run(dp.simulate).metadata
             if mode == "continuous":
+                tight = run(simulate_reference, rtol=1e-9, atol=1e-11).alpha
+                radau, bdf2 = run(dp.simulate).alpha, run(dp.simulate, integrator="bdf2").alpha
                 print(
                     f"  Radau: {meta['radau_steps']} steps ({meta['radau_rejected']} rejected), "
-                    f"{meta['rhs_evaluations']} evaluations, {meta['jacobians']} Jacobians"
+                    f"{meta['rhs_evaluations']} evaluations, {meta['jacobians']} Jacobians; largest |alpha - "
+                    f"LSODA at rtol 1e-9|: Radau {np.abs(radau - tight).max():.2e} rad, BDF2 "
+                    f"{np.abs(bdf2 - tight).max():.2e} rad"
                 )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the file's position servo, read as a force source
