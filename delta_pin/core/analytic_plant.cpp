@@ -75,12 +75,13 @@ namespace delta_pin
     dx.tail<3>() = ddq;
   }
 
-  double AnalyticDeltaPlant::step(Vector & x, const Vector & tau, long stage, double h)
+  double AnalyticDeltaPlant::step(Vector & x, const Vector & tau, double t, double h)
   {
     check_size(x, 6, "x");  // [alpha, alpha_dot]
     check_size(tau, 3, "tau");
     rk4_step(
-      x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
+      x, t, h, [&](const Vector & state, double time, Vector & dx) { derivative(state, tau, truth_.position(time), dx); },
+      k1_, k2_,
       k3_, k4_, y_);
     return 0.0;
   }

@@ -31,7 +31,7 @@ namespace delta_pin
 
     // dx/dt at x under tau with the truth at the table's row position u
     void derivative(const Vector & x, const Vector & tau, double u, Vector & dx);
-    double step(Vector & x, const Vector & tau, long stage, double h) override;
+    double step(Vector & x, const Vector & tau, double t, double h) override;
     Eigen::Vector3d end_effector_position(const Vector & q) override;
     double closure_gap(const Vector &) override { return 0.0; }
     bool complete(const Vector & alpha, const Vector & alpha_dot, Vector & q, Vector & v) override;

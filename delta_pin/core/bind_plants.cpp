@@ -70,7 +70,7 @@ void bind_plants(nb::module_ & m)
     .def("end_effector_position", &CorePlant::end_effector_position, nb::arg("q"))
     .def(
       "step",
-      [](CorePlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, long stage, double h)
+      [](CorePlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double t, double h)
       {
         delta_pin::check_size(x, self.nq() + self.nv(), "x");
         delta_pin::check_size(tau, self.dof(), "tau");
@@ -78,11 +78,12 @@ void bind_plants(nb::module_ & m)
         check_finite(tau, "tau");
         delta_pin::check_positive(h, "h");
         Eigen::VectorXd y = x;
-        const double gap = self.step(y, tau, stage, h);
+        check_finite(t, "t");
+        const double gap = self.step(y, tau, t, h);
         return std::make_tuple(y, gap);
       },
-      nb::arg("x"), nb::arg("tau"), nb::arg("stage"), nb::arg("h"),
-      "One RK4 step of length h [s] under tau from the truth's row `stage`: (x, closure gap).")
+      nb::arg("x"), nb::arg("tau"), nb::arg("t"), nb::arg("h"),
+      "One RK4 step of length h [s] from time t [s] under tau, the truth read by time: (x, closure gap).")
     .def(
       "run_sampled",
       [](CorePlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,

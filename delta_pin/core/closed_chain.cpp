@@ -397,11 +397,12 @@ namespace delta_pin
     dx.tail(nv) = accelerations(q, v, tau, u);
   }
 
-  double ClosedChainPlant::step(Vector & x, const Vector & tau, long stage, double h)
+  double ClosedChainPlant::step(Vector & x, const Vector & tau, double t, double h)
   {
     check_size(x, dyn_->model.nq + dyn_->model.nv, "x");
     rk4_step(
-      x, (double)stage, h, [&](const Vector & state, double u, Vector & dx) { derivative(state, tau, u, dx); }, k1_, k2_,
+      x, t, h, [&](const Vector & state, double time, Vector & dx) { derivative(state, tau, truth_.position(time), dx); },
+      k1_, k2_,
       k3_, k4_, y_);
     return settle(x);
   }

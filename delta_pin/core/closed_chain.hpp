@@ -271,7 +271,7 @@ namespace delta_pin
     // scaled from the model's with the mass; empty: the model's body) plus a point mass
     // point_masses[i] [kg] at `point` (empty: none), the friction's normal forces [N] and the
     // joint disturbance [N m] on the actuated joints (no rows: the friction's own, none). The
-    // sampled loop reads row i at its stage i (step = h / 2).
+    // sampled loop reads by time, a row per RK4 stage time (step = h / 2).
     void set_truth(
       JointIndex joint, const Eigen::Vector3d & point, double step, const Vector & body_masses,
       const Vector & point_masses, const RowMatrix & normal_forces, const RowMatrix & disturbances);
@@ -295,7 +295,7 @@ namespace delta_pin
     // dx/dt at x
     void derivative(const Vector & x, const Vector & tau, double u, Vector & dx);
     // one RK4 step (CorePlant::step), then settle()
-    double step(Vector & x, const Vector & tau, long stage, double h) override;
+    double step(Vector & x, const Vector & tau, double t, double h) override;
     // x's configuration coefficients renormalised and, where its closure gap exceeds the
     // projection tolerance, x projected back onto the loops (from the actuated coordinates, or
     // keeping the idle and passive state); returns the gap of the result. Throws

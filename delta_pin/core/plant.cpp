@@ -64,7 +64,7 @@ namespace delta_pin
       {
         try
         {
-          gap = step(x, tau, 2 * (k * (long)substeps + j), h);
+          gap = step(x, tau, k * dt + j * h, h);
         }
         catch (SimulationFailure & failure)
         {

@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -22,16 +24,22 @@ namespace delta_pin
   // The plant's time-varying truth (delta_pin/sim/truth.py) tabulated at t = i step, i < rows:
   // the payload body's mass [kg], a point mass [kg], the friction's normal forces [N] and the
   // joint disturbance [N m] on the actuated joints. A column without rows is the plant's own
-  // (nominal) value. Read at a row position u = t / step: the row itself at whole u (the sampled
-  // loop's stage times), linear interpolation between rows elsewhere (the continuous loop), the
-  // last row past the end.
+  // (nominal) value. Read by time, at the row position u = t / step: the row itself where u is a
+  // whole number to 1e-9 (the sampled loop's stage times, whose t = k dt + j h carries round-off),
+  // linear interpolation between rows elsewhere (the continuous loop), the last row past the end.
   struct TruthTable
   {
     double step = 0.0;  // [s]
     Vector body_masses, point_masses;
     RowMatrix normal_forces, disturbances;
 
-    double position(double t) const { return step > 0.0 ? t / step : 0.0; }
+    double position(double t) const
+    {
+      if (!(step > 0.0))
+        return 0.0;
+      const double u = t / step, row = std::round(u);
+      return std::abs(u - row) <= 1e-9 * std::max(1.0, row) ? row : u;
+    }
     static double value(const Vector & column, double u, double fallback)
     {
       if (column.size() == 0)
@@ -74,19 +82,19 @@ namespace delta_pin
     }
   };
 
-  // One classical RK4 step of length h of x' = f(x, u) in place, the stages at the table rows u,
-  // u + 1, u + 1, u + 2 (t, t + h/2, t + h/2, t + h: the truth's rows h/2 apart); f(x, u, dx).
-  // k1..k4 and y are the caller's scratch (no allocation once sized).
+  // One classical RK4 step of length h of x' = f(x, t) in place from time t [s], the stages at t,
+  // t + h/2, t + h/2, t + h; f(x, t, dx). k1..k4 and y are the caller's scratch (no allocation
+  // once sized).
   template<typename Derivative>
-  void rk4_step(Vector & x, double u, double h, Derivative && f, Vector & k1, Vector & k2, Vector & k3, Vector & k4, Vector & y)
+  void rk4_step(Vector & x, double t, double h, Derivative && f, Vector & k1, Vector & k2, Vector & k3, Vector & k4, Vector & y)
   {
-    f(x, u, k1);
+    f(x, t, k1);
     y = x + 0.5 * h * k1;
-    f(y, u + 1.0, k2);
+    f(y, t + 0.5 * h, k2);
     y = x + 0.5 * h * k2;
-    f(y, u + 1.0, k3);
+    f(y, t + 0.5 * h, k3);
     y = x + h * k3;
-    f(y, u + 2.0, k4);
+    f(y, t + h, k4);
     x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
   }
 
@@ -105,10 +113,10 @@ namespace delta_pin
     // whether x's q and v are a multibody configuration worth recording (a run keeps them)
     virtual bool has_configuration() const = 0;
 
-    // One RK4 step of length h under the held actuated torque tau, the truth read at the table
-    // rows stage, stage + 1, stage + 1, stage + 2 (t, t + h/2, t + h/2, t + h); returns the
-    // closure gap of the result [m, rad]. May throw SimulationFailure (without a time).
-    virtual double step(Vector & x, const Vector & tau, long stage, double h) = 0;
+    // One RK4 step of length h [s] from time t [s] under the held actuated torque tau, the truth
+    // read by time at t, t + h/2, t + h (TruthTable::position); returns the closure gap of the
+    // result [m, rad]. May throw SimulationFailure (without a time).
+    virtual double step(Vector & x, const Vector & tau, double t, double h) = 0;
     virtual Eigen::Vector3d end_effector_position(const Vector & q) = 0;
     // (alpha, alpha_dot) of the state x: its actuated entries (a plant whose state holds them
     // elsewhere says where)

@@ -51,19 +51,18 @@ namespace delta_pin
     int nv() const override { return 0; }
     bool has_configuration() const override { return false; }
 
-    double step(Vector & x, const Vector & tau, long stage, double h) override
+    double step(Vector & x, const Vector & tau, double t, double h) override
     {
-      // the truth's rows are h/2 apart: row u is the time u h / 2
-      auto f = [&](const Vector & y, double u, Vector & dy)
+      auto f = [&](const Vector & y, double time, Vector & dy)
       {
-        dy = derivative_(0.5 * h * u, y, tau);
+        dy = derivative_(time, y, tau);
         if (dy.size() != states_)
           throw std::invalid_argument(
             "the plant's derivative returned " + std::to_string(dy.size()) + " entries, expected "
             + std::to_string(states_));
       };
-      rk4_step(x, (double)stage, h, f, k1_, k2_, k3_, k4_, y_);
-      auto finished = finish_(x, 0.5 * h * (double)(stage + 2));
+      rk4_step(x, t, h, f, k1_, k2_, k3_, k4_, y_);
+      auto finished = finish_(x, t + h);
       check_size(finished.first, states_, "the plant's finish_step state");
       x = finished.first;
       return finished.second;
