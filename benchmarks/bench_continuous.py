@@ -7,7 +7,7 @@ plant and law built, the run): design I on the projected nominal model along a j
 (0.5 Hz; 0.1 rad on the five-bar, 0.05 rad phase-shifted on the 3-RRR, 10 mm phase-shifted on the
 Stewart platform's legs), from the robot's home, so the run starts with a reaching phase.
 
-* the core's Radau IIA (the default, ``delta_pin/core/radau.hpp``) at rtol 1e-6, atol 1e-8;
+* the core's Radau IIA (the default, ``delta_pin/core/integrate/radau.hpp``) at rtol 1e-6, atol 1e-8;
 * on the five-bar, the same with the readable design I in Python called back from the core's loop
   once per evaluation (what a user's own continuous-time law gets);
 * the Python route it replaced, now the test oracle: the Python plant in active coordinates and

@@ -6,7 +6,7 @@ References measured in the same run: the readable numpy model (delta_pin.model.d
 oracle, what the Python loop's analytic plant and the Delta's nominal model evaluate), the same
 model on a batch of 10 000 states (per state), the compiled core's reduced Delta (one
 [alpha_dot, alpha_ddot] of eq. 13 from Python: M, C, G and the solve,
-``delta_pin/core/analytic_plant.hpp``), and Pinocchio's projected reduced dynamics (closure solve,
+``delta_pin/core/plant/analytic_plant.hpp``), and Pinocchio's projected reduced dynamics (closure solve,
 projection).
 """
 

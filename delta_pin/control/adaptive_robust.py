@@ -141,7 +141,7 @@ class AdaptiveRobustController(Controller):
 
     def sampled_core_law(self):
         """The compiled core's design I/II on the nominal model (``AdaptiveRobust`` of
-        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
         nominal model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
         ctc, g = self.computed_torque, self.gains

@@ -135,7 +135,7 @@ class Controller(ABC):
         self._previous_sample: tuple[float, np.ndarray, ControlOutput] | None = None
 
     def sampled_core_law(self):
-        """This law in the compiled core for the sampled loop (``delta_pin/core/controller.hpp``),
+        """This law in the compiled core for the sampled loop (``delta_pin/core/run/controller.hpp``),
         or ``None`` (the default): the loop then calls :meth:`evaluate` back from the core once
         per sample."""
         return None

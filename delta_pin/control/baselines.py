@@ -207,7 +207,7 @@ class LQR(Controller):
         )
 
     def sampled_core_law(self):
-        """The compiled core's LQR (``LQR`` of ``delta_pin/core/controller.hpp``, :meth:`evaluate`'s
+        """The compiled core's LQR (``LQR`` of ``delta_pin/core/run/controller.hpp``, :meth:`evaluate`'s
         arithmetic with this linearisation and gain) where the nominal model has one there; else
         ``None``."""
         gains = {

@@ -125,7 +125,7 @@ class TimeDelayControl(Controller):
 
     def sampled_core_law(self):
         """The compiled core's time-delay control (``TimeDelayControl`` of
-        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
         model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``. Its first samples' N̂ is
         C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""

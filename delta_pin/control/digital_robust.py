@@ -226,7 +226,7 @@ class DigitalRobustController(Controller):
 
     def sampled_core_law(self):
         """The compiled core's law with its observer (``DigitalRobust`` of
-        ``delta_pin/core/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
         model has one there (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
         observer = self.observer

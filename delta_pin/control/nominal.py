@@ -64,7 +64,7 @@ class NominalModel(ABC):
 
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
         """A law of the compiled core on this nominal model (``kind``: ``"AdaptiveRobust"``,
-        ``"ComputedTorque"``, ``"PDGravity"`` of ``delta_pin/core/controller.hpp``, with its gains),
+        ``"ComputedTorque"``, ``"PDGravity"`` of ``delta_pin/core/run/controller.hpp``, with its gains),
         or ``None`` (the default) where the core holds no such model."""
         return None
 
@@ -342,7 +342,7 @@ def named_gains(module, kind: str, gains: Mapping):
 
 
 def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
-    """The compiled law ``kind`` of ``delta_pin/core/controller.hpp`` for the closed chain
+    """The compiled law ``kind`` of ``delta_pin/core/run/controller.hpp`` for the closed chain
     ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
     compensates, or ``None``).
 

@@ -1,5 +1,5 @@
 """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` in the compiled core: its kinematics
-and projected dynamics (``ClosedChainModel`` of ``delta_pin/core/closed_chain.hpp``), the same
+and projected dynamics (``ClosedChainModel`` of ``delta_pin/core/model/closed_chain.hpp``), the same
 arithmetic as the robot's own Python methods (``configuration``, ``velocity_map``,
 ``reduced_terms``, ``project_state``), which the tests hold it to.
 

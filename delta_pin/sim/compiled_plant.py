@@ -2,11 +2,11 @@
 (docs/architecture.md section 7).
 
 A :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`'s copy
-(``delta_pin/core/closed_chain.cpp``) is built from the very numbers of the Python plant -- the
+(``delta_pin/core/plant/closed_chain.cpp``) is built from the very numbers of the Python plant -- the
 robot's Pinocchio model (its text archive, closure frames included), the closures with the
 plant's Baumgarte gains and proximal settings, the springs, dampers, friction and the payload --
 and integrates x = [q, v] with the same RK4 steps, renormalisation and projections. An
-:class:`~delta_pin.sim.plants.AnalyticPlant`'s (``delta_pin/core/analytic_plant.cpp``) takes the
+:class:`~delta_pin.sim.plants.AnalyticPlant`'s (``delta_pin/core/plant/analytic_plant.cpp``) takes the
 Delta's constants and friction and integrates the paper's reduced ODE. Either reads its
 time-varying truth (the uncertainty profile, the payload) from a table of the integrator's times
 (:func:`set_core_truth`). The controller runs in the core (its compiled law) or stays in Python:
@@ -150,7 +150,7 @@ def set_core_truth(compiled, plant, step: float, count: int) -> None:
 
 
 def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
-    """The core's reduced Delta (``delta_pin/core/analytic_plant.hpp``) for a Python
+    """The core's reduced Delta (``delta_pin/core/plant/analytic_plant.hpp``) for a Python
     :class:`~delta_pin.sim.plants.AnalyticPlant`, with its truth tabulated at t = i step,
     i < count [s] (:func:`set_core_truth`).
 
@@ -174,7 +174,7 @@ def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
 def python_core_plant(plant, states: int):
     """A plant written in Python (``derivative``, ``finish_step_residual``, ``joint_state``,
     ``platform_position``, ``closure_residual`` of :class:`~delta_pin.sim.plants.Plant`) in the
-    core's sampled loop (``PythonPlant`` of ``delta_pin/core/python_plant.cpp``), its state of
+    core's sampled loop (``PythonPlant`` of ``delta_pin/core/python/python_plant.cpp``), its state of
     ``states`` entries: the core's RK4 calls its derivative back at every stage.
 
     Raises:

@@ -5,7 +5,7 @@ The plant (:func:`~delta_pin.sim.compiled_plant.build_core_plant`,
 :func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`) and a controller's compiled law
 (:meth:`Controller.sampled_core_law <delta_pin.control.base.Controller.sampled_core_law>`) are
 integrated as one ODE by the core's Radau IIA of order 5 with error control
-(``delta_pin/core/radau.hpp``, ``continuous.hpp``), in active coordinates
+(``delta_pin/core/integrate/radau.hpp``, ``continuous.hpp``), in active coordinates
 
     y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau, t), z_dot]:
 
@@ -98,7 +98,7 @@ def run_core_continuous(
 ) -> tuple[LoopRecord, dict]:
     """Run the compiled plant and law of :func:`continuous_core` from (alpha0 [rad], alpha_dot0
     [rad/s]) over the sample times t [s] by Radau IIA (rtol, atol) or, with ``bdf2_substeps`` > 0,
-    by BDF2 with fixed steps dt / bdf2_substeps (``delta_pin/core/bdf2.hpp``); ``table``: the
+    by BDF2 with fixed steps dt / bdf2_substeps (``delta_pin/core/integrate/bdf2.hpp``); ``table``: the
     reference with its jerk (cubic Hermite between its rows, as LSODA's; for BDF2 on the step
     grid). Returns the record and the integrator's counters.
 

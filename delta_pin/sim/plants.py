@@ -14,7 +14,7 @@ joint disturbance F(t)) kept apart from what a controller knows:
   rewriting the platform body's inertia (its rotational inertia scales with the mass);
 * :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G): the readable model
   of :mod:`delta_pin.model.dynamics` in Python, its copy in the compiled core
-  (``delta_pin/core/analytic_plant.hpp``) for the compiled loops.
+  (``delta_pin/core/plant/analytic_plant.hpp``) for the compiled loops.
 
 A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
 

@@ -1,4 +1,4 @@
-"""The core's own recursive stage for trees of axis joints (delta_pin/core/axis_tree.hpp, the
+"""The core's own recursive stage for trees of axis joints (delta_pin/core/model/axis_tree.hpp, the
 accelerations of ``ClosedChainPlant`` where it applies) against Pinocchio's constraintDynamics on
 random trees, and the core's import checks.
 

@@ -8,7 +8,7 @@ references.
   (``simulate_reference``, tests/reference/python_loop.py) to CORE_RTOL over these 0.2 s runs (on
   the analytic plant measured up to 1.5e-11 relative, in a time-delay run that leaves the path by
   2.8 rad).
-* Accuracy of BDF2 (the core's, delta_pin/core/bdf2.hpp): against LSODA at rtol 1e-9 in the
+* Accuracy of BDF2 (the core's, delta_pin/core/integrate/bdf2.hpp): against LSODA at rtol 1e-9 in the
   Python loop (``simulate_reference``), an independent adaptive integrator, on both plants.
 * Batches: each run of a batch is the run made alone, bit for bit.
 """

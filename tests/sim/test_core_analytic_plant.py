@@ -1,4 +1,4 @@
-"""The paper's reduced Delta in the compiled core (delta_pin/core/analytic_plant.cpp) against the
+"""The paper's reduced Delta in the compiled core (delta_pin/core/plant/analytic_plant.cpp) against the
 Python :class:`~delta_pin.sim.plants.AnalyticPlant` it copies, and the time-varying truth of
 the core's continuous loop on either plant.
 

@@ -1,6 +1,6 @@
 """Ctrl-C inside the compiled core is prompt (issue 36, item 3).
 
-The core's loops run with Python's GIL released, so before the poll (delta_pin/core/interrupt.hpp)
+The core's loops run with Python's GIL released, so before the poll (delta_pin/core/run/interrupt.hpp)
 Python's SIGINT handler ran only when a run had finished: Ctrl-C on a long ``run`` waited for the
 whole simulation (3-23 s measured on ``run --robot``). Now each loop asks Python's signal handlers
 at least every 20 ms of work; these tests start a run that takes several seconds, interrupt it one

@@ -1,5 +1,5 @@
 """The compiled core's time-delay control, digital-robust law (with its extended-state observer) and
-LQR (``delta_pin/core/controller.hpp``, arithmetic in ``delta_pin/core/control/``) against the
+LQR (``delta_pin/core/run/controller.hpp``, arithmetic in ``delta_pin/core/control/``) against the
 readable Python laws they are compiled from (``TimeDelayControl.evaluate_reference``,
 ``DigitalRobustController.evaluate_reference``, ``LQR.evaluate``), on the five-bar's projected nominal
 model with a nominal disturbance and friction.

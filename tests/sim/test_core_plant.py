@@ -1,4 +1,4 @@
-"""The compiled core's closed-chain model and plant (delta_pin/core/closed_chain.cpp) against the
+"""The compiled core's closed-chain model and plant (delta_pin/core/plant/closed_chain.cpp) against the
 Python references they replace in the loops: ``ClosedChainRobot.configuration``, ``velocity_map``
 and ``reduced_terms``, ``ClosedChainPlant.derivative`` under the generic RK4 step with
 ``finish_step``, and the Python sampled loop (tests/reference/python_loop.py).
@@ -324,7 +324,7 @@ def test_active_coordinate_completions_and_end_effector_paths_in_the_core(robot_
 
 def test_the_axis_tree_stage_equals_constraint_dynamics_on_the_delta():
     """The Delta's tree (RX..PZ joints, LOCAL point closures, the exact KKT solution) takes the
-    core's axis-tree stage (delta_pin/core/axis_tree.hpp); 50 RK4 steps with friction and a
+    core's axis-tree stage (delta_pin/core/model/axis_tree.hpp); 50 RK4 steps with friction and a
     varying payload on its platform body equal the same steps through Pinocchio's
     constraintDynamics and the Python plant's to 1e-12 relative (the two stages' arithmetic
     differs in its order only: measured ~1e-15 per evaluation). Robots it does not hold keep

@@ -1,5 +1,5 @@
 """A plant written in Python in the core's sampled loop (``PythonPlant``,
-``delta_pin/core/python_plant.cpp``): the core's RK4 calls the plant's ``derivative`` back at every
+``delta_pin/core/python/python_plant.cpp``): the core's RK4 calls the plant's ``derivative`` back at every
 stage, so a user's plant runs on the one loop every run takes (issue 38, item 1)."""
 
 from __future__ import annotations

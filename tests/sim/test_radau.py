@@ -1,4 +1,4 @@
-"""The compiled Radau IIA of continuous mode -- the core's (delta_pin/core/radau.hpp) on either
+"""The compiled Radau IIA of continuous mode -- the core's (delta_pin/core/integrate/radau.hpp) on either
 plant of the Delta, with designs I/II and the LQR -- against an independent tight reference.
 
 Reference: LSODA (SciPy's, a different method and step control) at rtol 1e-11, atol 1e-13 on the

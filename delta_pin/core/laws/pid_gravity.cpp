@@ -2,9 +2,9 @@
 //   tau = Ḡ(alpha) + F̄ [+ M̄_f(alpha_dot)] - K_p r - K_i z - K_d r_dot,  z_dot = r = alpha - alpha^d,
 // the integral z the law's continuous-time state [rad s]. The example of a compiled law added in
 // one file (law_registry.hpp).
-#include "../checks.hpp"
-#include "../controller.hpp"
-#include "../law_registry.hpp"
+#include "checks.hpp"
+#include "controller.hpp"
+#include "law_registry.hpp"
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/stl/string.h>

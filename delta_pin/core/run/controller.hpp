@@ -1,6 +1,6 @@
 // The controllers of the compiled core: one interface for the sampled loop
 // (CorePlant::run_sampled, plant.hpp), which every law implements -- a C++ law, or a Python
-// callable behind an adapter (delta_pin/core/module.cpp).
+// callable behind an adapter (delta_pin/core/python/module.cpp).
 #pragma once
 
 #include "closed_chain.hpp"
