@@ -18,13 +18,14 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import os
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 from common import TARGET_PREFIX, format_value, machine_info
+
+from delta_pin.utils.atomic import write_text_atomically
 
 HERE = Path(__file__).parent
 BENCHMARKS = {
@@ -133,11 +134,9 @@ def write_page(
 
 
 def _write(path: Path, lines: list[str]) -> None:
-    """``path`` written whole or not at all (a temporary file beside it, then a rename)."""
+    """``path`` written whole or not at all (the package's atomic writer)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    temporary.write_text("\n".join(lines))
-    os.replace(temporary, path)
+    write_text_atomically(path, "\n".join(lines))
 
 
 TARGETS_COMMENT = "<!-- targets: "
