@@ -14,11 +14,66 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["core_chain", "core_friction", "core_model"]
+__all__ = ["core_chain", "core_friction", "core_model", "model_spec"]
+
+
+def _placements(placements) -> np.ndarray:
+    """(n, 12): each placement's rotation by rows, then its translation [m]."""
+    rows = [np.concatenate([p.rotation.reshape(9), p.translation]) for p in placements]
+    return np.asarray(rows, dtype=float).reshape(len(rows), 12)
+
+
+def _joint_spec(module, joint):
+    """The core's ``JointSpec`` of one Pinocchio joint model (its type, axes, pitch, parts)."""
+    concrete = joint.extract() if hasattr(joint, "extract") else joint
+    spec = module.JointSpec()
+    spec.type = concrete.shortname()
+    for field, attribute in (("axis", "axis"), ("axis", "axis1"), ("axis2", "axis2"), ("pitch", "pitch")):
+        if hasattr(concrete, attribute):
+            setattr(spec, field, getattr(concrete, attribute))
+    if spec.type == "JointModelRevoluteUnboundedUnaligned":  # Python exposes no axis: S's angular part
+        data, q = concrete.createData(), np.zeros(concrete.idx_q + 2)
+        q[concrete.idx_q] = 1.0
+        concrete.calc(data, q)
+        spec.axis = np.asarray(data.S).reshape(6)[3:]
+    if spec.type == "JointModelComposite":
+        spec.parts = [_joint_spec(module, part) for part in concrete.joints]
+        spec.part_placements = _placements(concrete.jointPlacements)
+    return spec
+
+
+def model_spec(model):
+    """The core's ``ModelSpec`` of a Pinocchio model (model_spec.hpp): what the core's algorithms
+    read of it -- joints, parents, placements, inertias, frames, gravity, armature -- rebuilt there
+    with ``Model::addJoint``.
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    from delta_pin.compiled.core import core
+
+    module = core()
+    spec = module.ModelSpec()
+    spec.joints = [_joint_spec(module, model.joints[j]) for j in range(1, model.njoints)]
+    spec.joint_names = list(model.names)[1:]
+    spec.parents = np.asarray(model.parents[1:], dtype=np.int32)
+    spec.placements = _placements(model.jointPlacements[1:])
+    spec.inertias = np.asarray(
+        [[i.mass, *i.lever, *np.asarray(i.inertia).reshape(9)] for i in model.inertias], dtype=float
+    ).reshape(model.njoints, 13)
+    frames = list(model.frames)[1:]
+    spec.frame_names = [f.name for f in frames]
+    spec.frame_joints = np.asarray([f.parentJoint for f in frames], dtype=np.int32)
+    spec.frame_parents = np.asarray([f.parentFrame for f in frames], dtype=np.int32)
+    spec.frame_types = np.asarray([int(f.type) for f in frames], dtype=np.int32)
+    spec.frame_placements = _placements(f.placement for f in frames)
+    spec.gravity = np.asarray(model.gravity.vector, dtype=float)
+    spec.armature = np.asarray(model.armature, dtype=float)
+    return spec
 
 
 def core_chain(robot):
-    """The core's ``ChainDescription`` of ``robot`` (closed_chain.hpp): its model as text, the
+    """The core's ``ChainDescription`` of ``robot`` (closed_chain.hpp): its model (:func:`model_spec`), the
     closure frames, the joint couplings, the actuated joints' entries in q and v, the dependent
     joints' entries in v, the number of idle motions and the end-effector frame.
 
@@ -32,7 +87,7 @@ def core_chain(robot):
         for c, q1, v1, q2, v2 in robot._couplings
     ]
     return core().ChainDescription(
-        robot.model.saveToString(),
+        model_spec(robot.model),
         [(int(f1), int(f2), int(size)) for f1, f2, size in robot._frames],
         couplings,
         np.asarray(robot.actuated_q_indices, dtype=np.int32),

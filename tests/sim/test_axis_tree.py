@@ -13,6 +13,7 @@ import pytest
 
 from delta_pin.compiled import core
 from delta_pin.errors import NativeUnavailableError
+from delta_pin.model.core_model import model_spec
 
 # joints 1-5: a chain; 6-9: a second chain off joint 1; 10: a side branch off joint 6 (depth-first
 # order, as Pinocchio's algorithms need it)
@@ -53,7 +54,7 @@ def _core_plant(module, model, closures, gains):
         for j1, p1, j2, p2 in closures
     ]
     chain = module.ChainDescription(
-        model.saveToString(), [], [], everything, everything, np.zeros(0, dtype=np.int32), 0, 0
+        model_spec(model), [], [], everything, everything, np.zeros(0, dtype=np.int32), 0, 0
     )
     return module.ClosedChainPlant(chain, constraints, *gains, 1e-12, 0.0, 1, 1.0)
 

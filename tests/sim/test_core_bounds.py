@@ -34,12 +34,12 @@ import json
 import numpy as np
 import delta_pin as dp
 from delta_pin.compiled.core import core
-from delta_pin.model.core_model import core_chain
+from delta_pin.model.core_model import core_chain, model_spec
 from delta_pin.sim.compiled_plant import build_core_analytic_plant, build_core_plant
 
 m = core()
 robot = dp.load_robot("five_bar")
-TEXT = robot.model.saveToString()
+SPEC = model_spec(robot.model)
 NQ, NV, NF, NJ = robot.model.nq, robot.model.nv, robot.model.nframes, robot.model.njoints
 FRAMES = [(int(a), int(b), int(s)) for a, b, s in robot._frames]
 AQ = np.asarray(robot.actuated_q_indices, np.int32)
@@ -53,9 +53,9 @@ NAN = float("nan")
 chain = core_chain(robot)
 
 
-def describe(closures=FRAMES, couplings=(), aq=AQ, av=AV, dv=DV, idle=0, ee=EE):
+def describe(closures=FRAMES, couplings=(), aq=AQ, av=AV, dv=DV, idle=0, ee=EE, spec=SPEC):
     return m.ChainDescription(
-        TEXT, list(closures), list(couplings), np.asarray(aq, np.int32), np.asarray(av, np.int32),
+        spec, list(closures), list(couplings), np.asarray(aq, np.int32), np.asarray(av, np.int32),
         np.asarray(dv, np.int32), idle, ee,
     )
 
@@ -105,8 +105,39 @@ case("coupling q1 = nq", "couplings", lambda: use(describe(couplings=[(NQ, 0, -1
 case("coupling v2 = nv", "couplings", lambda: use(describe(couplings=[(0, 0, 1, NV, 0.0, 0.0, np.zeros(2))])))
 case("coupling q2 -1 with v2 = 1", "couplings", lambda: use(describe(couplings=[(0, 0, -1, 1, 0.0, 0.0, np.zeros(2))])))
 case("no dependent joint under a closure", "dependent_v:ok", lambda: use(describe(dv=[])))
-case("model text not an archive", "model_text", lambda: m.ClosedChainModel(m.ChainDescription(
-    "not a model", FRAMES, [], AQ, AV, DV, 0, EE)))
+""",
+    "model_spec": """
+def spec_with(**fields):  # the five-bar's ModelSpec with some fields replaced
+    spec = model_spec(robot.model)
+    for name, value in fields.items():
+        setattr(spec, name, value)
+    return spec
+def joint(kind, axis=(0.0, 0.0, 1.0)):
+    made = m.JointSpec()
+    made.type, made.axis = kind, np.asarray(axis, float)
+    return made
+def build(spec):
+    use(describe(spec=spec))
+J, P = list(SPEC.joints), SPEC.placements
+case("the model as handed over", "model:ok", lambda: build(SPEC))
+case("a joint type the core does not rebuild", "JointModelMimic", lambda: build(spec_with(joints=[joint("JointModelMimic")] + J[1:])))
+case("a joint of no type", "no type", lambda: build(spec_with(joints=[joint("")] + J[1:])))
+case("an unaligned axis of norm 2", "axis", lambda: build(spec_with(joints=[joint("JointModelRevoluteUnaligned", (0, 0, 2.0))] + J[1:])))
+case("an unaligned axis of NaN", "axis", lambda: build(spec_with(joints=[joint("JointModelRevoluteUnaligned", (NAN, 0, 1.0))] + J[1:])))
+case("a composite of no parts", "parts", lambda: build(spec_with(joints=[joint("JointModelComposite")] + J[1:])))
+case("a joint its own parent", "parent", lambda: build(spec_with(parents=np.arange(1, NJ, dtype=np.int32))))
+case("a parent -1", "parent", lambda: build(spec_with(parents=np.full(NJ - 1, -1, np.int32))))
+case("one joint name too few", "joint names", lambda: build(spec_with(joint_names=list(SPEC.joint_names)[:-1])))
+case("one placement too few", "placements", lambda: build(spec_with(placements=P[:-1])))
+case("a NaN placement", "placements", lambda: build(spec_with(placements=np.full_like(P, NAN))))
+case("one inertia too few", "inertias", lambda: build(spec_with(inertias=SPEC.inertias[:-1])))
+case("an infinite inertia", "inertias", lambda: build(spec_with(inertias=np.full_like(SPEC.inertias, np.inf))))
+case("a frame's parent joint = njoints", "parent joint", lambda: build(spec_with(frame_joints=np.full(NF - 1, NJ, np.int32))))
+case("a frame's parent after it", "parent frame", lambda: build(spec_with(frame_parents=np.arange(2, NF + 1, dtype=np.int32))))
+case("a frame of type 3", "FrameType", lambda: build(spec_with(frame_types=np.full(NF - 1, 3, np.int32))))
+case("one frame name too many", "frame names", lambda: build(spec_with(frame_names=list(SPEC.frame_names) + ["extra"])))
+case("armature of nv + 1", "armature", lambda: build(spec_with(armature=np.zeros(NV + 1))))
+case("NaN gravity", "gravity", lambda: build(spec_with(gravity=np.full(6, NAN))))
 """,
     "closed_chain_model": """
 model = m.ClosedChainModel(chain)

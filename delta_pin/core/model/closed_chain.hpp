@@ -23,6 +23,7 @@
 #pragma once
 
 #include "control/friction.hpp"
+#include "model_spec.hpp"
 #include "plant.hpp"
 
 #include <Eigen/Dense>
@@ -100,16 +101,15 @@ namespace delta_pin
   };
 
   // What the core needs of a closed-chain robot (ClosedChainRobot, delta_pin/model/closed_chain.py;
-  // delta_pin/model/core_model.py builds it): its Pinocchio model as text
-  // (pinocchio::Model::saveToString(), closure frames included), the closures' frames, the actuated
-  // joints' entries in q and v, the dependent joints' entries in v (neither actuated nor passive:
-  // the closures determine them up to the idle motions), the number of idle motions (motions of
-  // the dependent joints that move no independent joint, docs/architecture.md section 10) and
-  // the end-effector frame, and its joint couplings (rows after the closures'). Passive joints
-  // are the entries of v in neither list.
+  // delta_pin/model/core_model.py builds it): its Pinocchio model (model_spec.hpp, closure frames
+  // included), the closures' frames, the actuated joints' entries in q and v, the dependent joints'
+  // entries in v (neither actuated nor passive: the closures determine them up to the idle
+  // motions), the number of idle motions (motions of the dependent joints that move no independent
+  // joint, docs/architecture.md section 10) and the end-effector frame, and its joint couplings
+  // (rows after the closures'). Passive joints are the entries of v in neither list.
   struct ChainDescription
   {
-    std::string model_text;
+    ModelSpec model;
     std::vector<ClosureFrames> closures;
     std::vector<JointCouplingSpec> couplings;
     Indices actuated_q, actuated_v, dependent_v;

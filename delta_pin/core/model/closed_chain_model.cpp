@@ -1,7 +1,7 @@
 // The kinematics and projected dynamics of a closed-chain robot (ClosedChainModel,
 // closed_chain.hpp): the closure residual and Jacobian, Newton assembly, S and its derivative, the
 // projected M, C, G, a frame's path as a joint reference. A translation unit of its own, apart from
-// the plant's (closed_chain.cpp) and the model's text archive (model_text.cpp), so that the
+// the plant's (closed_chain.cpp) and the model's rebuilding (model_spec.cpp), so that the
 // heaviest parts of the core compile in parallel.
 
 #include "closed_chain.hpp"
@@ -10,7 +10,7 @@
 #include "checks.hpp"
 #include "failure.hpp"
 #include "interrupt.hpp"
-#include "model_text.hpp"
+#include "model_spec.hpp"
 
 #include <cmath>
 #include <limits>
@@ -89,14 +89,7 @@ namespace delta_pin
   , idle_dof_(chain.idle_dof)
   , end_effector_(chain.end_effector)
   {
-    try
-    {
-      model_from_text(chain.model_text, pin_->model);
-    }
-    catch (const std::exception & error)
-    {
-      throw std::invalid_argument(std::string("model_text is not a Pinocchio model archive (") + error.what() + ")");
-    }
+    build_model(chain.model, pin_->model);
     // every index the robot's description holds, checked once here for every later call
     const std::string frames = "the model's " + std::to_string(pin_->model.nframes) + " frames";
     const std::string q_entries = "the model's " + std::to_string(pin_->model.nq) + " entries of q";

@@ -22,11 +22,38 @@ void bind_model(nb::module_ & m)
   using delta_pin::ClosedChainModel;
   using delta_pin::ClosedChainPlant;
   using delta_pin::ChainDescription;
+  using delta_pin::JointSpec;
+  using delta_pin::ModelSpec;
+  nb::class_<JointSpec>(m, "JointSpec", "One joint of a ModelSpec (model_spec.hpp), by name.")
+    .def(nb::init<>())
+    .def_rw("type", &JointSpec::type, "Pinocchio's shortname(), e.g. 'JointModelRX'.")
+    .def_rw("axis", &JointSpec::axis, "The unit axis of an unaligned or universal joint.")
+    .def_rw("axis2", &JointSpec::axis2, "A universal joint's second unit axis.")
+    .def_rw("pitch", &JointSpec::pitch, "A helical joint's pitch [m/rad].")
+    .def_rw("parts", &JointSpec::parts, "A composite joint's parts (JointSpec).")
+    .def_rw("part_placements", &JointSpec::part_placements, "Their placements, (parts, 12): rotation rows, translation.");
+  nb::class_<ModelSpec>(
+    m, "ModelSpec",
+    "A robot's Pinocchio model as the core rebuilds it (model_spec.hpp): what its algorithms read, by name.")
+    .def(nb::init<>())
+    .def_rw("joints", &ModelSpec::joints, "Joints 1 .. njoints-1 (JointSpec).")
+    .def_rw("joint_names", &ModelSpec::joint_names, "Their names.")
+    .def_rw("parents", &ModelSpec::parents, "Each joint's parent joint (0: the universe).")
+    .def_rw("placements", &ModelSpec::placements, "Each joint's placement in its parent's, (joints, 12).")
+    .def_rw("inertias", &ModelSpec::inertias,
+            "(njoints, 13): mass [kg], centre of mass [m], rotational inertia about it by rows [kg m^2].")
+    .def_rw("frame_names", &ModelSpec::frame_names, "Frames 1 .. nframes-1: names.")
+    .def_rw("frame_joints", &ModelSpec::frame_joints, "Their parent joints.")
+    .def_rw("frame_parents", &ModelSpec::frame_parents, "Their parent frames.")
+    .def_rw("frame_types", &ModelSpec::frame_types, "Their Pinocchio FrameType values.")
+    .def_rw("frame_placements", &ModelSpec::frame_placements, "Their placements in the parent joint's, (frames, 12).")
+    .def_rw("gravity", &ModelSpec::gravity, "Gravity as a spatial motion (linear, angular) [m/s^2].")
+    .def_rw("armature", &ModelSpec::armature, "Rotor armature per entry of v [kg m^2].");
   nb::class_<ChainDescription>(m, "ChainDescription", "What the core needs of a closed-chain robot (closed_chain.hpp).")
     .def(
       "__init__",
       [](
-        ChainDescription * self, const std::string & model_text,
+        ChainDescription * self, const ModelSpec & model,
         const std::vector<std::tuple<size_t, size_t, int>> & closures,
         const std::vector<std::tuple<int, int, int, int, double, double, Eigen::VectorXd>> & couplings,
         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
@@ -36,11 +63,11 @@ void bind_model(nb::module_ & m)
         for (const auto & [q1, v1, q2, v2, reference1, reference2, coefficients] : couplings)
           specs.push_back({q1, v1, q2, v2, reference1, reference2, coefficients});
         new (self) ChainDescription{
-          model_text, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector};
+          model, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector};
       },
-      nb::arg("model_text"), nb::arg("closures"), nb::arg("couplings"), nb::arg("actuated_q"), nb::arg("actuated_v"),
+      nb::arg("model"), nb::arg("closures"), nb::arg("couplings"), nb::arg("actuated_q"), nb::arg("actuated_v"),
       nb::arg("dependent_v"), nb::arg("idle_dof"), nb::arg("end_effector"),
-      "The robot's Pinocchio model as text (closure frames included), its closures (frame 1, frame 2, 3 or 6 "
+      "The robot's Pinocchio model (ModelSpec, closure frames included), its closures (frame 1, frame 2, 3 or 6 "
       "rows), its joint couplings (q1, v1, q2, v2 entries -- -1 without joint 2 --, reference1, reference2, the "
       "polynomial's coefficients), the actuated joints' entries in q and v, the dependent joints' entries in v, "
       "the number of idle motions and the end-effector frame.")
