@@ -7,18 +7,25 @@ oracle, what the Python loop's analytic plant and the Delta's nominal model eval
 model on a batch of 10 000 states (per state), the compiled core's reduced Delta (one
 [alpha_dot, alpha_ddot] of eq. 13 from Python: M, C, G and the solve,
 ``delta_pin/core/plant/analytic_plant.hpp``), and Pinocchio's projected reduced dynamics (closure solve,
-projection).
+projection). A second table: one assembly q(alpha) of the closures from the reference
+configuration, by ``ClosedChainRobot.configuration`` (the core's Newton) against its readable twin
+(``tests/reference/assembly.py``, what the robot ran before).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.model.dynamics import analytic_dynamics
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: tests.reference
+from tests.reference.assembly import newton_configuration
 
 
 def main() -> None:
@@ -60,6 +67,24 @@ def main() -> None:
     report_target("M, C, G per call: plain numpy (reference, 190-260 us)", timings[0].median, None)
     if compiled is not None:
         report_target("eq. 13's derivative per call: the compiled core from Python", timings[-1].median, None)
+    _assembly(robot, n, r)
+
+
+def _assembly(robot, n: int, r: int) -> None:
+    """One closure solve from the reference configuration, alpha 0.03 rad from home."""
+    alpha, start = robot.home + 0.03, robot.reference_configuration
+    timings = [
+        Timing(
+            "readable Newton (tests/reference/assembly.py)",
+            per_call(lambda: newton_configuration(robot, alpha, start), max(n // 10, 10), r),
+        ),
+        Timing(
+            "robot.configuration (the core's Newton)",
+            per_call(lambda: robot.configuration(alpha, initial_guess=start), n, r),
+        ),
+    ]
+    print_table("one assembly q(alpha), 0.03 rad from home", timings, reference=timings[0])
+    report_target("assembly per call: robot.configuration", timings[-1].median, None)
 
 
 if __name__ == "__main__":

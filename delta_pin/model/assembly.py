@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["AssemblyResult", "assemble"]
+__all__ = ["AssemblyResult", "assemble", "newton"]
 
 ASSEMBLY_TOLERANCE = 1e-10  # [m or rad] a global solve stops once the loops close this well
 RESTART_SCALES = (0.0, 0.3, 0.3, 1.0, 1.0, 2.0)  # [rad or m] the restarts' random step sizes
@@ -87,7 +87,7 @@ def assemble(
     """
     q0 = np.asarray(q0, dtype=float)
     held = np.asarray(held, dtype=int)
-    q, gap, evaluations = _newton(model, residual, jacobian, q0, held, tolerance)
+    q, gap, evaluations = newton(model, residual, jacobian, q0, held, tolerance)
     best = AssemblyResult(q, gap, 1, evaluations)
     stages = [held] + ([np.zeros(0, dtype=int)] if free_fallback and held.size else [])
     for fixed in stages:
@@ -101,12 +101,15 @@ def assemble(
     return best
 
 
-def _newton(
+def newton(
     model, residual, jacobian, q: np.ndarray, held: np.ndarray, tolerance: float, steps: int = _NEWTON_STEPS
 ):
-    """Newton from q over the coordinates not held, minimum-norm steps capped at 0.5 (rad or m)
-    so that a far start does not jump to another assembly mode: (q, gap, evaluations) of the
-    smallest gap met."""
+    """Newton from q over the coordinates not held, minimum-norm steps (LAPACK's least squares at
+    numeric rank, so idle motions stay where they are) capped at 0.5 (rad or m) so that a far start
+    does not jump to another assembly mode: (q, gap, evaluations) of the smallest gap met.
+
+    Once a robot is built and its mobility classified, the compiled core's Newton assembles it
+    (``ClosedChainRobot.configuration``); this one closes the loops while it is being built."""
     free = np.setdiff1d(np.arange(model.nv), held)
     best_q, best_gap = q, _gap(residual(q))
     for k in range(steps):
@@ -168,7 +171,7 @@ def _global(model, residual, jacobian, q0: np.ndarray, held: np.ndarray, toleran
             )  # fmt: skip
             evaluations += int(solution.nfev)
             q = step(solution.x)
-            q, gap, count = _newton(model, residual, jacobian, q, held, tolerance, _POLISH_STEPS)
+            q, gap, count = newton(model, residual, jacobian, q, held, tolerance, _POLISH_STEPS)
             evaluations += count
             if gap < best_gap:
                 best_q, best_gap = q, gap

@@ -80,6 +80,8 @@ _WORLD = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _RANK_TOLERANCE = 1e-9  # singular values below this fraction of the largest count as zero
 CLOSURE_TOLERANCE = 1e-6  # [m or rad] the largest gap accepted in a file's loops (CAD rounding)
 _EXACT_GAP = 1e-12  # [m or rad] the loops count as closed exactly (Newton's tolerance)
+_NEWTON_TOL = _EXACT_GAP  # [m or rad] configuration's default tolerance
+_NEWTON_STEPS = 60  # configuration's default Newton steps
 # an idle spin may move a joint centre by this fraction of what the independent joints move the
 # centres (a spin axis missing the joint centres by CAD offsets); more is a missing actuator
 _IDLE_CENTRE_FRACTION = 1e-2
@@ -508,7 +510,7 @@ class ClosedChainRobot:
         self.home = q0[self.actuated_q_indices].copy()
         self._last_q = q0.copy()
         try:
-            self.reference_configuration = self.configuration(self.home, initial_guess=q0)
+            self.reference_configuration = self._close_while_building(q0)
         except AssemblyError:
             # a wrong actuator count is the likelier cause; the rank at a generic (perturbed)
             # configuration is the mechanism's, whatever singular pose q0 may be in
@@ -594,10 +596,37 @@ class ClosedChainRobot:
         return result.q
 
     def _closes_exactly(self, q: np.ndarray) -> bool:
-        """Whether Newton at q's actuated coordinates closes the loops to ``_EXACT_GAP``."""
-        alpha = q[self.actuated_q_indices]
-        self.idle_dof = None  # the pseudo-inverse by numeric rank while not classified
-        return self._newton(q.copy(), alpha, _EXACT_GAP, 20)[0] is not None
+        """Whether Newton with the independent joints held at q closes the loops to ``_EXACT_GAP``."""
+        from delta_pin.model.assembly import newton
+
+        held = self.independent_indices
+        gap = newton(
+            self.model, self.closure_residual, self.closure_jacobian, q.copy(), held, _EXACT_GAP, 20
+        )[1]
+        return gap <= _EXACT_GAP
+
+    def _close_while_building(self, q0: np.ndarray) -> np.ndarray:
+        """The reference configuration: Newton from the assembled ``q0`` with the independent
+        joints held (the mobility is not classified yet, so not the core's Newton, which takes
+        the idle motions' count).
+
+        Raises:
+            AssemblyError: the loops do not close to 1e-12 in 60 steps; names the worst closure.
+        """
+        from delta_pin.model.assembly import newton
+
+        held, tol = self.independent_indices, _NEWTON_TOL
+        q, gap, _ = newton(
+            self.model, self.closure_residual, self.closure_jacobian, q0.copy(), held, tol, _NEWTON_STEPS
+        )
+        if gap <= _NEWTON_TOL:
+            return q
+        raise AssemblyError(
+            f"{self._label}the loops do not close at alpha={np.round(self.home, 6).tolist()}: closure "
+            f"{self._worst_closure(self.closure_residual(q))} is still {gap:.3e} (m or rad) apart after "
+            f"{_NEWTON_STEPS} Newton steps; start nearer (initial_guess=) or choose reachable actuated "
+            "coordinates"
+        )
 
     def _reanchor(self, q: np.ndarray) -> None:
         """Move each closure's second frame onto its first at q (the file's rounding), so that the
@@ -791,60 +820,66 @@ class ClosedChainRobot:
         alpha: np.ndarray,
         *,
         initial_guess: np.ndarray | None = None,
-        tol: float = 1e-12,
-        max_iterations: int = 60,
+        tol: float = _NEWTON_TOL,
+        max_iterations: int = _NEWTON_STEPS,
     ) -> np.ndarray:
         """A closure-consistent configuration q (nq,) with the actuated joints at ``alpha`` [rad or m].
 
-        Newton (least squares) on the closure residual over the passive coordinates, started
-        from ``initial_guess``, else from the last configuration assembled (the assembly mode
-        the robot is in), else from the reference configuration. Steps are limited to 0.5 (rad
-        or m) so that a far start does not jump to another assembly mode.
+        The compiled core's Newton (``ClosedChainModel.configuration``; least squares on the
+        closure residual over the dependent coordinates, minimum-norm where idle motions leave a
+        null space), started from ``initial_guess``, else from the last configuration assembled
+        (the assembly mode the robot is in), else from the reference configuration. Steps are
+        limited to 0.5 (rad or m) so that a far start does not jump to another assembly mode.
+        Its readable twin is ``tests/reference/assembly.py``.
 
         Raises:
             AssemblyError: the loops do not close to ``tol``; names the worst closure.
         """
         alpha = self._joint_vector(alpha, "alpha")
+        if not (isinstance(tol, int | float) and 0.0 < tol < math.inf):
+            raise InvalidParameterError(
+                f"{self._label}tol={tol!r} must be a finite number > 0 [m or rad], e.g. 1e-12"
+            )
+        if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
+            raise InvalidParameterError(
+                f"{self._label}max_iterations={max_iterations!r} must be an integer >= 1"
+            )
+        core = self._assembling_core()
         starts = [self._last_q] if initial_guess is None else [initial_guess]
         if initial_guess is None and hasattr(self, "reference_configuration"):
             starts.append(self.reference_configuration)  # the last one may be far (a diverged run)
         for start in starts:
-            q, residual = self._newton(np.array(start, dtype=float), alpha, tol, max_iterations)
-            if q is not None:
+            start = np.asarray(start, dtype=float)
+            if start.shape != (self.model.nq,):
+                raise InvalidParameterError(
+                    f"{self._label}initial_guess has shape {start.shape}, expected ({self.model.nq},)"
+                )
+            closed, q = core.configuration(alpha, start, float(tol), int(max_iterations))
+            if closed:
                 self._last_q = q.copy()
                 return q
-        worst = self._worst_closure(residual)
+        residual = self.closure_residual(q) if np.isfinite(q).all() else None
+        gap = "non-finite" if residual is None else f"{np.abs(residual).max():.3e} (m or rad) apart"
         raise AssemblyError(
-            f"{self._label}the loops do not close at alpha={np.round(alpha, 6).tolist()}: closure {worst} "
-            f"is still {np.abs(residual).max():.3e} (m or rad) apart after {max_iterations} Newton steps; "
+            f"{self._label}the loops do not close at alpha={np.round(alpha, 6).tolist()}: closure "
+            f"{self._worst_closure(residual)} is still {gap} after {max_iterations} Newton steps; "
             "start nearer (initial_guess=) or choose reachable actuated coordinates"
         )
 
-    def _newton(
-        self, q: np.ndarray, alpha: np.ndarray, tol: float, max_iterations: int
-    ) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """Newton on the closures from q with the actuated joints at alpha: (q, residual), q
-        ``None`` where it does not converge."""
-        q[self.actuated_q_indices] = alpha
-        model, data = self.model, self.data
-        residual = None
-        for _ in range(max_iterations):
-            pin.framesForwardKinematics(model, data, q)
-            residual = self._residual(q)
-            if np.abs(residual).max() <= tol:
-                return q, residual
-            J = self.closure_jacobian(q, kinematics_done=True)[:, self.dependent_indices]
-            # with idle motions J has a null space: the minimum-norm step leaves them where they are
-            step = least_squares(J, residual) if self.idle_dof == 0 else self._pseudo_inverse(J)[0] @ residual
-            largest = np.abs(step).max(initial=0.0)
-            if largest > 0.5:
-                step *= 0.5 / largest
-            dv = np.zeros(model.nv)
-            dv[self.dependent_indices] = -step
-            q = pin.integrate(model, q, dv)
-            if not np.isfinite(q).all():
-                break
-        return None, residual
+    def _assembling_core(self):
+        """The compiled model that assembles this robot.
+
+        Raises:
+            InvalidParameterError: the core refuses this model (why, in its words).
+        """
+        core = self.compiled_model
+        if core is None:
+            from delta_pin.model.core_model import core_refusal
+
+            raise InvalidParameterError(
+                f"{self._label}the compiled core cannot take this model: {core_refusal(self)}"
+            )
+        return core
 
     def actuation_conditioning(self, alpha: np.ndarray, start: np.ndarray | None = None) -> float:
         """cond(J_p) (J_p restricted to its rank) at the configuration of least closure residual

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["core_chain", "core_friction", "core_model", "model_spec"]
+__all__ = ["core_chain", "core_friction", "core_model", "core_refusal", "model_spec"]
 
 
 def _placements(placements) -> np.ndarray:
@@ -99,7 +99,8 @@ def core_chain(robot):
 
 
 def core_model(robot):
-    """The core's ``ClosedChainModel`` of ``robot``, or ``None`` for a model it refuses.
+    """The core's ``ClosedChainModel`` of ``robot``, or ``None`` for a model it refuses
+    (:func:`core_refusal` says why).
 
     Raises:
         NativeUnavailableError: the core cannot be imported here.
@@ -111,6 +112,21 @@ def core_model(robot):
         return module.ClosedChainModel(core_chain(robot))
     except (ValueError, RuntimeError):
         return None
+
+
+def core_refusal(robot) -> str:
+    """Why the core refuses ``robot``'s model, in its one line (``""`` where it takes it).
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    from delta_pin.compiled.core import core
+
+    try:
+        core().ClosedChainModel(core_chain(robot))
+    except (ValueError, RuntimeError) as exc:
+        return str(exc)
+    return ""
 
 
 def core_friction(stribeck, sign_velocity_scale: float, normal_force):

@@ -1,0 +1,99 @@
+"""``ClosedChainRobot.configuration`` is the compiled core's Newton; its readable twin
+(``tests/reference/assembly.py``) is the oracle, on models it was not built around: Gepetto's
+and MuJoCo Menagerie's files as shipped (idle motions, ball joints, passive joints) and the
+paper's Delta.
+
+Tolerance: both Newtons stop at a closure gap of 1e-12 (m or rad) from the same start with the
+same capped steps; where idle motions leave a null space each takes the minimum-norm step, so the
+two configurations may differ along those motions by what the last steps leave, far below 1e-9."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import delta_pin as dp
+from delta_pin.errors import AssemblyError
+from tests.model.corpus_models import corpus_model
+from tests.reference.assembly import newton_configuration
+
+AGREE = 1e-9  # [rad or m] the module docstring's bound
+
+MODELS = [
+    "gepetto/5bar_linkage",  # an idle motion
+    "gepetto/robot_delta",  # three idle spins
+    "gepetto/cassie_like",  # two idle motions, 6D closures
+    "gepetto/battobot_6d",  # ball joints (quaternions), 12 motors
+    "menagerie/robotiq_2f85",  # two named passive joints, MJCF
+]
+
+
+def _robot(model_id: str) -> dp.ClosedChainRobot:
+    model = corpus_model(model_id)
+    if model.file.suffix == ".xml":
+        pytest.importorskip("mujoco")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the warnings a file earns are test_corpus's business
+        return dp.load_robot(model.file, **model.kwargs)
+
+
+def _robots():
+    yield "paper Delta", dp.load_delta
+    for model_id in MODELS:
+        yield model_id, lambda model_id=model_id: _robot(model_id)
+
+
+@pytest.mark.parametrize(("name", "load"), list(_robots()), ids=[n for n, _ in _robots()])
+def test_the_core_assembles_as_its_readable_twin(name, load):
+    robot = load()
+    rng = np.random.default_rng(7)
+    q_home = robot.reference_configuration
+    closed = 0
+    for _ in range(5):
+        alpha = robot.home + rng.uniform(-0.05, 0.05, robot.dof)
+        # a start off the loops: every coordinate moved by up to 0.05 (rad or m)
+        start = pin.integrate(robot.model, q_home, rng.uniform(-0.05, 0.05, robot.model.nv))
+        expected, _, _ = newton_configuration(robot, alpha, start)
+        try:
+            q = robot.configuration(alpha, initial_guess=start)
+        except AssemblyError:
+            assert expected is None, "the readable Newton closes where the core's does not"
+            continue
+        assert expected is not None, "the core's Newton closes where the readable one does not"
+        closed += 1
+        assert robot.closure_gap(q) <= 1e-12
+        np.testing.assert_allclose(q[robot.actuated_q_indices], alpha, atol=0.0)
+        assert np.abs(pin.difference(robot.model, expected, q)).max() < AGREE
+    assert closed >= 4, f"{name}: only {closed} of 5 small moves assembled"
+
+
+def test_a_failed_assembly_names_its_worst_closure_as_the_twin_finds_it():
+    robot = _robot("gepetto/5bar_linkage")
+    alpha = robot.home + np.array([1.5, -1.5])  # the cranks turned apart by 3 rad: the loop cannot close
+    q, residual, _ = newton_configuration(robot, alpha, robot.reference_configuration)
+    assert q is None and np.abs(residual).max() > 0.1  # 0.31 m apart (measured)
+    with pytest.raises(
+        AssemblyError, match=r"the loops do not close at alpha=\[1\.5, -1\.5\]: closure '\w+'.* is still "
+    ) as caught:
+        robot.configuration(alpha, initial_guess=robot.reference_configuration)
+    # the gap it reports is the one the readable Newton is left with, to 1 % (the same steps)
+    reported = float(str(caught.value).split("is still ")[1].split(" ")[0])
+    assert reported == pytest.approx(np.abs(residual).max(), rel=1e-2)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"tol": 0.0}, r"tol=0\.0 must be a finite number > 0"),
+        ({"tol": float("nan")}, r"tol=nan must be a finite number > 0"),
+        ({"max_iterations": 0}, r"max_iterations=0 must be an integer >= 1"),
+        ({"initial_guess": np.zeros(2)}, r"initial_guess has shape \(2,\), expected"),
+    ],
+)
+def test_bad_newton_options_are_one_line(options, message):
+    robot = dp.load_delta()
+    with pytest.raises(dp.InvalidParameterError, match=message):
+        robot.configuration(robot.home, **options)
