@@ -20,7 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
-from delta_pin.errors import ForwardKinematicsError, InvalidParameterError
+from delta_pin.errors import AssemblyError, ForwardKinematicsError, InvalidParameterError
 from delta_pin.model.core_model import core_chain, core_friction
 from delta_pin.model.delta_robot import analytic_delta
 from delta_pin.model.dynamics import analytic_dynamics
@@ -249,8 +249,8 @@ class ClosedChainNominalModel(NominalModel):
         self.robot = robot.with_payload(mass, payload_frame) if mass > 0.0 else robot
         self.payload_mass = mass
         self.dof = robot.dof
-        # the compiled projection, where it applies: it carries no joint springs or dampers yet
-        self._core = None if self.robot.joint_springs else self.robot.compiled_model
+        # the compiled projection (joint springs and dampers included), None where the core refuses the model
+        self._core = self.robot.compiled_model
         self._last_q = self.robot.reference_configuration.copy()
         self._disturbance = (
             np.zeros(self.dof)
@@ -273,18 +273,16 @@ class ClosedChainNominalModel(NominalModel):
             self.normal_force = np.full(self.dof, float(self.friction_model.normal_force))
 
     def terms(self, q, q_dot):
-        """M, C, G of the projected dynamics at the actuated coordinates: from the compiled core
-        where it takes the robot (:mod:`delta_pin.model.core_model`; assembly warm-started from the
-        previous call), else from ``robot.reduced_terms`` (the reference, tested equal to ~1e-12)."""
-        if self._core is not None:
-            alpha = self.robot._joint_vector(q, "alpha")
-            q_dot = self.robot._joint_vector(q_dot, "alpha_dot")
-            closed, configuration = self._core.configuration(alpha, self._last_q)
-            if closed:
-                self._last_q = configuration
-                M, C, G, _ = self._core.reduced_terms(configuration, q_dot)
-                return M, C, G
-        M, C, G, _ = self.robot.reduced_terms(q, q_dot)  # names what does not close
+        """M, C, G of the projected dynamics at the actuated coordinates (``robot.reduced_terms``,
+        the compiled core's), assembled from this model's previous configuration, else from the
+        robot's own warm start (which names what does not close)."""
+        alpha = self.robot._joint_vector(q, "alpha")
+        try:
+            configuration = self.robot.configuration(alpha, initial_guess=self._last_q)
+        except AssemblyError:
+            configuration = self.robot.configuration(alpha)
+        self._last_q = configuration
+        M, C, G, _ = self.robot.reduced_terms(alpha, q_dot, configuration)
         return M, C, G
 
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):

@@ -217,9 +217,6 @@ class ClosedChainRegressor:
         self.names = tuple(names)
         self.units = tuple(units)
         self._last_q = robot.reference_configuration.copy()
-        # q(alpha) and S in the compiled core where it takes the robot (the same Newton and null
-        # space as the robot's methods, delta_pin.model.core_model), else the robot's own
-        self._core = robot.compiled_model
 
     @property
     def size(self) -> int:
@@ -247,14 +244,10 @@ class ClosedChainRegressor:
         """(q, v, a, S) of one state: the assembled configuration q(alpha) (``q`` where known, else
         warm-started from the previous call), v = S alpha_dot, a = S alpha_ddot + S_dot alpha_dot [SI]."""
         robot = self.robot
-        core = self._core
-        if q is None and core is not None:
-            closed, q_core = core.configuration(alpha, self._last_q)
-            q = q_core if closed else None
-        if q is None:  # the robot's own Newton names the closure that does not close
+        if q is None:  # the core's Newton; where it does not close, the error names the worst closure
             q = robot.configuration(alpha, initial_guess=self._last_q)
         self._last_q = q
-        S = robot.velocity_map(q) if core is None else core.velocity_map(q)
+        S = robot.velocity_map(q)
         J = robot.closure_jacobian(q)
         v = S @ alpha_dot
         drift = np.zeros(

@@ -828,8 +828,7 @@ def identified_robot(result: IdentificationResult, estimate: str = "consistent")
         inertia = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
         robot.model.inertias[int(k) + 1] = inertia
         robot.tree.inertias[int(k) + 1] = inertia
-    robot.data = robot.model.createData()
-    robot.__dict__.pop("_core", None)  # a compiled model built before holds the old inertias
+    robot.model_changed()  # a compiled model built before holds the old inertias
     return robot
 
 
@@ -849,8 +848,7 @@ def perturbed_robot(robot, spread: float = 0.3, seed: int = 0):
             )
             true.model.inertias[j] = scaled
             true.tree.inertias[j] = scaled
-    true.data = true.model.createData()
-    true.__dict__.pop("_core", None)  # a compiled model built before holds the old inertias
+    true.model_changed()  # a compiled model built before holds the old inertias
     return true
 
 

@@ -858,11 +858,15 @@ class ClosedChainRobot:
             if closed:
                 self._last_q = q.copy()
                 return q
+        raise self._not_closed(alpha, q, max_iterations)
+
+    def _not_closed(self, alpha: np.ndarray, q: np.ndarray, iterations: int) -> AssemblyError:
+        """The error of a Newton that ended at q without closing the loops: its worst closure."""
         residual = self.closure_residual(q) if np.isfinite(q).all() else None
         gap = "non-finite" if residual is None else f"{np.abs(residual).max():.3e} (m or rad) apart"
-        raise AssemblyError(
+        return AssemblyError(
             f"{self._label}the loops do not close at alpha={np.round(alpha, 6).tolist()}: closure "
-            f"{self._worst_closure(residual)} is still {gap} after {max_iterations} Newton steps; "
+            f"{self._worst_closure(residual)} is still {gap} after {iterations} Newton steps; "
             "start nearer (initial_guess=) or choose reachable actuated coordinates"
         )
 
@@ -1130,10 +1134,20 @@ class ClosedChainRobot:
         return kinds[name]
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
-        """S = dq/dalpha (nv, dof): v = S alpha_dot satisfies the closures' velocity constraint
-        (named passive joints at rest; with idle motions, the one of least kinetic energy:
-        module docstring, "Mobility")."""
-        return self._velocity_map(self.closure_jacobian(q), q)[:, : self.dof]
+        """S = dq/dalpha (nv, dof) at a closed q: v = S alpha_dot satisfies the closures' velocity
+        constraint (named passive joints at rest; with idle motions, the one of least kinetic
+        energy: module docstring, "Mobility"). The compiled core's (its readable twin:
+        ``tests/reference/projection.py``)."""
+        return self._assembling_core().velocity_map(self._configuration_vector(q))
+
+    def _configuration_vector(self, q) -> np.ndarray:
+        value = np.asarray(q, dtype=float)
+        if value.shape != (self.model.nq,) or not np.isfinite(value).all():
+            raise InvalidParameterError(
+                f"{self._label}q has shape {value.shape} or a non-finite entry; expected {self.model.nq} "
+                "finite numbers (a configuration)"
+            )
+        return value
 
     def _velocity_map(self, J: np.ndarray, q: np.ndarray) -> np.ndarray:
         """S (nv, independent coordinates) from J_c at q."""
@@ -1154,15 +1168,18 @@ class ClosedChainRobot:
     def project_state(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The nearest closure-consistent (q, v) keeping the actuated and passive joints' values
         and the idle motions' state: Newton from q over the dependent coordinates (minimum-norm
-        steps), then v's dependent part corrected by the minimum-norm velocity that closes the loops."""
-        q = np.array(q, dtype=float)
-        v = np.array(v, dtype=float)
-        q = self.configuration(q[self.actuated_q_indices], initial_guess=q)
-        J = self.closure_jacobian(q)
-        A = J[:, self.dependent_indices]
-        A_pinv = least_squares if self.idle_dof == 0 else (lambda A, b: self._pseudo_inverse(A)[0] @ b)
-        v[self.dependent_indices] -= A_pinv(A, J @ v)
-        return q, v
+        steps), then v's dependent part corrected by the minimum-norm velocity that closes the
+        loops. The compiled core's (its readable twin: ``tests/reference/projection.py``).
+
+        Raises:
+            AssemblyError: the loops do not close at q's actuated coordinates; names the worst closure.
+        """
+        q = self._configuration_vector(q)
+        v = np.asarray(v, dtype=float)
+        closed, q_out, v_out = self._assembling_core().project_state(q, v)
+        if not closed:
+            raise self._not_closed(q[self.actuated_q_indices], q_out, _NEWTON_STEPS)
+        return q_out, v_out
 
     def state(self, alpha: np.ndarray, alpha_dot: np.ndarray, **options) -> tuple[np.ndarray, np.ndarray]:
         """Closure-consistent (q, v) for actuated positions and velocities; ``options`` as
@@ -1207,7 +1224,8 @@ class ClosedChainRobot:
         """This robot in the compiled core (``ClosedChainModel``,
         :func:`~delta_pin.model.core_model.core_model`): built once per end effector and shared by
         everything that assembles, projects or differentiates this robot (its plant, nominal
-        model, frame paths, regressor, validation); ``None`` for a model the core refuses.
+        model, frame paths, regressor, validation); ``None`` for a model the core refuses. It
+        holds a copy of ``model``: after changing that in place, call :meth:`model_changed`.
 
         Raises:
             NativeUnavailableError: the core cannot be imported here.
@@ -1218,6 +1236,13 @@ class ClosedChainRobot:
 
             cached = self._core = (self.end_effector, core_model(self))
         return cached[1]
+
+    def model_changed(self) -> None:
+        """Say that ``model`` was changed in place (its gravity, inertias or armature): the compiled
+        model, built from it at first use, is rebuilt at the next, and ``data`` is made afresh.
+        (Changing a Pinocchio model's inertias in place is what identification does.)"""
+        self.data = self.model.createData()
+        self.__dict__.pop("_core", None)
 
     def _core_forward_kinematics(self, core, alpha: np.ndarray) -> np.ndarray:
         """The end effector's positions (N, 3) at the rows of alpha (N, dof), each assembled by
@@ -1237,34 +1262,20 @@ class ClosedChainRobot:
         return out
 
     def frame_jacobian(self, q: np.ndarray, frame: str | int | None = None) -> np.ndarray:
-        """Closed-loop Jacobian (6, dof) of a frame: its [linear; angular] velocity
-        (LOCAL_WORLD_ALIGNED) per actuated velocity, J_frame S."""
-        fid = self._frame(frame)
-        S = self.velocity_map(q)
-        if self.idle_dof:  # the kinetic metric's CRBA came after the joint Jacobians
-            pin.computeJointJacobians(self.model, self.data, q)
-            pin.updateFramePlacements(self.model, self.data)
-        return pin.getFrameJacobian(self.model, self.data, fid, _WORLD) @ S
+        """Closed-loop Jacobian (6, dof) of a frame at a closed q: its [linear; angular] velocity
+        (LOCAL_WORLD_ALIGNED) per actuated velocity, J_frame S. The compiled core's."""
+        return self._assembling_core().frame_jacobian(self._configuration_vector(q), self._frame(frame))
 
     def frame_acceleration_drift(
         self, q: np.ndarray, alpha_dot: np.ndarray, frame: str | int | None = None
     ) -> np.ndarray:
         """The frame's classical linear acceleration (3,) [m/s^2] at zero actuated acceleration:
-        x_ddot = J_x alpha_ddot + this (the J_dot alpha_dot of a task-space reference)."""
-        fid = self._frame(frame)
+        x_ddot = J_x alpha_ddot + this (the J_dot alpha_dot of a task-space reference). The
+        compiled core's."""
         alpha_dot = self._joint_vector(alpha_dot, "alpha_dot")
-        if self.idle_dof:
-            projection = self._idle_projection(q, alpha_dot)
-            v, rate = projection["v"], projection["S_dot"] @ alpha_dot
-        else:
-            J = self.closure_jacobian(q)
-            v = self._velocity_map(J, q)[:, : self.dof] @ alpha_dot
-            rate = np.zeros(self.model.nv)  # S_dot alpha_dot
-            rate[self.dependent_indices] = -least_squares(
-                J[:, self.dependent_indices], self.closure_drift(q, v)
-            )
-        pin.forwardKinematics(self.model, self.data, q, v, rate)
-        return pin.getFrameClassicalAcceleration(self.model, self.data, fid, _WORLD).linear.copy()
+        return self._assembling_core().frame_acceleration_drift(
+            self._configuration_vector(q), alpha_dot, self._frame(frame)
+        )
 
     def inverse_kinematics(
         self,
@@ -1336,43 +1347,16 @@ class ClosedChainRobot:
         """(M, C, G, C alpha_dot) on the actuated joints by projection (module docstring):
         inertia (dof, dof), Coriolis matrix (dof, dof), gravity (dof,), Coriolis torque (dof,).
         The file's joint springs are in G (with gravity) and its dampers in C
-        (:meth:`joint_spring_forces`), as the plant applies them.
+        (:meth:`joint_spring_forces`), as the plant applies them. The compiled core's (its
+        readable twin: ``tests/reference/projection.py``).
 
         Args:
             q: the closure-consistent configuration of ``alpha`` if already known.
         """
         alpha_dot = self._joint_vector(alpha_dot, "alpha_dot")
         self.require_full_actuation()
-        q = self.configuration(alpha) if q is None else q
-        if self.idle_dof:
-            p = self._idle_projection(q, alpha_dot)
-            S, S_dot, M, C_tree, v = p["S"], p["S_dot"], p["M"], p["C_tree"], p["v"]
-            rate = S_dot @ alpha_dot
-        else:
-            pin.framesForwardKinematics(self.model, self.data, q)
-            J = self.closure_jacobian(q, kinematics_done=True)
-            S = self._velocity_map(J, q)
-            v = S @ alpha_dot
-            passive = J[:, self.dependent_indices]
-            S_dot = np.zeros_like(S)
-            S_dot[self.dependent_indices] = -least_squares(
-                passive, self.closure_jacobian_derivative(q, v) @ S
-            )
-            M = self.mass_matrix(q)
-            C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
-            rate = np.zeros(self.model.nv)  # S_dot alpha_dot, from the drift (exact classical accelerations)
-            rate[self.dependent_indices] = -least_squares(passive, self.closure_drift(q, v))
-        gravity = pin.computeGeneralizedGravity(self.model, self.data, q).copy()
-        nle = pin.nonLinearEffects(self.model, self.data, q, v)
-        M_red = S.T @ M @ S
-        C = S.T @ C_tree @ S + S.T @ M @ S_dot
-        coriolis = S.T @ (nle - gravity) + S.T @ (M @ rate)
-        if self.joint_springs:  # the file's springs and dampers, as the plant applies them
-            stiffness, damping = self.joint_spring_forces(q)
-            gravity = gravity + stiffness
-            damped = S.T @ damping @ S
-            C, coriolis = C + damped, coriolis + damped @ alpha_dot
-        return 0.5 * (M_red + M_red.T), C, S.T @ gravity, coriolis
+        q = self.configuration(alpha) if q is None else self._configuration_vector(q)
+        return self._assembling_core().reduced_terms(q, alpha_dot)
 
     def joint_spring_forces(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The joint springs and dampers (``joint_springs``) as generalized forces the model must
@@ -1417,46 +1401,6 @@ class ClosedChainRobot:
                 "for a controller (underactuated); simulate it with a plant and torques of your own, or "
                 "name those joints actuated"
             )
-
-    def _idle_projection(self, q: np.ndarray, alpha_dot: np.ndarray) -> dict:
-        """S, its time derivative S_dot along v = S alpha_dot, M, C_tree(q, v) and v for a robot
-        with idle motions (module docstring, "Mobility"): S = P S0 with S0 the minimum-norm map,
-        N the idle basis and P = I - N (N^T M N)^-1 N^T M, differentiated in closed form
-        (d(A^+) of the pseudo-inverse, N_dot = -A^+ A_dot N, M_dot = C_tree + C_tree^T)."""
-        nv, dependent, independent = self.model.nv, self.dependent_indices, self.independent_indices
-        J = self.closure_jacobian(q)
-        A, B = J[:, dependent], J[:, independent]
-        A_pinv, N_dependent = self._pseudo_inverse(A)
-        M = self.mass_matrix(q)
-        S0 = np.zeros((nv, len(independent)))
-        S0[independent] = np.eye(len(independent))
-        S0[dependent] = -A_pinv @ B
-        N = np.zeros((nv, self.idle_dof))
-        N[dependent] = N_dependent
-        W = N.T @ M @ N
-        K = np.linalg.solve(W, N.T @ M)
-        P = np.eye(nv) - N @ K
-        S = (P @ S0)[:, : self.dof]
-        v = S @ alpha_dot
-        J_dot = self.closure_jacobian_derivative(q, v)
-        A_dot, B_dot = J_dot[:, dependent], J_dot[:, independent]
-        rows, columns = A.shape
-        pinv_dot = (
-            -A_pinv @ A_dot @ A_pinv
-            + A_pinv @ A_pinv.T @ A_dot.T @ (np.eye(rows) - A @ A_pinv)
-            + (np.eye(columns) - A_pinv @ A) @ A_dot.T @ A_pinv.T @ A_pinv
-        )
-        S0_dot = np.zeros_like(S0)
-        S0_dot[dependent] = -(pinv_dot @ B + A_pinv @ B_dot)
-        N_dot = np.zeros_like(N)
-        N_dot[dependent] = -A_pinv @ A_dot @ N_dependent
-        C_tree = pin.computeCoriolisMatrix(self.model, self.data, q, v).copy()
-        M_dot = C_tree + C_tree.T
-        W_dot = N_dot.T @ M @ N + N.T @ M_dot @ N + N.T @ M @ N_dot
-        K_dot = np.linalg.solve(W, N_dot.T @ M + N.T @ M_dot - W_dot @ K)
-        P_dot = -(N_dot @ K + N @ K_dot)
-        S_dot = (P_dot @ S0 + P @ S0_dot)[:, : self.dof]
-        return {"S": S, "S_dot": S_dot, "M": M, "C_tree": C_tree, "v": v}
 
     def reduced_dynamics(
         self, alpha: np.ndarray, alpha_dot: np.ndarray, q: np.ndarray | None = None

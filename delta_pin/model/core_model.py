@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["core_chain", "core_friction", "core_model", "core_refusal", "model_spec"]
+__all__ = ["core_chain", "core_friction", "core_model", "core_refusal", "core_springs", "model_spec"]
 
 
 def _placements(placements) -> np.ndarray:
@@ -72,10 +72,40 @@ def model_spec(model):
     return spec
 
 
-def core_chain(robot):
+def core_springs(robot, damping: bool = True):
+    """The core's ``JointSprings`` of ``robot.joint_springs``: springs (and their dampers) on
+    1-DOF joints, dampers alone on the others' every entry of v (``damping=False``: the dampers'
+    coefficients 0, the springs kept).
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    from delta_pin.compiled.core import core
+
+    model = robot.model
+    springs = [(model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
+    one = [spring for spring in springs if model.nvs[spring[0]] == 1]
+    many = [(j, d) for j, _, _, d in springs if model.nvs[j] != 1]
+    out = core().JointSprings()
+    out.q_index = np.array([model.idx_qs[j] for j, *_ in one], dtype=np.int32)
+    out.v_index = np.array([model.idx_vs[j] for j, *_ in one], dtype=np.int32)
+    out.k = np.array([k for _, k, _, _ in one], dtype=float)
+    out.ref = np.array([r for _, _, r, _ in one], dtype=float)
+    out.d = np.array([d if damping else 0.0 for *_, d in one], dtype=float)
+    out.damper_v = np.array(
+        [model.idx_vs[j] + k for j, _ in many for k in range(model.nvs[j])], dtype=np.int32
+    )
+    out.damper_d = np.array(
+        [d if damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
+    )
+    return out
+
+
+def core_chain(robot, springs=None):
     """The core's ``ChainDescription`` of ``robot`` (closed_chain.hpp): its model (:func:`model_spec`), the
     closure frames, the joint couplings, the actuated joints' entries in q and v, the dependent
-    joints' entries in v, the number of idle motions and the end-effector frame.
+    joints' entries in v, the number of idle motions, the end-effector frame and the joint springs
+    (``springs``: a ``JointSprings``; default :func:`core_springs` of the robot).
 
     Raises:
         NativeUnavailableError: the core cannot be imported here.
@@ -95,6 +125,7 @@ def core_chain(robot):
         np.asarray(robot.dependent_indices, dtype=np.int32),
         int(robot.idle_dof),
         int(robot.end_effector),
+        core_springs(robot) if springs is None else springs,
     )
 
 

@@ -228,23 +228,15 @@ def validate(robot: Delta, samples: int = 100, seed: int = 0, tol: float = 1e-10
     )
 
     # Pinocchio side: the closed-chain robot of the same URDF (the one robot model), state by
-    # state: the closure gap at the analytic configuration, then the projection at the assembly
-    # Newton reaches from there -- in the compiled core where it is available (the same
-    # arithmetic as the robot's Python methods, which tests/sim/test_core_plant.py holds it to)
+    # state: the closure gap at the analytic configuration, then the projection (the compiled
+    # core's) at the assembly Newton reaches from there
     closed = robot.pinocchio
-    core = closed.compiled_model
     M_list, G_list, coriolis_list, gap_list = [], [], [], []
     starts = robot.closed_form_configurations(closed.model, closed.closures, alpha, xyz)
     for a, d, q in zip(alpha, alpha_dot, starts):
-        if core is not None:
-            gap_list.append(core.closure_gap(q))
-            closed_q = q if gap_list[-1] <= 1e-13 else core.configuration(a, q, 1e-13)[1]
-            M, _, G, coriolis = core.reduced_terms(closed_q, d)
-        else:
-            gap_list.append(closed.closure_gap(q))
-            M, _, G, coriolis = closed.reduced_terms(
-                a, d, closed.configuration(a, initial_guess=q, tol=1e-13)
-            )
+        gap_list.append(closed.closure_gap(q))
+        closed_q = q if gap_list[-1] <= 1e-13 else closed.configuration(a, initial_guess=q, tol=1e-13)
+        M, _, G, coriolis = closed.reduced_terms(a, d, closed_q)
         M_list.append(M)
         G_list.append(G)
         coriolis_list.append(coriolis)

@@ -191,6 +191,7 @@ class ClosedChainPlant(Plant):
         self.largest_projected_gap = 0.0  # the largest gap a projection removed [m or rad]
         self._last_q = robot.reference_configuration.copy()
         # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v
+        self.joint_damping = bool(joint_damping)
         model = robot.model
         springs = [(model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
         one = [spring for spring in springs if model.nvs[spring[0]] == 1]
@@ -208,7 +209,6 @@ class ClosedChainPlant(Plant):
             [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
         )
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
-        self._core_chain = None  # the core's ClosedChainModel for completions (False: none here)
         self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
         self.stepped_in_core = False  # whether core_plant handed a loop a compiled copy
         self.metadata_extra = {
@@ -334,16 +334,8 @@ class ClosedChainPlant(Plant):
         """(q, v) on the loops for actuated positions and velocities, warm-started from the last
         completion (the active-coordinate state's full configuration); t [s] only names a failure.
 
-        In the compiled core where it takes the robot (the same Newton and null space as the
-        robot's Python methods, :mod:`delta_pin.model.core_model`); a completion the core does not
-        close is retried by the robot's own, which names the worst closure where it fails too."""
-        if self._core_chain is None:
-            self._core_chain = self.robot.compiled_model or False
-        if self._core_chain:
-            closed, q = self._core_chain.configuration(np.asarray(alpha, dtype=float), self._last_q)
-            if closed:
-                self._last_q = q
-                return q, self._core_chain.velocity_map(q) @ alpha_dot
+        The robot's (the compiled core's) Newton; where it does not close, the error names the
+        worst closure."""
         try:
             q = self.robot.configuration(alpha, initial_guess=self._last_q)
         except AssemblyError as exc:

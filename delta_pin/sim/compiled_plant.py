@@ -26,7 +26,7 @@ import pinocchio as pin
 
 from delta_pin.compiled.core import core
 from delta_pin.errors import SimulationError
-from delta_pin.model.core_model import core_chain, core_friction
+from delta_pin.model.core_model import core_chain, core_friction, core_springs
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = [
@@ -103,18 +103,14 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         for cm in plant.constraint_models
     ]
     settings = plant.settings
+    chain = core_chain(robot, core_springs(robot, damping=plant.joint_damping))
     try:
         compiled = module.ClosedChainPlant(
-            core_chain(robot), constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
+            chain, constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
             settings.max_iter, plant.projection_tolerance,
         )  # fmt: skip
     except (ValueError, RuntimeError):
         return None
-    as_indices = np.int32
-    compiled.set_springs(
-        plant._spring_q.astype(as_indices), plant._spring_v.astype(as_indices), plant._spring_k,
-        plant._spring_ref, plant._spring_d, plant._damper_v.astype(as_indices), plant._damper_d,
-    )  # fmt: skip
     if plant.friction is not None:
         compiled.set_friction(
             core_friction(plant.stribeck, plant.friction.sign_velocity_scale, plant._normal_force)

@@ -160,6 +160,7 @@ def test_validate_passes_on_the_five_bar_and_catches_a_wrong_model(five_bar):
     assert report.checks["plant"][0] < 1e-10
     # a plant whose gravity differs from the model's: the plant check must fail
     five_bar.model.gravity.linear = np.array([0.0, 0.0, -9.0])  # the robot's own model, not the plant's copy
+    five_bar.model_changed()  # its compiled copy (G) follows
     broken = validate_closed_chain(five_bar, samples=2, energy_duration=0.01)
     assert broken.checks["gravity"][0] < 1e-6  # G and V use the same (changed) model
     assert not broken.passed or broken.checks["plant"][0] < 1e-8

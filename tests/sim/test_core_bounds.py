@@ -53,11 +53,19 @@ NAN = float("nan")
 chain = core_chain(robot)
 
 
-def describe(closures=FRAMES, couplings=(), aq=AQ, av=AV, dv=DV, idle=0, ee=EE, spec=SPEC):
+def describe(closures=FRAMES, couplings=(), aq=AQ, av=AV, dv=DV, idle=0, ee=EE, spec=SPEC, springs=None):
     return m.ChainDescription(
         spec, list(closures), list(couplings), np.asarray(aq, np.int32), np.asarray(av, np.int32),
-        np.asarray(dv, np.int32), idle, ee,
+        np.asarray(dv, np.int32), idle, ee, m.JointSprings() if springs is None else springs,
     )
+
+
+def springs(q=(), v=(), k=(), ref=(), d=(), damper_v=(), damper_d=()):
+    out = m.JointSprings()
+    out.q_index, out.v_index = np.asarray(q, np.int32), np.asarray(v, np.int32)
+    out.k, out.ref, out.d = np.asarray(k, float), np.asarray(ref, float), np.asarray(d, float)
+    out.damper_v, out.damper_d = np.asarray(damper_v, np.int32), np.asarray(damper_d, float)
+    return out
 
 
 def use(description):  # a model of the description, then a call that reads its closures
@@ -256,21 +264,12 @@ case("constraint joint = njoints", "constraints", lambda: build(constraint(j2=NJ
 case("constraint joint -1", "constraints:TypeError", lambda: build(constraint(j1=-1)))
 case("constraint reference frame 7", "constraints", lambda: build(constraint(frame=7)))
 case("constraint reference frame -1", "constraints", lambda: build(constraint(frame=-1)))
-case("set_springs: q entry = nq", "q_index", lambda: plant.set_springs(
-    np.array([NQ], np.int32), np.array([0], np.int32), np.ones(1), np.zeros(1), np.zeros(1),
-    np.zeros(0, np.int32), np.zeros(0)))
-case("set_springs: v entry -1", "v_index", lambda: plant.set_springs(
-    np.array([0], np.int32), np.array([-1], np.int32), np.ones(1), np.zeros(1), np.zeros(1),
-    np.zeros(0, np.int32), np.zeros(0)))
-case("set_springs: 2 stiffnesses for 1 spring", "k", lambda: plant.set_springs(
-    np.array([0], np.int32), np.array([0], np.int32), np.ones(2), np.zeros(1), np.zeros(1),
-    np.zeros(0, np.int32), np.zeros(0)))
-case("set_springs: damper entry = nv", "damper_v", lambda: plant.set_springs(
-    np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros(0),
-    np.array([NV], np.int32), np.ones(1)))
-case("set_springs: 1 damping for 2 dampers", "damper_d", lambda: plant.set_springs(
-    np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros(0),
-    np.array([0, 1], np.int32), np.ones(1)))
+case("springs: q entry = nq", "q_index", lambda: use(describe(springs=springs([NQ], [0], [1.0], [0.0], [0.0]))))
+case("springs: v entry -1", "v_index", lambda: use(describe(springs=springs([0], [-1], [1.0], [0.0], [0.0]))))
+case("springs: 2 stiffnesses for 1 spring", "k", lambda: use(describe(springs=springs([0], [0], [1.0, 1.0], [0.0], [0.0]))))
+case("springs: damper entry = nv", "damper_v", lambda: use(describe(springs=springs(damper_v=[NV], damper_d=[1.0]))))
+case("springs: 1 damping for 2 dampers", "damper_d", lambda: use(describe(springs=springs(damper_v=[0, 1], damper_d=[1.0]))))
+case("springs: NaN stiffness", "finite", lambda: use(describe(springs=springs([0], [0], [NAN], [0.0], [0.0]))))
 case("set_truth: joint = njoints", "joint", lambda: plant.set_truth(NJ, np.zeros(3), 1e-3, np.zeros(0), np.zeros(1), np.zeros((0, DOF)), np.zeros((0, DOF))))
 case("set_truth: disturbance of 3 columns", "disturbances", lambda: plant.set_truth(1, np.zeros(3), 1e-3, np.zeros(0), np.zeros(1), np.zeros((0, DOF)), np.zeros((4, 3))))
 case("accelerations: empty q", "q", lambda: plant.accelerations(np.zeros(0), np.zeros(NV), tau, 0.0))

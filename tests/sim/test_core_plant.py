@@ -19,6 +19,7 @@ from delta_pin.errors import NativeUnavailableError, SimulationError
 from delta_pin.model.core_model import core_model
 from delta_pin.sim.compiled_plant import build_core_plant
 from delta_pin.sim.integrators import rk4_step
+from tests.reference import projection as readable
 from tests.reference.assembly import newton_configuration
 from tests.reference.python_loop import simulate_reference
 
@@ -48,8 +49,10 @@ def test_projected_terms_equal_the_python_projection(robot_name):
         closed, q = model.configuration(alpha, robot.reference_configuration)
         assert closed and _relative(q, q_python) < 1e-11
         assert model.closure_gap(q) <= 1e-12
-        assert _relative(model.velocity_map(q), robot.velocity_map(q)) < 1e-11
-        for got, expected in zip(model.reduced_terms(q, alpha_dot), robot.reduced_terms(alpha, alpha_dot, q)):
+        assert _relative(model.velocity_map(q), readable.velocity_map(robot, q)) < 1e-11
+        for got, expected in zip(
+            model.reduced_terms(q, alpha_dot), readable.reduced_terms(robot, q, alpha_dot)
+        ):
             assert _relative(got, expected) < 1e-11
             assert np.abs(expected).max() > 0.0  # a real term, not zeros on both sides
 
@@ -304,9 +307,9 @@ def test_computed_torque_and_pd_in_the_core_equal_their_readable_laws(kind):
 def test_active_coordinate_completions_and_end_effector_paths_in_the_core(robot_name):
     """The active-coordinate plant completes q(alpha), v = S alpha_dot in the core, and a robot's
     end-effector positions along many actuated states are assembled there: both equal the
-    robot's Python Newton and null space to 1e-11 (two Newton runs to the same 1e-12 closure
-    tolerance from the same start; the closure Jacobian's conditioning amplifies the rest)."""
-    robot, python = dp.load_robot(robot_name), dp.load_robot(robot_name)  # the core's, the reference
+    readable Newton and null space (tests/reference) to 1e-11 (two Newton runs to the same 1e-12
+    closure tolerance from the same start; the closure Jacobian's conditioning amplifies the rest)."""
+    robot = dp.load_robot(robot_name)
     rng = np.random.default_rng(5)
     alphas = robot.home + rng.uniform(-0.05, 0.05, (8, robot.dof))
     plant = dp.ClosedChainPlant(robot, coordinates="active")
@@ -314,10 +317,11 @@ def test_active_coordinate_completions_and_end_effector_paths_in_the_core(robot_
         alpha_dot = rng.normal(0.0, 0.5, robot.dof)
         start = plant._last_q.copy()
         q, v = plant.complete(alpha, alpha_dot, 0.0)
-        assert plant._core_chain  # the core took the completion
-        expected = python.configuration(alpha, initial_guess=start)
+        expected = newton_configuration(robot, alpha, start)[0]
         np.testing.assert_allclose(q, expected, rtol=0, atol=1e-11)
-        np.testing.assert_allclose(v, python.velocity_map(expected) @ alpha_dot, rtol=1e-9, atol=1e-11)
+        np.testing.assert_allclose(
+            v, readable.velocity_map(robot, expected) @ alpha_dot, rtol=1e-9, atol=1e-11
+        )
     frame = robot.end_effector_name
     reference = np.array([robot.frame_placement(robot.configuration(a), frame).translation for a in alphas])
     np.testing.assert_allclose(robot.forward_kinematics(alphas, frame), reference, rtol=0, atol=1e-11)

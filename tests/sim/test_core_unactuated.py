@@ -37,6 +37,7 @@ from delta_pin.model.core_model import core_model
 from delta_pin.sim.compiled_plant import build_core_plant
 from delta_pin.sim.integrators import rk4_step
 from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR
+from tests.reference import projection as readable
 from tests.reference.assembly import newton_configuration
 from tests.reference.python_loop import simulate_reference
 
@@ -111,17 +112,24 @@ def test_the_core_model_with_idle_motions_equals_the_python_projection(idle_robo
         q_python = newton_configuration(robot, alpha, robot.reference_configuration)[0]
         closed, q = model.configuration(alpha, robot.reference_configuration)
         assert closed and _relative(q, q_python) < bound
-        assert _relative(model.velocity_map(q), robot.velocity_map(q)) < bound
-        for got, expected in zip(model.reduced_terms(q, alpha_dot), robot.reduced_terms(alpha, alpha_dot, q)):
+        assert _relative(model.velocity_map(q), readable.velocity_map(robot, q)) < bound
+        for got, expected in zip(
+            model.reduced_terms(q, alpha_dot), readable.reduced_terms(robot, q, alpha_dot)
+        ):
             assert _relative(got, expected) < bound
             assert np.abs(expected).max() > 0.0  # a real term, not zeros on both sides
         drift = model.frame_acceleration_drift(q, alpha_dot, int(robot.end_effector))
-        assert _relative(drift, robot.frame_acceleration_drift(q, alpha_dot)) < bound
-        # a state off the loops, its idle rates moving: projected as the Python robot projects it
+        assert (
+            _relative(drift, readable.frame_acceleration_drift(robot, q, alpha_dot, robot.end_effector))
+            < bound
+        )
+        # a state off the loops, its idle rates moving: projected as the readable twin projects it
         q_off = q + rng.normal(scale=1e-4, size=q.shape)
-        v_off = robot.velocity_map(q) @ alpha_dot + robot.idle_motions(q) @ rng.normal(size=robot.idle_dof)
+        v_off = readable.velocity_map(robot, q) @ alpha_dot + robot.idle_motions(q) @ rng.normal(
+            size=robot.idle_dof
+        )
         closed, q_core, v_core = model.project_state(q_off, v_off)
-        q_ref, v_ref = robot.project_state(q_off, v_off)
+        q_ref, v_ref = readable.project_state(robot, q_off, v_off)
         assert closed and _relative(q_core, q_ref) < bound and _relative(v_core, v_ref) < bound
         assert np.abs(q_core[robot.actuated_q_indices] - q_off[robot.actuated_q_indices]).max() == 0.0
 

@@ -100,13 +100,25 @@ namespace delta_pin
     void polynomial(double q2_value, double & value, double & slope, double & curvature) const;
   };
 
+  // The robot's joint springs and dampers (ClosedChainRobot.joint_springs, MJCF stiffness and
+  // damping): on 1-DOF joints tau -= k (q - ref) + d v at entries q_index, v_index [N m/rad, rad,
+  // N m s/rad or N/m, m, N s/m]; dampers on the other joints' entries damper_v: tau -= damper_d v.
+  struct JointSprings
+  {
+    Indices q_index, v_index;
+    Vector k, ref, d;
+    Indices damper_v;
+    Vector damper_d;
+  };
+
   // What the core needs of a closed-chain robot (ClosedChainRobot, delta_pin/model/closed_chain.py;
   // delta_pin/model/core_model.py builds it): its Pinocchio model (model_spec.hpp, closure frames
   // included), the closures' frames, the actuated joints' entries in q and v, the dependent joints'
   // entries in v (neither actuated nor passive: the closures determine them up to the idle
   // motions), the number of idle motions (motions of the dependent joints that move no independent
   // joint, docs/architecture.md section 10) and the end-effector frame, and its joint couplings
-  // (rows after the closures'). Passive joints are the entries of v in neither list.
+  // (rows after the closures'), and its joint springs and dampers. Passive joints are the entries of
+  // v in neither list.
   struct ChainDescription
   {
     ModelSpec model;
@@ -115,6 +127,7 @@ namespace delta_pin
     Indices actuated_q, actuated_v, dependent_v;
     int idle_dof = 0;
     FrameIndex end_effector = 0;
+    JointSprings springs;
   };
 
   // Stribeck friction on the actuated joints (eq. 12): r_a, v_s, mu_s, mu_d, mu_v, the normal
@@ -147,6 +160,8 @@ namespace delta_pin
     const Indices & actuated_v() const { return actuated_v_; }
     int idle_dof() const { return idle_dof_; }
     const std::vector<JointCouplingSpec> & couplings() const { return couplings_; }
+    // tau -= the joint springs' and dampers' forces at (q, v) (JointSprings)
+    void subtract_springs(const Vector & q, const Vector & v, Vector & tau) const;
     // the joint couplings' rows at (q, v): r (k), J (k, nv), J_dot v (k)
     void coupling_terms(const Vector & q, const Vector & v, Vector & r, Matrix & J, Vector & drift) const;
     // whether the robot moves in ways the actuated joints do not determine (idle motions, passive
@@ -231,6 +246,7 @@ namespace delta_pin
     Hidden<Multibody> pin_;
     std::vector<ClosureFrames> closures_;
     std::vector<JointCouplingSpec> couplings_;
+    JointSprings springs_;
     Eigen::Index closure_rows_ = 0;  // the frame closures' rows; the couplings' follow
     Indices actuated_q_, actuated_v_, dependent_v_;
     int idle_dof_;
@@ -261,10 +277,6 @@ namespace delta_pin
     ClosedChainPlant(const ClosedChainPlant &) = delete;
     ~ClosedChainPlant() override;
 
-    // springs on 1-DOF joints: tau -= k (q - q_ref) + d v; dampers on the others: tau -= d v
-    void set_springs(
-      const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref,
-      const Vector & d, const Indices & damper_v, const Vector & damper_d);
     void set_friction(const FrictionSpec & friction);
     // The time-varying truth (TruthTable, plant.hpp) at t = i step [s]: the body of joint `joint`
     // with the mass body_masses[i] [kg] (its COM kept, its rotational inertia about the COM
@@ -328,9 +340,7 @@ namespace delta_pin
     std::vector<int> rate_kinds_;  // per joint: 0 axis, 1 ball, 2 free, 3 unit complex, 4 planar
     bool coefficient_rates_;
     double projection_tolerance_;
-    // springs, dampers, friction, payload
-    Indices spring_q_, spring_v_, damper_v_;
-    Vector spring_k_, spring_ref_, spring_d_, damper_d_;
+    // friction, payload (the springs and dampers are the chain's)
     FrictionSpec friction_;
     JointIndex payload_joint_ = 0;
     Eigen::Vector3d payload_point_ = Eigen::Vector3d::Zero();

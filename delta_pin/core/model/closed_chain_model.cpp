@@ -88,6 +88,7 @@ namespace delta_pin
   , dependent_v_(chain.dependent_v)
   , idle_dof_(chain.idle_dof)
   , end_effector_(chain.end_effector)
+  , springs_(chain.springs)
   {
     build_model(chain.model, pin_->model);
     // every index the robot's description holds, checked once here for every later call
@@ -133,6 +134,21 @@ namespace delta_pin
       }
     }
     size += (int)couplings_.size();
+    const JointSprings & sp = springs_;
+    const Eigen::Index springs = sp.q_index.size();
+    check_size(sp.k, springs, "springs.k");  // one per entry of springs.q_index
+    check_size(sp.ref, springs, "springs.ref");
+    check_size(sp.d, springs, "springs.d");
+    if (sp.v_index.size() != springs)
+      throw std::invalid_argument(
+        "springs.v_index has " + std::to_string(sp.v_index.size()) + " entries, expected one per entry of "
+        "springs.q_index (" + std::to_string(springs) + ")");
+    check_size(sp.damper_d, sp.damper_v.size(), "springs.damper_d");  // one per entry of springs.damper_v
+    check_indices(sp.q_index, pin_->model.nq, "springs.q_index", q_entries);
+    check_indices(sp.v_index, pin_->model.nv, "springs.v_index", v_entries);
+    check_indices(sp.damper_v, pin_->model.nv, "springs.damper_v", v_entries);
+    if (!sp.k.allFinite() || !sp.ref.allFinite() || !sp.d.allFinite() || !sp.damper_d.allFinite())
+      throw std::invalid_argument("the joint springs' k, ref, d and damper_d must be finite");
     pin_->data = Data(pin_->model);
     residual_ = Vector::Zero(size);
     jacobian_ = Matrix::Zero(size, pin_->model.nv);
@@ -143,6 +159,15 @@ namespace delta_pin
   ClosedChainModel::ClosedChainModel(const ClosedChainModel & other) = default;
   ClosedChainModel & ClosedChainModel::operator=(const ClosedChainModel & other) = default;
   ClosedChainModel::~ClosedChainModel() = default;
+
+  void ClosedChainModel::subtract_springs(const Vector & q, const Vector & v, Vector & tau) const
+  {
+    const JointSprings & sp = springs_;
+    for (Eigen::Index i = 0; i < sp.v_index.size(); ++i)
+      tau[sp.v_index[i]] -= sp.k[i] * (q[sp.q_index[i]] - sp.ref[i]) + sp.d[i] * v[sp.v_index[i]];
+    for (Eigen::Index i = 0; i < sp.damper_v.size(); ++i)
+      tau[sp.damper_v[i]] -= sp.damper_d[i] * v[sp.damper_v[i]];
+  }
 
   int ClosedChainModel::nq() const
   {
@@ -466,14 +491,31 @@ namespace delta_pin
       M = mass_matrix(q);
       C_tree = coriolis_matrix(pin_->model, pin_->data, q, v);
     }
-    const Vector gravity = generalized_gravity(pin_->model, pin_->data, q);
+    Vector gravity = generalized_gravity(pin_->model, pin_->data, q);
     const Matrix St = S.transpose();
     const Matrix M_projected = mul(St, mul(M, S));
     M_red = 0.5 * (M_projected + M_projected.transpose());
     C_red = mul(St, mul(C_tree, S) + mul(M, S_dot));
-    G_red = St * gravity;
     // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass
     C_alpha_dot = St * (C_tree * v + M * rate);
+    if (springs_.v_index.size() + springs_.damper_v.size() > 0)
+    {
+      // the springs as forces the model overcomes: k (q - ref) with gravity in G, S^T D S in C
+      // (ClosedChainRobot.joint_spring_forces)
+      const Vector zero = Vector::Zero(pin_->model.nv);
+      Vector stiffness = Vector::Zero(pin_->model.nv);
+      subtract_springs(q, zero, stiffness);
+      gravity -= stiffness;
+      Vector damping = Vector::Zero(pin_->model.nv);
+      for (Eigen::Index i = 0; i < springs_.v_index.size(); ++i)
+        damping[springs_.v_index[i]] += springs_.d[i];
+      for (Eigen::Index i = 0; i < springs_.damper_v.size(); ++i)
+        damping[springs_.damper_v[i]] += springs_.damper_d[i];
+      const Matrix damped = mul(St, damping.asDiagonal() * S);
+      C_red += damped;
+      C_alpha_dot += damped * alpha_dot;
+    }
+    G_red = St * gravity;
   }
 
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)

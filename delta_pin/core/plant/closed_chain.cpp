@@ -201,33 +201,6 @@ namespace delta_pin
       (int)dyn_->constraint_models.size(), closure_joints.data(), anchors.data(), baumgarte_kp_, baumgarte_kd_, 0));
   }
 
-  void ClosedChainPlant::set_springs(
-    const Indices & q_index, const Indices & v_index, const Vector & k, const Vector & ref, const Vector & d,
-    const Indices & damper_v, const Vector & damper_d)
-  {
-    const Eigen::Index springs = q_index.size();
-    check_size(k, springs, "k");  // one per entry of q_index
-    check_size(ref, springs, "ref");
-    check_size(d, springs, "d");
-    if (v_index.size() != springs)
-      throw std::invalid_argument(
-        "v_index has " + std::to_string(v_index.size()) + " entries, expected one per entry of q_index ("
-        + std::to_string(springs) + ")");
-    check_size(damper_d, damper_v.size(), "damper_d");  // one per entry of damper_v
-    const std::string q_entries = "the model's " + std::to_string(dyn_->model.nq) + " entries of q";
-    const std::string v_entries = "the model's " + std::to_string(dyn_->model.nv) + " entries of v";
-    check_indices(q_index, dyn_->model.nq, "q_index", q_entries);
-    check_indices(v_index, dyn_->model.nv, "v_index", v_entries);
-    check_indices(damper_v, dyn_->model.nv, "damper_v", v_entries);
-    spring_q_ = q_index;
-    spring_v_ = v_index;
-    spring_k_ = k;
-    spring_ref_ = ref;
-    spring_d_ = d;
-    damper_v_ = damper_v;
-    damper_d_ = damper_d;
-  }
-
   void ClosedChainPlant::set_friction(const FrictionSpec & friction)
   {
     if (friction.enabled)
@@ -308,11 +281,7 @@ namespace delta_pin
       }
       tau_[actuated_v_[i]] = tau[i] - resisting;
     }
-    for (Eigen::Index i = 0; i < spring_v_.size(); ++i)
-      tau_[spring_v_[i]] -=
-        spring_k_[i] * (q[spring_q_[i]] - spring_ref_[i]) + spring_d_[i] * v[spring_v_[i]];
-    for (Eigen::Index i = 0; i < damper_v_.size(); ++i)
-      tau_[damper_v_[i]] -= damper_d_[i] * v[damper_v_[i]];
+    chain_.subtract_springs(q, v, tau_);
     constrained(q, v, tau_);
     if (chain_.couplings().empty())
       return ddq_;

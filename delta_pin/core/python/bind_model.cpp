@@ -24,6 +24,7 @@ void bind_model(nb::module_ & m)
   using delta_pin::ChainDescription;
   using delta_pin::JointSpec;
   using delta_pin::ModelSpec;
+  using delta_pin::JointSprings;
   nb::class_<JointSpec>(m, "JointSpec", "One joint of a ModelSpec (model_spec.hpp), by name.")
     .def(nb::init<>())
     .def_rw("type", &JointSpec::type, "Pinocchio's shortname(), e.g. 'JointModelRX'.")
@@ -49,6 +50,15 @@ void bind_model(nb::module_ & m)
     .def_rw("frame_placements", &ModelSpec::frame_placements, "Their placements in the parent joint's, (frames, 12).")
     .def_rw("gravity", &ModelSpec::gravity, "Gravity as a spatial motion (linear, angular) [m/s^2].")
     .def_rw("armature", &ModelSpec::armature, "Rotor armature per entry of v [kg m^2].");
+  nb::class_<JointSprings>(m, "JointSprings", "The robot's joint springs and dampers (closed_chain.hpp).")
+    .def(nb::init<>())
+    .def_rw("q_index", &JointSprings::q_index, "Each spring's entry of q (1-DOF joints).")
+    .def_rw("v_index", &JointSprings::v_index, "Its entry of v.")
+    .def_rw("k", &JointSprings::k, "Its stiffness [N m/rad or N/m].")
+    .def_rw("ref", &JointSprings::ref, "Its rest position [rad or m].")
+    .def_rw("d", &JointSprings::d, "Its damping [N m s/rad or N s/m].")
+    .def_rw("damper_v", &JointSprings::damper_v, "The other dampers' entries of v.")
+    .def_rw("damper_d", &JointSprings::damper_d, "Their damping.");
   nb::class_<ChainDescription>(m, "ChainDescription", "What the core needs of a closed-chain robot (closed_chain.hpp).")
     .def(
       "__init__",
@@ -57,20 +67,20 @@ void bind_model(nb::module_ & m)
         const std::vector<std::tuple<size_t, size_t, int>> & closures,
         const std::vector<std::tuple<int, int, int, int, double, double, Eigen::VectorXd>> & couplings,
         const Eigen::VectorXi & actuated_q, const Eigen::VectorXi & actuated_v, const Eigen::VectorXi & dependent_v,
-        int idle_dof, size_t end_effector)
+        int idle_dof, size_t end_effector, const JointSprings & springs)
       {
         std::vector<delta_pin::JointCouplingSpec> specs;
         for (const auto & [q1, v1, q2, v2, reference1, reference2, coefficients] : couplings)
           specs.push_back({q1, v1, q2, v2, reference1, reference2, coefficients});
         new (self) ChainDescription{
-          model, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector};
+          model, frames_of(closures), specs, actuated_q, actuated_v, dependent_v, idle_dof, end_effector, springs};
       },
       nb::arg("model"), nb::arg("closures"), nb::arg("couplings"), nb::arg("actuated_q"), nb::arg("actuated_v"),
-      nb::arg("dependent_v"), nb::arg("idle_dof"), nb::arg("end_effector"),
+      nb::arg("dependent_v"), nb::arg("idle_dof"), nb::arg("end_effector"), nb::arg("springs") = JointSprings(),
       "The robot's Pinocchio model (ModelSpec, closure frames included), its closures (frame 1, frame 2, 3 or 6 "
       "rows), its joint couplings (q1, v1, q2, v2 entries -- -1 without joint 2 --, reference1, reference2, the "
       "polynomial's coefficients), the actuated joints' entries in q and v, the dependent joints' entries in v, "
-      "the number of idle motions and the end-effector frame.")
+      "the number of idle motions, the end-effector frame and the joint springs and dampers (JointSprings).")
     .def_ro("idle_dof", &ChainDescription::idle_dof)
     .def_ro("end_effector", &ChainDescription::end_effector);
   nb::class_<ClosedChainModel>(m, "ClosedChainModel")

@@ -125,7 +125,6 @@ void bind_plants(nb::module_ & m)
       nb::arg("chain"), nb::arg("constraints"), nb::arg("baumgarte_kp"), nb::arg("baumgarte_kd"),
       nb::arg("proximal_accuracy"), nb::arg("proximal_mu"), nb::arg("proximal_iterations"),
       nb::arg("projection_tolerance"))
-    .def("set_springs", &ClosedChainPlant::set_springs)
     .def(
       "set_friction",
       [](ClosedChainPlant & self, const delta_pin::FrictionSpec & friction) { self.set_friction(switched_on(friction)); },
