@@ -208,13 +208,26 @@ def consistent_status(result: IdentificationResult) -> str:
 
 
 def identified_urdf(result: IdentificationResult) -> str | None:
-    """The robot's URDF with every moving link's inertial replaced by the physically consistent
-    estimate (mass, COM, inertia about the COM in the link frame), and a ``<transmission>`` for
-    each actuated joint the file did not already drive (so that ``load_robot`` finds the motors
-    without ``actuated=``), or ``None`` where the robot has no URDF text, a body gathers several
-    links (fixed joints) or the estimate did not converge (``result.consistent.success`` False:
-    not the optimum, so not a model to hand on)."""
-    if result.consistent is None or not result.consistent.success or not result.regressor.robot.urdf:
+    """The identified robot as a URDF that ``load_robot`` reads back with its motors, masses,
+    friction and rotor inertia, or ``None`` where there is none to hand on: written only where the
+    physically consistent estimate converged (``result.consistent.success``), for any robot.
+
+    * A Delta (``robot.delta``): the packaged xacro compiled at the robot's dimensions and the
+      identified ``xacro_arguments`` (masses; eq. 12's friction where identified), so that it is
+      recognised as a Delta and carries the analytic model; ``None`` where an identified mass is
+      not positive (fitted lumped terms no Delta has).
+    * Any other robot with URDF text: its URDF with every moving link's inertial replaced by the
+      consistent estimate (mass, COM, inertia about the COM in the link frame), each
+      actuated joint's ``<dynamics damping="fv" friction="fc">`` [N m s/rad, N m] and its rotor
+      inertia as Drake's ``<drake:rotor_inertia>`` in the joint's ``<transmission>`` (added where the
+      file had none, so that ``load_robot`` finds the motors without ``actuated=``; delta-pin reads
+      it into ``model.armature``). ``None`` where a body gathers several links (fixed joints).
+    """
+    if result.consistent is None or not result.consistent.success:
+        return None
+    if result.xacro_arguments is not None and result.regressor.robot.delta is not None:
+        return _identified_delta_urdf(result)
+    if not result.regressor.robot.urdf:
         return None
     from lxml import etree
 
@@ -241,18 +254,85 @@ def identified_urdf(result: IdentificationResult) -> str | None:
         etree.SubElement(inertial, "inertia", ixx=f"{inertia_c[0, 0]:.12g}", ixy=f"{inertia_c[0, 1]:.12g}",
                          ixz=f"{inertia_c[0, 2]:.12g}", iyy=f"{inertia_c[1, 1]:.12g}",
                          iyz=f"{inertia_c[1, 2]:.12g}", izz=f"{inertia_c[2, 2]:.12g}")  # fmt: skip
-    driven = {j.get("name") for t in root.iter("transmission") for j in t.iter("joint")}
-    for joint in regressor.robot.actuated_joints:
-        if joint in driven:
-            continue
-        # ROS's simple transmission, which load_robot reads as the joint's motor
-        transmission = etree.SubElement(root, "transmission", name=f"{joint}_transmission")
-        etree.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
-        element = etree.SubElement(transmission, "joint", name=joint)
-        etree.SubElement(element, "hardwareInterface").text = "hardware_interface/EffortJointInterface"
-        actuator = etree.SubElement(transmission, "actuator", name=f"{joint}_motor")
-        etree.SubElement(actuator, "mechanicalReduction").text = "1"
+    joint_values = dict(zip(regressor.names, result.consistent.theta, strict=True))
+    _write_joint_friction(root, regressor.robot.actuated_joints, joint_values)
+    _write_transmissions(root, regressor.robot.actuated_joints, joint_values)
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8").decode()
+
+
+def _identified_delta_urdf(result: IdentificationResult) -> str | None:
+    """The packaged xacro at the robot's dimensions and the identified masses and friction."""
+    from delta_pin.errors import XacroArgumentError
+    from delta_pin.model.description import compile_urdf
+
+    p = result.regressor.robot.delta.params
+    args: dict[str, float | str] = {"R": p.R, "r": p.r, "l_a": p.l_a, "l_b": p.l_b}
+    args["forearm_inertia"] = p.forearm_inertia
+    if p.friction is not None:
+        f = p.friction
+        args.update(r_a=f.r_a, v_s=f.v_s, mu_s=f.mu_s, mu_d=f.mu_d, mu_v=f.mu_v)
+    columns = result.regressor.columns
+    if columns.stribeck_velocity is not None and p.friction is not None:
+        args.update(v_s=columns.stribeck_velocity, r_a=columns.friction_arm)  # the fit's exponent
+    args.update(result.xacro_arguments)
+    masses = np.array([args["m_a"], args["m_b"], args["m_o"]], dtype=float)
+    if not (np.isfinite(masses).all() and (masses > 0.0).all()):
+        return None
+    try:
+        return compile_urdf(**args)
+    except XacroArgumentError:  # e.g. an identified friction coefficient below 0
+        return None
+
+
+_DRAKE = "http://drake.mit.edu"  # Drake's URDF extensions (drake:rotor_inertia, drake:gear_ratio)
+
+
+def _write_joint_friction(root, joints, values: dict) -> None:
+    """``<dynamics damping="fv" friction="fc">`` on each actuated joint where the fit has them
+    (URDF's own viscous [N m s/rad] and Coulomb [N m] friction; other attributes kept)."""
+    from lxml import etree
+
+    elements = {joint.get("name"): joint for joint in root.iter("joint")}
+    for name in joints:
+        fv, fc = values.get(f"fv[{name}]"), values.get(f"fc[{name}]")
+        if name not in elements or (fv is None and fc is None):
+            continue
+        dynamics = elements[name].find("dynamics")
+        if dynamics is None:
+            dynamics = etree.SubElement(elements[name], "dynamics")
+        if fv is not None:
+            dynamics.set("damping", f"{fv:.12g}")
+        if fc is not None:
+            dynamics.set("friction", f"{fc:.12g}")
+
+
+def _write_transmissions(root, joints, values: dict) -> None:
+    """A ``<transmission>`` per actuated joint the file did not already drive (ROS's simple
+    transmission, which load_robot reads as the joint's motor), and the identified rotor inertia
+    ``Ia`` in each actuator as Drake's ``<drake:rotor_inertia>`` (divided by the square of the
+    actuator's ``<drake:gear_ratio>`` where it has one: Drake reflects I N^2)."""
+    from lxml import etree
+
+    rotor, ratio_tag = f"{{{_DRAKE}}}rotor_inertia", f"{{{_DRAKE}}}gear_ratio"
+    driven = {j.get("name"): t for t in root.iter("transmission") for j in t.iter("joint")}
+    for joint in joints:
+        transmission = driven.get(joint)
+        if transmission is None:
+            transmission = etree.SubElement(root, "transmission", name=f"{joint}_transmission")
+            etree.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
+            element = etree.SubElement(transmission, "joint", name=joint)
+            etree.SubElement(element, "hardwareInterface").text = "hardware_interface/EffortJointInterface"
+            actuator = etree.SubElement(transmission, "actuator", name=f"{joint}_motor")
+            etree.SubElement(actuator, "mechanicalReduction").text = "1"
+        inertia = values.get(f"Ia[{joint}]")
+        actuator = transmission.find("actuator")
+        if inertia is None or actuator is None:
+            continue
+        ratio = actuator.find(ratio_tag)
+        n = 1.0 if ratio is None else float(ratio.get("value", "1"))
+        for old in actuator.findall(rotor):
+            actuator.remove(old)
+        etree.SubElement(actuator, rotor, nsmap={"drake": _DRAKE}, value=f"{inertia / (n * n):.12g}")
 
 
 def _figures(result: IdentificationResult, log: IdentificationLog, out: Path, wrote=None) -> list[Path]:

@@ -814,7 +814,8 @@ def validate(
 
 def identified_robot(result: IdentificationResult, estimate: str = "consistent"):
     """A :class:`~delta_pin.model.closed_chain.ClosedChainRobot` with the identified standard
-    parameters (the physically consistent estimate; its bodies physical), to build a controller's
+    parameters (the physically consistent estimate; its bodies physical) and rotor inertias (in
+    ``model.armature``: what ``robot.urdf`` carries as ``drake:rotor_inertia``), to build a controller's
     nominal model (:class:`~delta_pin.control.nominal.ClosedChainNominalModel`). For a Delta, prefer
     ``load_delta(**result.xacro_arguments)`` (the paper's analytic model at the identified masses)."""
     if result.consistent is None:
@@ -828,6 +829,10 @@ def identified_robot(result: IdentificationResult, estimate: str = "consistent")
         inertia = pin.Inertia.FromDynamicParameters(theta[10 * i : 10 * i + 10])
         robot.model.inertias[int(k) + 1] = inertia
         robot.tree.inertias[int(k) + 1] = inertia
+    values = dict(zip(regressor.names, theta, strict=True))
+    for joint, v in zip(robot.actuated_joints, robot.actuated_indices, strict=True):
+        if f"Ia[{joint}]" in values:  # the rotor inertia: on M's diagonal (model.armature)
+            robot.model.armature[v] = robot.tree.armature[v] = values[f"Ia[{joint}]"]
     robot.model_changed()  # a compiled model built before holds the old inertias
     return robot
 

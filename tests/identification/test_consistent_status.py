@@ -45,13 +45,18 @@ def test_the_consistent_estimate_converges_and_says_so(delta_log, tmp_path):
     assert record["consistent"]["duality_gap"] <= 1e-8 * 2300
     report = (tmp_path / "ident" / "report.md").read_text()
     assert "consistent estimate: converged (optimal: duality gap" in report
-    # its motors from the file: a <transmission> per actuated joint (before, actuated= was needed)
+    # a Delta's robot.urdf is the packaged xacro at the identified masses and friction: loaded
+    # back, it is recognised as a Delta (before: per-link inertials, three different arms, so not)
     back = dp.load_robot(str(tmp_path / "ident" / "robot.urdf"))
     assert back.actuated_joints == nominal.actuated_joints
-    inertias = [back.model.inertias[j] for j in range(1, back.model.njoints)]
-    masses = sorted(inertia.mass for inertia in inertias if inertia.mass)
-    expected = sorted(m for m in c.theta[: result.regressor.inertial_count : 10] if m)
-    np.testing.assert_allclose(masses, expected, rtol=1e-9)
+    assert back.delta is not None, "the identified Delta is not recognised"
+    params, expected = back.delta.params, result.xacro_arguments
+    identified = {"m_a": params.m_a, "m_b": params.m_b, "m_o": params.m_o}
+    identified.update(mu_v=params.friction.mu_v, mu_d=params.friction.mu_d, mu_s=params.friction.mu_s)
+    assert set(expected) <= set(identified)
+    for name, value in expected.items():  # the file's 12-17 digits
+        assert identified[name] == pytest.approx(value, rel=1e-9), name
+    assert params.friction.mu_v != nominal.delta.params.friction.mu_v  # not the CAD file's friction
 
 
 def test_a_consistent_estimate_that_did_not_converge_writes_no_urdf(delta_log, tmp_path, monkeypatch):
@@ -94,3 +99,43 @@ def test_the_command_line_says_when_it_did_not_converge(tmp_path, capsys, monkey
     assert "consistent estimate: NOT converged (stopped after 1 Newton steps" in out, out
     assert "robot.urdf is not written" in out
     assert not (tmp_path / "b" / "robot.urdf").exists()
+
+
+def test_a_robot_urdf_carries_the_identified_model_with_friction_and_rotor_inertia(tmp_path):
+    """The five-bar (not a Delta): robot.urdf loaded back has the identified model's projected
+    M, C alpha_dot and G (the consistent estimate's bodies and rotor inertias, the latter as
+    Drake's drake:rotor_inertia, read into model.armature), to 1e-9 relative (the file's 12
+    digits), and each motor's <dynamics damping friction> is the estimate's fv, fc."""
+    from lxml import etree
+
+    from delta_pin.identification import identified_robot
+
+    traj, log = tmp_path / "traj.csv", tmp_path / "log.csv"
+    common = ["--robot", "five_bar"]
+    assert main(["identify", "excite", *common, "--out", str(traj), "--duration", "3", "--period", "3",
+                 "--iterations", "0"]) == 0  # fmt: skip
+    assert main(["identify", "simulate", *common, "--trajectory", str(traj), "--mass-spread", "0.3",
+                 "--out", str(log)]) == 0  # fmt: skip
+    from delta_pin.identification.log import read_log
+
+    robot = dp.load_robot("five_bar")
+    data = read_log(log, robot.actuated_joints)
+    result = identify(robot, data)
+    assert result.consistent.success
+    write_report(result, data, tmp_path / "ident", figures=False)
+    path = tmp_path / "ident" / "robot.urdf"
+    back, model = dp.load_robot(str(path)), identified_robot(result)
+    values = dict(zip(result.regressor.names, result.consistent.theta, strict=True))
+    rotor = np.array([values[f"Ia[{j}]"] for j in robot.actuated_joints])
+    assert rotor.max() > 0.0  # a rotor inertia identified (the bound Ia >= 0 may hold some at 0)
+    np.testing.assert_allclose(back.model.armature[back.actuated_indices], rotor, rtol=1e-9, atol=1e-15)
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        alpha, alpha_dot = robot.home + rng.uniform(-0.2, 0.2, 2), rng.normal(size=2)
+        for got, expected in zip(back.reduced_terms(alpha, alpha_dot), model.reduced_terms(alpha, alpha_dot)):
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    joints = {j.get("name"): j for j in etree.parse(str(path)).getroot().iter("joint")}
+    for name in robot.actuated_joints:
+        dynamics = joints[name].find("dynamics")
+        assert float(dynamics.get("damping")) == pytest.approx(values[f"fv[{name}]"], rel=1e-11)
+        assert float(dynamics.get("friction")) == pytest.approx(values[f"fc[{name}]"], rel=1e-11)
