@@ -1290,8 +1290,9 @@ class ClosedChainRobot:
         """Actuated coordinates alpha that put a frame's origin at ``position`` [m] along ``axes``.
 
         Newton on alpha with the closed-loop Jacobian (least squares where the frame has fewer
-        task coordinates than actuators), each iterate assembled from the previous one; a
-        Delta's platform (the default frame, ``axes="xyz"``) in closed form, elbow-out.
+        task coordinates than actuators), each iterate assembled from the previous one, in the
+        compiled core (its readable twin: ``tests/reference/kinematics.py``); a Delta's platform
+        (the default frame, ``axes="xyz"``) in closed form, elbow-out.
 
         Args:
             position: target world position (3,) [m]; only the ``axes`` components count.
@@ -1301,6 +1302,7 @@ class ClosedChainRobot:
 
         Raises:
             UnreachablePoseError: Newton does not reach the target to ``tol`` [m].
+            AssemblyError: an iterate's loops do not close (the worst closure named).
         """
         if self.delta is not None and frame is None and axes == "xyz" and initial_guess is None:
             return self.delta.inverse_kinematics(position)
@@ -1308,27 +1310,27 @@ class ClosedChainRobot:
         if rows is None or len(set(rows)) != len(rows):
             raise InvalidParameterError(f"axes={axes!r} must be distinct letters of 'xyz'")
         target = np.asarray(position, dtype=float).reshape(3)
+        if not np.isfinite(target).all():
+            raise InvalidParameterError(f"{self._label}position={target.tolist()} must be finite [m]")
         fid = self._frame(frame)
-        q = start = self._last_q.copy()
+        start = self._last_q.copy()
         alpha = (
-            q[self.actuated_q_indices]
+            start[self.actuated_q_indices]
             if initial_guess is None
             else self._joint_vector(initial_guess, "initial_guess")
         )
-        error = None
-        for _ in range(max_iterations):
-            q = self.configuration(alpha, initial_guess=q)
-            pin.framesForwardKinematics(self.model, self.data, q)
-            error = (self.data.oMf[fid].translation - target)[rows]
-            if np.abs(error).max() <= tol:
-                return alpha
-            J = self.frame_jacobian(q, fid)[:3][rows]
-            step = least_squares(J, error)
-            largest = np.abs(step).max(initial=0.0)
-            if largest > 0.2:
-                step *= 0.2 / largest
-            alpha = alpha - step
+        core = self._assembling_core()
+        reached, alpha, q = core.inverse_kinematics(
+            target, int(fid), np.asarray(rows, dtype=np.int32), alpha, start, float(tol), int(max_iterations)
+        )
+        if reached:
+            self._last_q = q
+            return alpha
         self._last_q = start  # a failed search leaves the assembly mode where it was
+        q = self.configuration(alpha, initial_guess=q)  # where the loops do not close: AssemblyError, named
+        self._last_q = start
+        pin.framesForwardKinematics(self.model, self.data, q)
+        error = (self.data.oMf[fid].translation - target)[rows]
         raise UnreachablePoseError(
             f"{self._label}frame {self.model.frames[fid].name!r} cannot reach {target.tolist()} m "
             f"along {axes!r}: "

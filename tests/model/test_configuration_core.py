@@ -97,3 +97,38 @@ def test_bad_newton_options_are_one_line(options, message):
     robot = dp.load_delta()
     with pytest.raises(dp.InvalidParameterError, match=message):
         robot.configuration(robot.home, **options)
+
+
+@pytest.mark.parametrize(("name", "axes"), [("paper Delta", "xyz"), ("gepetto/5bar_linkage", None)])
+def test_inverse_kinematics_is_the_twins(name, axes):
+    """The core's inverse kinematics (ClosedChainRobot.inverse_kinematics with a frame named, so
+    not the Delta's closed form) against tests/reference/kinematics.py from the same start: both
+    stop at 1e-12 m, so the actuated coordinates agree to 1e-9 (cond J of the task rows < 1e2
+    here); a target off the workspace is refused in one line by both."""
+    from tests.reference.kinematics import inverse_kinematics
+
+    robot = dp.load_delta() if name == "paper Delta" else _robot(name)
+    frame = robot.end_effector_name
+    fid = robot.frame_id(frame)
+    pin.framesForwardKinematics(robot.model, robot.data, robot.reference_configuration)
+    home = robot.data.oMf[fid].translation.copy()
+    if axes is None:  # a planar robot: the two task coordinates its motors move most
+        J = robot.frame_jacobian(robot.reference_configuration, fid)[:3]
+        axes = "".join(sorted("xyz"[i] for i in np.argsort(-np.linalg.norm(J, axis=1))[: robot.dof]))
+    rows = ["xyz".index(a) for a in axes]
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        target = home.copy()
+        target[rows] += rng.uniform(-0.01, 0.01, len(rows))
+        start = robot.reference_configuration
+        expected = inverse_kinematics(robot, target, fid, rows, robot.home, start)
+        robot._last_q = start.copy()
+        got = robot.inverse_kinematics(target, frame, axes=axes, initial_guess=robot.home)
+        assert expected is not None
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+    far = home.copy()
+    far[rows[0]] += 10.0  # 10 m away
+    assert inverse_kinematics(robot, far, fid, rows, robot.home, robot.reference_configuration) is None
+    with pytest.raises((dp.UnreachablePoseError, AssemblyError)) as caught:
+        robot.inverse_kinematics(far, frame, axes=axes, initial_guess=robot.home)
+    assert "\n" not in str(caught.value)

@@ -179,6 +179,27 @@ void bind_model(nb::module_ & m)
       },
       nb::arg("q"), nb::arg("frame"), "The closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED).")
     .def(
+      "inverse_kinematics",
+      [](ClosedChainModel & self, const Eigen::Vector3d & target, size_t frame, const Eigen::VectorXi & rows,
+         const Eigen::VectorXd & alpha_start, const Eigen::VectorXd & q_start, double tolerance, int iterations)
+      {
+        check_finite(target, "target");
+        check_finite(alpha_start, "alpha");
+        check_finite(q_start, "q");
+        if (q_start.size() != self.nq())
+          throw std::invalid_argument(
+            "q has " + std::to_string(q_start.size()) + " entries, expected " + std::to_string(self.nq()));
+        if (!(tolerance > 0.0) || iterations < 1)
+          throw std::invalid_argument("tolerance must be > 0 and iterations >= 1");
+        Eigen::VectorXd alpha = alpha_start, q = q_start;
+        const bool reached = self.inverse_kinematics(target, frame, rows, alpha, q, tolerance, iterations);
+        return std::make_tuple(reached, alpha, q);
+      },
+      nb::arg("target"), nb::arg("frame"), nb::arg("rows"), nb::arg("alpha"), nb::arg("q"), nb::arg("tolerance") = 1e-12,
+      nb::arg("iterations") = 60,
+      "(reached, alpha, q): Newton on alpha putting the frame's origin at target along rows (task coordinates), "
+      "each iterate assembled from the previous q; alpha and q where it stopped otherwise.")
+    .def(
       "frame_acceleration_drift",
       [](ClosedChainModel & self, const Eigen::VectorXd & q, const Eigen::VectorXd & alpha_dot, size_t frame)
       {
