@@ -16,6 +16,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.errors import DeltaPinError
+from delta_pin.model.core_model import core_refusal
 from tests.model.corpus_models import CORPUS, CorpusModel
 
 MJCF_NEEDS_MUJOCO = "MuJoCo compiles MJCF files"
@@ -90,6 +91,8 @@ def test_a_corpus_model_loads_or_is_refused_in_one_line(model: CorpusModel):
     assert model.id in LOADS, f"{model.id} loads: list it in LOADS or REFUSED"
     assert (robot.dof, robot.idle_dof, len(robot.passive_joint_indices)) == LOADS[model.id]
     assert robot.closure_gap(robot.reference_configuration) <= 1e-12  # assembled exactly at home
+    # the compiled core takes it: its assembly, projection and IK run there (no Python fallback)
+    assert core_refusal(robot) == ""
 
 
 def test_every_corpus_model_has_an_expected_outcome():
