@@ -247,6 +247,7 @@ namespace delta_pin
     std::vector<ClosureFrames> closures_;
     std::vector<JointCouplingSpec> couplings_;
     JointSprings springs_;
+    bool moving_subspace_ = false;  // a joint whose motion subspace depends on q (reduced_terms)
     Eigen::Index closure_rows_ = 0;  // the frame closures' rows; the couplings' follow
     Indices actuated_q_, actuated_v_, dependent_v_;
     int idle_dof_;

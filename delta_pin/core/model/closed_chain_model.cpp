@@ -83,12 +83,12 @@ namespace delta_pin
   : pin_(std::make_unique<Multibody>())
   , closures_(chain.closures)
   , couplings_(chain.couplings)
+  , springs_(chain.springs)
   , actuated_q_(chain.actuated_q)
   , actuated_v_(chain.actuated_v)
   , dependent_v_(chain.dependent_v)
   , idle_dof_(chain.idle_dof)
   , end_effector_(chain.end_effector)
-  , springs_(chain.springs)
   {
     build_model(chain.model, pin_->model);
     // every index the robot's description holds, checked once here for every later call
@@ -150,6 +150,12 @@ namespace delta_pin
     if (!sp.k.allFinite() || !sp.ref.allFinite() || !sp.d.allFinite() || !sp.damper_d.allFinite())
       throw std::invalid_argument("the joint springs' k, ref, d and damper_d must be finite");
     pin_->data = Data(pin_->model);
+    for (JointIndex j = 1; j < (JointIndex)pin_->model.njoints; ++j)
+    {
+      const std::string kind = pin_->model.joints[j].shortname();
+      if (kind == "JointModelUniversal" || kind == "JointModelSphericalZYX" || kind == "JointModelComposite")
+        moving_subspace_ = true;
+    }
     residual_ = Vector::Zero(size);
     jacobian_ = Matrix::Zero(size, pin_->model.nv);
     frame_jacobian1_.setZero(6, pin_->model.nv);
@@ -488,6 +494,8 @@ namespace delta_pin
       for (Eigen::Index r = 0; r < dependent_v_.size(); ++r)
         S_dot.row(dependent_v_[r]) = S_dot_dependent.row(r);
       rate = S_dot * alpha_dot;  // -A^+ J_c_dot v: the drift's share of the accelerations
+      if (moving_subspace_)  // J_c_dot misses the joints' bias c_J there too; the drift (classical
+        rate = dependent_rate(q, v);  // accelerations at zero acceleration) has it
       M = mass_matrix(q);
       C_tree = coriolis_matrix(pin_->model, pin_->data, q, v);
     }
@@ -496,8 +504,14 @@ namespace delta_pin
     const Matrix M_projected = mul(St, mul(M, S));
     M_red = 0.5 * (M_projected + M_projected.transpose());
     C_red = mul(St, mul(C_tree, S) + mul(M, S_dot));
-    // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass
-    C_alpha_dot = St * (C_tree * v + M * rate);
+    // C_tree v = nle - g (Pinocchio's Coriolis matrix), so no second RNEA pass -- except for joints
+    // whose motion subspace moves with q (universal, ZYX spherical, composite), where Pinocchio
+    // 4.1's Coriolis matrix and J_dot miss their bias c_J and only the RNEA gives nle (measured:
+    // 0.8-26 N m); C_red keeps them (C alpha_dot is exact, the matrix C is not, for such a model)
+    if (moving_subspace_)
+      C_alpha_dot = St * (nonlinear_effects(pin_->model, pin_->data, q, v) - gravity + M * rate);
+    else
+      C_alpha_dot = St * (C_tree * v + M * rate);
     if (springs_.v_index.size() + springs_.damper_v.size() > 0)
     {
       // the springs as forces the model overcomes: k (q - ref) with gravity in G, S^T D S in C

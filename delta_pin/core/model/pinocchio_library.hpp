@@ -76,6 +76,18 @@ namespace pinocchio
       const Eigen::MatrixBase<ConfigVectorType> & q,
       const Eigen::MatrixBase<TangentVectorType> & v);
 
+    template<
+      typename Scalar,
+      int Options,
+      template<typename, int> class JointCollectionTpl,
+      typename ConfigVectorType,
+      typename TangentVectorType>
+    const typename DataTpl<Scalar, Options, JointCollectionTpl>::TangentVectorType & nonLinearEffects(
+      const ModelTpl<Scalar, Options, JointCollectionTpl> & model,
+      DataTpl<Scalar, Options, JointCollectionTpl> & data,
+      const Eigen::MatrixBase<ConfigVectorType> & q,
+      const Eigen::MatrixBase<TangentVectorType> & v);
+
     template<typename Scalar, int Options, template<typename, int> class JointCollectionTpl, typename ConfigVectorType>
     const typename DataTpl<Scalar, Options, JointCollectionTpl>::TangentVectorType & computeGeneralizedGravity(
       const ModelTpl<Scalar, Options, JointCollectionTpl> & model,
@@ -265,6 +277,13 @@ namespace delta_pin::library
   coriolis_matrix(const pinocchio::Model & model, pinocchio::Data & data, const Vector & q, const Vector & v)
   {
     return pinocchio::impl::computeCoriolisMatrix(model, data, ConstRef(q), ConstRef(v));
+  }
+
+  // the bias forces b(q, v) = C(q, v) v + g(q) (RNEA at zero acceleration)
+  inline const Vector &
+  nonlinear_effects(const pinocchio::Model & model, pinocchio::Data & data, const Vector & q, const Vector & v)
+  {
+    return pinocchio::impl::nonLinearEffects(model, data, ConstRef(q), ConstRef(v));
   }
 
   // the generalised gravity g(q)
