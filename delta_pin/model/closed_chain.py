@@ -621,12 +621,7 @@ class ClosedChainRobot:
         )
         if gap <= _NEWTON_TOL:
             return q
-        raise AssemblyError(
-            f"{self._label}the loops do not close at alpha={np.round(self.home, 6).tolist()}: closure "
-            f"{self._worst_closure(self.closure_residual(q))} is still {gap:.3e} (m or rad) apart after "
-            f"{_NEWTON_STEPS} Newton steps; start nearer (initial_guess=) or choose reachable actuated "
-            "coordinates"
-        )
+        raise self._not_closed(self.home, q, _NEWTON_STEPS)
 
     def _reanchor(self, q: np.ndarray) -> None:
         """Move each closure's second frame onto its first at q (the file's rounding), so that the
@@ -1326,9 +1321,8 @@ class ClosedChainRobot:
         if reached:
             self._last_q = q
             return alpha
-        self._last_q = start  # a failed search leaves the assembly mode where it was
         q = self.configuration(alpha, initial_guess=q)  # where the loops do not close: AssemblyError, named
-        self._last_q = start
+        self._last_q = start  # a failed search leaves the assembly mode where it was
         pin.framesForwardKinematics(self.model, self.data, q)
         error = (self.data.oMf[fid].translation - target)[rows]
         raise UnreachablePoseError(

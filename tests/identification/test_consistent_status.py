@@ -78,15 +78,23 @@ def test_a_consistent_estimate_that_did_not_converge_writes_no_urdf(delta_log, t
     assert "consistent estimate: NOT converged" in report and "robot.urdf is not written" in report
 
 
-def test_the_command_line_says_when_it_did_not_converge(tmp_path, capsys, monkeypatch):
-    """identify fit on the five-bar: converged and robot.urdf written by default; with one Newton
-    step allowed, stdout says NOT converged and robot.urdf is not written, and none is."""
-    traj, log = tmp_path / "traj.csv", tmp_path / "log.csv"
+@pytest.fixture(scope="module")
+def five_bar_log(tmp_path_factory):
+    """A 3 s log of the five-bar, masses off the file's by up to 30 %, by the command line."""
+    folder = tmp_path_factory.mktemp("five_bar")
+    traj, log = folder / "traj.csv", folder / "log.csv"
     common = ["--robot", "five_bar"]
     assert main(["identify", "excite", *common, "--out", str(traj), "--duration", "3", "--period", "3",
                  "--iterations", "0"]) == 0  # fmt: skip
     assert main(["identify", "simulate", *common, "--trajectory", str(traj), "--mass-spread", "0.3",
                  "--out", str(log)]) == 0  # fmt: skip
+    return log
+
+
+def test_the_command_line_says_when_it_did_not_converge(five_bar_log, tmp_path, capsys, monkeypatch):
+    """identify fit on the five-bar: converged and robot.urdf written by default; with one Newton
+    step allowed, stdout says NOT converged and robot.urdf is not written, and none is."""
+    log, common = five_bar_log, ["--robot", "five_bar"]
     capsys.readouterr()
     fit = ["identify", "fit", *common, "--data", str(log), "--no-figures"]
     assert main([*fit, "--out", str(tmp_path / "a")]) == 0
@@ -101,7 +109,7 @@ def test_the_command_line_says_when_it_did_not_converge(tmp_path, capsys, monkey
     assert not (tmp_path / "b" / "robot.urdf").exists()
 
 
-def test_a_robot_urdf_carries_the_identified_model_with_friction_and_rotor_inertia(tmp_path):
+def test_a_robot_urdf_carries_the_identified_model_with_friction_and_rotor_inertia(five_bar_log, tmp_path):
     """The five-bar (not a Delta): robot.urdf loaded back has the identified model's projected
     M, C alpha_dot and G (the consistent estimate's bodies and rotor inertias, the latter as
     Drake's drake:rotor_inertia, read into model.armature), to 1e-9 relative (the file's 12
@@ -109,14 +117,9 @@ def test_a_robot_urdf_carries_the_identified_model_with_friction_and_rotor_inert
     from lxml import etree
 
     from delta_pin.identification import identified_robot
-
-    traj, log = tmp_path / "traj.csv", tmp_path / "log.csv"
-    common = ["--robot", "five_bar"]
-    assert main(["identify", "excite", *common, "--out", str(traj), "--duration", "3", "--period", "3",
-                 "--iterations", "0"]) == 0  # fmt: skip
-    assert main(["identify", "simulate", *common, "--trajectory", str(traj), "--mass-spread", "0.3",
-                 "--out", str(log)]) == 0  # fmt: skip
     from delta_pin.identification.log import read_log
+
+    log = five_bar_log
 
     robot = dp.load_robot("five_bar")
     data = read_log(log, robot.actuated_joints)
