@@ -36,7 +36,7 @@ def test_a_drake_rotor_inertia_is_the_joints_armature(tmp_path):
     v = robot.model.idx_vs[robot.model.getJointId("active_1")]
     expected = np.zeros(robot.model.nv)
     expected[v] = 2.5e-5 * 20**2  # 0.01 kg m^2 reflected through the gearbox
-    np.testing.assert_array_equal(robot.model.armature, expected)
+    np.testing.assert_allclose(robot.model.armature, expected, rtol=1e-14, atol=0.0)  # I N^2, round-off
     q = robot.reference_configuration
     reference = pin.Model(plain.model)
     reference.armature[v] = expected[v]
