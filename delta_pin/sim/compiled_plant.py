@@ -1,4 +1,4 @@
-"""The plants in the compiled core, and the sampled loop that runs them with any controller
+"""The plants in the compiled core, and the core's one run of a plant with any controller
 (docs/architecture.md section 7).
 
 A :class:`~delta_pin.sim.closed_chain_plant.ClosedChainPlant`'s copy
@@ -19,7 +19,6 @@ own law gets the compiled plant.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -30,40 +29,38 @@ from delta_pin.model.core_model import core_chain, core_friction, core_springs
 from delta_pin.model.kinematics import chain_trigonometry
 
 __all__ = [
-    "CompiledSampledRun",
+    "CoreRecords",
     "build_core_analytic_plant",
     "build_core_plant",
     "keep_core_projections",
     "python_core_plant",
-    "run_core_sampled",
+    "run_core",
     "set_core_truth",
 ]
 
 
-class CompiledSampledRun:
-    """What the compiled sampled loop records (steps + 1 rows): q, v, end-effector xyz, closure gap.
+class CoreRecords:
+    """What the core's run recorded at its samples (:func:`run_core`): the actuated joints
+    ``alpha``, ``alpha_dot``, the torque that acted ``tau``, the law's integrated ``state``
+    (continuous mode), the multibody ``q``, ``v`` (``None`` where the plant has no configuration),
+    the end effector ``xyz`` [m], the closure ``gap`` and the integrators' counters
+    (``radau_counters``, ``bdf2_counters``: see ``RunRecords``).
 
     For a plant written in Python (:func:`python_core_plant`) the core recorded its state x; the
-    joints and the multibody configuration are the plant's own reading of each row
-    (``joint_state``, ``configuration_state``)."""
+    multibody configuration is the plant's own reading of each row (``configuration_state``)."""
 
-    def __init__(
-        self, q: np.ndarray, v: np.ndarray, xyz: np.ndarray, gap: np.ndarray, compiled, plant=None
-    ) -> None:
-        self.q, self.v, self.xyz, self.gap = q, v, xyz, gap
+    def __init__(self, records, compiled, plant=None) -> None:
+        self.alpha, self.alpha_dot = np.array(records.alpha), np.array(records.alpha_dot)
+        self.tau, self.state = np.array(records.tau), np.array(records.state)
+        self.xyz, self.gap = np.array(records.xyz), np.array(records.gap)
+        self.q = self.v = None
+        self.radau_counters, self.bdf2_counters = records.radau_counters, records.bdf2_counters
         if isinstance(compiled, core().PythonPlant):
-            joints = [plant.joint_state(x) for x in q]
-            self.alpha = np.array([a for a, _ in joints])
-            self.alpha_dot = np.array([ad for _, ad in joints])
-            full = [plant.configuration_state(x) for x in q]
-            self.q = self.v = None
+            full = [plant.configuration_state(x) for x in np.array(records.q)]
             if full and full[0] is not None:
                 self.q, self.v = np.array([c[0] for c in full]), np.array([c[1] for c in full])
-            return
-        self.alpha = q[:, np.asarray(compiled.actuated_q)]  # the actuated joints (rad)
-        self.alpha_dot = v[:, np.asarray(compiled.actuated_v)]  # (rad/s)
-        if not compiled.has_configuration:  # the reduced Delta: q, v are alpha, alpha_dot
-            self.q = self.v = None
+        elif compiled.has_configuration:  # the reduced Delta's q, v are alpha, alpha_dot
+            self.q, self.v = np.array(records.q), np.array(records.v)
 
 
 def _payload_masses(plant, step: float, count: int) -> np.ndarray:
@@ -170,7 +167,7 @@ def build_core_analytic_plant(plant, step: float | None = None, count: int = 0):
 def python_core_plant(plant, states: int):
     """A plant written in Python (``derivative``, ``finish_step_residual``, ``joint_state``,
     ``platform_position``, ``closure_residual`` of :class:`~delta_pin.sim.plants.Plant`) in the
-    core's sampled loop (``PythonPlant`` of ``delta_pin/core/python/python_plant.cpp``), its state of
+    core's sampled run (``PythonPlant`` of ``delta_pin/core/python/python_plant.cpp``), its state of
     ``states`` entries: the core's RK4 calls its derivative back at every stage.
 
     Raises:
@@ -202,34 +199,30 @@ def python_core_plant(plant, states: int):
     return core().PythonPlant(states, plant.dof, derivative, finish, joints, position, gap)
 
 
-def run_core_sampled(
-    compiled,
-    x: np.ndarray,
-    steps: int,
-    substeps: int,
-    dt: float,
-    control: Callable[[int, np.ndarray], np.ndarray],
-    plant=None,
-) -> CompiledSampledRun:
-    """Run the core's sampled loop of ``compiled`` (any core plant) from x: ``control(k, x)`` (a
-    Python function, or a compiled law) gives the torque held over sample k; ``plant``: the
-    Python plant of a ``PythonPlant`` (:class:`CompiledSampledRun`).
+def run_core(compiled, law, settings, x: np.ndarray, plant=None, z0=None, reference=None) -> CoreRecords:
+    """The core's one run (``delta_pin/core/run/run.hpp``) of ``compiled`` (any core plant) from its
+    state x: ``settings`` (a ``RunSettings``) names the integrator -- ``"rk4"``: ``law`` (a compiled
+    law or ``control(k, x) -> tau``) gives the torque held over each sample; ``"radau"``/``"bdf2"``:
+    plant and law (compiled, or an object with ``evaluate`` and ``keep``) integrated as one ODE from
+    the law's state ``z0`` along ``reference`` (a ``HermiteReference``). ``plant``: the Python
+    plant of a ``PythonPlant``.
 
     Raises:
-        SimulationError: the loops cannot be closed again or the state is no longer finite (at
-            the time it happened); whatever ``control`` raises passes through unchanged.
+        SimulationError: the loops cannot be closed again, the state is no longer finite or the
+            run diverged (at the time it happened, with the last configuration recorded);
+            whatever a Python ``law`` raises passes through unchanged.
     """
-    n = steps + 1
-    q = np.zeros((n, compiled.nq))
-    v = np.zeros((n, compiled.nv))
-    xyz = np.zeros((n, 3))
-    gap = np.zeros(n)
+    module = core()
+    records = module.RunRecords()
     try:
-        compiled.run_sampled(np.asarray(x, dtype=float), steps, substeps, dt, control, q, v, xyz, gap)
-    except core().SimulationFailure as exc:
-        time = compiled.failure_time
-        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0) from None
-    return CompiledSampledRun(q, v, xyz, gap, compiled, plant)
+        module.run(compiled, law, settings, np.asarray(x, dtype=float), records, z0, reference)
+    except module.SimulationFailure as exc:
+        time = records.failure_time
+        last = None
+        if compiled.has_configuration and records.samples > 0:
+            last = np.array(records.q[records.samples - 1])
+        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0, last) from None
+    return CoreRecords(records, compiled, plant)
 
 
 def keep_core_projections(plant, compiled) -> None:

@@ -5,7 +5,8 @@ The plant (:func:`~delta_pin.sim.compiled_plant.build_core_plant`,
 :func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`) and a controller's compiled law
 (:meth:`Controller.sampled_core_law <delta_pin.control.base.Controller.sampled_core_law>`) are
 integrated as one ODE by the core's Radau IIA of order 5 with error control
-(``delta_pin/core/integrate/radau.hpp``, ``continuous.hpp``), in active coordinates
+(``delta_pin/core/integrate/radau.hpp``; the core's one run, ``delta_pin/core/run/run.hpp``), in
+active coordinates
 
     y = [alpha, alpha_dot, z],   y' = [alpha_dot, alpha_ddot(q(alpha), S alpha_dot, tau, t), z_dot]:
 
@@ -23,14 +24,11 @@ called during the run unless the controller is a Python one.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Reference
-from delta_pin.errors import SimulationError
-from delta_pin.sim.compiled_plant import keep_core_projections, set_core_truth
+from delta_pin.sim.compiled_plant import keep_core_projections, run_core, set_core_truth
 from delta_pin.sim.integrators import MAX_JOINT_SPEED, PROJECTION_CHUNK
 from delta_pin.sim.loop import ControlLoop, LoopRecord
 
@@ -113,40 +111,27 @@ def run_core_continuous(
     if isinstance(law, PythonLaw):
         law.internals = {}
     set_core_truth(core_plant, plant, table.step, len(table.alpha))
-    run = module.new_continuous_run()
-    z0 = np.asarray(controller.initial_state(), dtype=float)
-    arrays = (
+    reference = module.HermiteReference()
+    reference.step = table.step
+    reference.alpha, reference.alpha_dot, reference.alpha_ddot, reference.alpha_dddot = (
         np.ascontiguousarray(a) for a in (table.alpha, table.alpha_dot, table.alpha_ddot, table.alpha_dddot)
     )
-    start = (
-        plant.robot.reference_configuration
-        if core_plant.has_configuration
-        else np.zeros(0),  # the first guess
-        np.asarray(alpha0, float),
-        np.asarray(alpha_dot0, float),
-        z0,
-    )
-    settings = module.ContinuousSettings()
+    settings = module.RunSettings()
+    settings.integrator = "bdf2" if bdf2_substeps > 0 else "radau"
     settings.dt, settings.samples = float(t[1] - t[0]), len(t)
     settings.rtol, settings.atol = rtol, atol
     settings.first_step, settings.max_step = RADAU_FIRST_STEP, RADAU_MAX_STEP
     settings.max_joint_speed = MAX_JOINT_SPEED
-    settings.bdf2_substeps, settings.projection_interval = bdf2_substeps, PROJECTION_CHUNK
-    try:
-        module.run_continuous(core_plant, law, table.step, *arrays, *start, settings, run)
-    except module.SimulationFailure as exc:
-        time = run.failure_time
-        last = np.array(run.q[run.samples - 1]) if core_plant.has_configuration and run.samples > 0 else None
-        raise SimulationError(str(exc), time if math.isfinite(time) else 0.0, last) from None
+    settings.substeps, settings.projection_interval = max(bdf2_substeps, 1), PROJECTION_CHUNK
+    x0 = plant.initial_state(np.asarray(alpha0, float), np.asarray(alpha_dot0, float))
+    if core_plant.has_configuration:  # the core's plant steps the multibody's [q, v]
+        x0 = np.concatenate(plant.configuration_state(x0))
+    z0 = np.asarray(controller.initial_state(), dtype=float)
+    run = run_core(core_plant, law, settings, x0, plant, z0, reference)
     record = LoopRecord(
-        alpha=np.array(run.alpha),
-        alpha_dot=np.array(run.alpha_dot),
-        tau=np.array(run.tau),
-        xyz=np.array(run.xyz),
-        closure_residual=np.array(run.gap),
+        alpha=run.alpha, alpha_dot=run.alpha_dot, tau=run.tau, xyz=run.xyz, closure_residual=run.gap
     )
-    if core_plant.has_configuration:
-        record.q, record.v = np.array(run.q), np.array(run.v)
+    record.q, record.v = run.q, run.v
     if isinstance(law, PythonLaw):
         record.internals = {name: np.array(values) for name, values in law.internals.items()}
     else:
@@ -159,7 +144,7 @@ def run_core_continuous(
             "jacobians": int(jacobians),
         }  # fmt: skip
     else:
-        steps, rejected, evaluations, jacobians, factorizations = run.counters
+        steps, rejected, evaluations, jacobians, factorizations = run.radau_counters
         counters = {
             "radau_steps": int(steps), "radau_rejected": int(rejected), "rhs_evaluations": int(evaluations),
             "jacobians": int(jacobians), "factorizations": int(factorizations),

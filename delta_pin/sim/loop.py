@@ -1,7 +1,8 @@
 """The sampled closed loop (docs/architecture.md section 6): any controller on any plant, stepped
 by the compiled core.
 
-The loop, its RK4 sub-steps and its checks are the core's (``CorePlant::run_sampled``): a plant's
+The loop, its RK4 sub-steps and its checks are the core's one run (``delta_pin/core/run/run.hpp``,
+its ``HeldTorqueRk4`` stepper): a plant's
 compiled copy (:meth:`Plant.sampled_core <delta_pin.sim.plants.Plant.sampled_core>`), or a plant
 written in Python called back at every RK4 stage (``PythonPlant``,
 :func:`~delta_pin.sim.compiled_plant.python_core_plant`). The controller runs there as its
@@ -17,7 +18,7 @@ import numpy as np
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Controller, ControlOutput, Reference
 from delta_pin.errors import NonFiniteError, SimulationError
-from delta_pin.sim.compiled_plant import keep_core_projections, python_core_plant, run_core_sampled
+from delta_pin.sim.compiled_plant import keep_core_projections, python_core_plant, run_core
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import MAX_JOINT_SPEED, all_finite, check_state
 from delta_pin.sim.plants import Plant
@@ -138,9 +139,9 @@ def run_sampled_loop(
         law.start(
             reference_alpha, reference_alpha_dot, reference_alpha_ddot, dt, z, steps + 1, MAX_JOINT_SPEED
         )
-        recorded = run_core_sampled(core, x, steps, substeps, dt, law, plant)
+        recorded = run_core(core, law, _sampled_settings(steps, substeps, dt), x, plant)
         keep_core_projections(plant, core)
-        record = LoopRecord(recorded.alpha, recorded.alpha_dot, np.array(law.tau), recorded.xyz, recorded.gap)
+        record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
         record.q, record.v = recorded.q, recorded.v
         record.internals = controller.core_law_internals(law)
         if drive is not None:
@@ -171,13 +172,21 @@ def run_sampled_loop(
             internals.setdefault(name, []).append(np.asarray(value, dtype=float))
         return tau
 
-    recorded = run_core_sampled(core, x, steps, substeps, dt, control, plant)
+    recorded = run_core(core, control, _sampled_settings(steps, substeps, dt), x, plant)
     keep_core_projections(plant, core)
     record = LoopRecord(recorded.alpha, recorded.alpha_dot, taus, recorded.xyz, recorded.gap)
     record.q, record.v = recorded.q, recorded.v
     bar.close()
     record.internals = _stacked(internals)
     return record
+
+
+def _sampled_settings(steps: int, substeps: int, dt: float):
+    """The core's run of steps + 1 samples dt [s] apart, the torque held over each while the
+    plant takes ``substeps`` RK4 steps."""
+    settings = core().RunSettings()
+    settings.integrator, settings.samples, settings.substeps, settings.dt = "rk4", steps + 1, substeps, dt
+    return settings
 
 
 def _set_core_drive(law, sensor: Encoder | None, drive: Drive | None, samples: int, dof: int) -> None:

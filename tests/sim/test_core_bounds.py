@@ -193,14 +193,14 @@ case("joint_reference: non-contiguous xyz", "xyz:ok", lambda: path(xyz=np.repeat
 plant = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))
 x = np.array([0.3, 0.3, 0.3, 0.0, 0.0, 0.0])
 tau = np.zeros(3)
-def sampled(x=x, steps=4, substeps=2, dt=1e-3, q=None, v=None, xyz=None, gap=None, control=None):
-    n = steps + 1
-    q = np.zeros((n, 3)) if q is None else q
-    v = np.zeros((n, 3)) if v is None else v
-    xyz = np.zeros((n, 3)) if xyz is None else xyz
-    gap = np.zeros(n) if gap is None else gap
+def settings(integrator="rk4", samples=5, substeps=2, dt=1e-3):  # the run's settings by name
+    made = m.RunSettings()
+    made.integrator, made.samples, made.substeps, made.dt = integrator, samples, substeps, dt
+    return made
+def sampled(x=x, samples=5, substeps=2, dt=1e-3, control=None, integrator="rk4", **continuous):
     control = (lambda k, state: np.zeros(3)) if control is None else control
-    return plant.run_sampled(x, steps, substeps, dt, control, q, v, xyz, gap)
+    made = settings(integrator, samples, substeps, dt)
+    return m.run(plant, control, made, x, m.RunRecords(), **continuous)
 case("derivative of an empty state", "x", lambda: plant.derivative(np.zeros(0), tau, 0.0))
 case("derivative under a 2-vector torque", "tau", lambda: plant.derivative(x, np.zeros(2), 0.0))
 case("derivative of a state of 5", "x", lambda: plant.derivative(x[:5].copy(), tau, 0.0))
@@ -222,21 +222,20 @@ def friction(normal_forces):  # eq. 12's friction by name, as the package builds
     return f
 case("set_friction: 2 normal forces", "normal_force", lambda: plant.set_friction(friction(2)))
 case("set_truth: normal forces of 2 columns", "normal_forces", lambda: plant.set_truth(1e-3, np.zeros(0), np.zeros((4, 2)), np.zeros((0, 3))))
-case("run_sampled: v of too few rows", "v", lambda: sampled(steps=2000, v=np.zeros((1, 3))))
-case("run_sampled: xyz of 2 columns", "xyz", lambda: sampled(xyz=np.zeros((5, 2))))
-case("run_sampled: q of too few rows", "q", lambda: sampled(q=np.zeros((2, 3))))
-case("run_sampled: gap too short", "gap", lambda: sampled(gap=np.zeros(2)))
-case("run_sampled: empty x", "x", lambda: sampled(x=np.zeros(0)))
-case("run_sampled: NaN x", "x", lambda: sampled(x=np.full(6, NAN)))
-case("run_sampled: steps -2", "steps", lambda: sampled(steps=-2, q=np.zeros((1, 3)), v=np.zeros((1, 3)),
-     xyz=np.zeros((1, 3)), gap=np.zeros(1)))
-case("run_sampled: substeps 0", "substeps", lambda: sampled(substeps=0))
-case("run_sampled: dt NaN", "dt", lambda: sampled(dt=NAN))
-case("run_sampled: dt 0", "dt", lambda: sampled(dt=0.0))
-case("run_sampled: a torque of 2", "torque", lambda: sampled(control=lambda k, state: np.zeros(2)))
-case("run_sampled: non-contiguous v", "v:TypeError", lambda: sampled(v=np.zeros((10, 3))[::2]))
-case("run_sampled: Fortran-ordered q", "q:TypeError", lambda: sampled(q=np.asfortranarray(np.zeros((5, 3)))))
-case("run_sampled: integer v", "v:TypeError", lambda: sampled(v=np.zeros((5, 3), int)))
+case("run: empty x", "x", lambda: sampled(x=np.zeros(0)))
+case("run: NaN x", "x", lambda: sampled(x=np.full(6, NAN)))
+case("run: samples 0", "samples", lambda: sampled(samples=0))
+case("run: samples -2", "samples", lambda: sampled(samples=-2))
+case("run: substeps 0", "substeps", lambda: sampled(substeps=0))
+case("run: dt NaN", "dt", lambda: sampled(dt=NAN))
+case("run: dt 0", "dt", lambda: sampled(dt=0.0))
+case("run: a torque of 2", "torque", lambda: sampled(control=lambda k, state: np.zeros(2)))
+case("run: integrator 'euler'", "integrator", lambda: sampled(integrator="euler"))
+case("run: a sampled run given z0", "z0", lambda: sampled(z0=np.zeros(1)))
+case("run: a law that is a number", "law", lambda: sampled(control=3.0))
+case("run: a callable law in continuous mode", "integrator", lambda: sampled(
+    integrator="radau", z0=np.zeros(0), reference=m.HermiteReference()))
+case("run: a list x", "x0:TypeError", lambda: sampled(x=[0.3, 0.3, 0.3, 0.0, 0.0, 0.0]))
 case("constructor: NaN R", "R", lambda: m.AnalyticDeltaPlant(NAN, 0.1, 0.2, 0.3, 1e-3, 0.1, 9.81, np.ones(3), np.zeros(3), 0.1, 0.1))
 """,
     "closed_chain_plant": """
@@ -251,13 +250,10 @@ def constraint(size=3, j1=int(cm.joint1_id), j2=int(cm.joint2_id), frame=int(cm.
 def build(*constraints):
     made = m.ClosedChainPlant(chain, list(constraints), 10.0, 10.0, 1e-12, 0.0, 10, 1e-8)
     made.accelerations(q0, np.zeros(NV), tau, 0.0)
-def sampled(x=x, steps=4, substeps=2, dt=1e-3, q=None, v=None, xyz=None, gap=None):
-    n = steps + 1
-    q = np.zeros((n, NQ)) if q is None else q
-    v = np.zeros((n, NV)) if v is None else v
-    xyz = np.zeros((n, 3)) if xyz is None else xyz
-    gap = np.zeros(n) if gap is None else gap
-    return plant.run_sampled(x, steps, substeps, dt, lambda k, state: np.zeros(DOF), q, v, xyz, gap)
+def sampled(x=x, samples=5, substeps=2, dt=1e-3):
+    made = m.RunSettings()
+    made.samples, made.substeps, made.dt = samples, substeps, dt
+    return m.run(plant, lambda k, state: np.zeros(DOF), made, x, m.RunRecords())
 case("constraint of 0 rows", "constraints", lambda: build(constraint(size=0)))
 case("constraint of -3 rows", "constraints", lambda: build(constraint(size=-3)))
 case("constraint joint = njoints", "constraints", lambda: build(constraint(j2=NJ)))
@@ -280,11 +276,9 @@ case("step: NaN x", "x", lambda: plant.step(np.full(NQ + NV, NAN), tau, 0, 1e-3)
 case("step: h 0", "h", lambda: plant.step(x, tau, 0, 0.0))
 case("end_effector_position: empty q", "q", lambda: plant.end_effector_position(np.zeros(0)))
 case("closure_gap: empty q", "q", lambda: plant.closure_gap(np.zeros(0)))
-case("run_sampled: v of too few rows", "v", lambda: sampled(steps=500, v=np.zeros((1, NV))))
-case("run_sampled: v of nv - 1 columns", "v", lambda: sampled(v=np.zeros((5, NV - 1))))
-case("run_sampled: xyz of too few rows", "xyz", lambda: sampled(steps=500, xyz=np.zeros((1, 3))))
-case("run_sampled: x of nq", "x", lambda: sampled(x=q0.copy()))
-case("run_sampled: non-contiguous gap", "gap:TypeError", lambda: sampled(gap=np.zeros(10)[::2]))
+case("run: x of nq", "x", lambda: sampled(x=q0.copy()))
+case("run: NaN x", "x", lambda: sampled(x=np.full(NQ + NV, NAN)))
+case("run: non-contiguous x", "x:ok", lambda: sampled(x=np.repeat(x, 2)[::2]))
 """,
     "laws": """
 zeros, ones = np.zeros(DOF), np.ones(DOF)
@@ -306,9 +300,10 @@ def table(rows, cols=DOF):
 python_plant = dp.ClosedChainPlant(robot)
 plant = build_core_plant(python_plant)
 x = np.concatenate([q0, np.zeros(NV)])
-def run(controller, steps=4):
-    n = steps + 1
-    return plant.run_sampled(x, steps, 1, 1e-3, controller, np.zeros((n, NQ)), np.zeros((n, NV)), np.zeros((n, 3)), np.zeros(n))
+def run(controller, samples=5):
+    made = m.RunSettings()
+    made.samples, made.dt = samples, 1e-3
+    return m.run(plant, controller, made, x, m.RunRecords())
 case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(chain, np.zeros(3), zeros, "ct", ct()))
 case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(chain, q0, zeros, "ct", ct(D=np.ones(3))))
 case("ComputedTorque: chain with a closure of 0 rows", "closures", lambda: m.ComputedTorque(
@@ -329,7 +324,14 @@ case("start: reference of 1 column", "alpha_d", lambda: started(5, table(5, 1)))
 case("start: samples -1", "samples", lambda: started(-1, table(5)))
 case("start: dt 0", "dt", lambda: law().start(*table(5), 0.0, np.zeros(0), 5, 100.0))
 case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5, 100.0))
-case("run_sampled past the samples of start()", "steps", lambda: run(started(3, table(3))))
+def discrete_in_continuous_mode():
+    tdc = m.TimeDelayControl(chain, q0, zeros, "tdc", gains(
+        "TimeDelayControl", period=1e-3, K_p=1.0, K_v=1.0, delay=1, mean_pairing=False))
+    made = m.RunSettings()
+    made.integrator = "radau"
+    m.run(plant, tdc, made, x, m.RunRecords(), np.zeros(0), m.HermiteReference())
+case("a discrete-time law in continuous mode", "continuous face", discrete_in_continuous_mode)
+case("run past the samples of start()", "samples", lambda: run(started(3, table(3))))
 def noise_after_start():
     controller = started(5, table(5))
     controller.set_drive(drive(sensor=True, resolution=1e-4, noise=np.zeros((1, DOF))))
@@ -359,13 +361,17 @@ class Law:
 def reference(rows, cols=3, dddot_rows=None):
     dddot_rows = rows if dddot_rows is None else dddot_rows
     return np.tile(a0[:cols], (rows, 1)), np.zeros((rows, cols)), np.zeros((rows, cols)), np.zeros((dddot_rows, cols))
-def go(tables=None, step=1e-3, alpha0=a0, dt=1e-3, samples=5, rtol=1e-8, atol=1e-10, first=1e-5, max_step=1e-2, plant=analytic):
+def go(tables=None, step=1e-3, alpha0=a0, dt=1e-3, samples=5, rtol=1e-8, atol=1e-10, first=1e-5, max_step=1e-2, plant=analytic, integrator="radau", substeps=1):
     tables = reference(10) if tables is None else tables
-    run = m.new_continuous_run()
-    settings = m.ContinuousSettings()
+    settings = m.RunSettings()
+    settings.integrator, settings.substeps = integrator, substeps
     settings.dt, settings.samples, settings.rtol, settings.atol = dt, samples, rtol, atol
     settings.first_step, settings.max_step, settings.max_joint_speed = first, max_step, 100.0
-    m.run_continuous(plant, Law(), step, *tables, np.zeros(0), alpha0, np.zeros(3), np.zeros(0), settings, run)
+    table = m.HermiteReference()
+    table.step = step
+    table.alpha, table.alpha_dot, table.alpha_ddot, table.alpha_dddot = tables
+    run = m.RunRecords()
+    m.run(plant, Law(), settings, np.concatenate([alpha0, np.zeros(3)]), run, np.zeros(0), table)
     return run
 case("valid", "alpha:ok", lambda: go())
 case("an empty reference table", "alpha", lambda: go(tables=reference(0)))
@@ -373,7 +379,16 @@ case("reference of 2 columns", "alpha", lambda: go(tables=reference(10, 2)))
 case("alpha_dddot of fewer rows", "alpha_dddot", lambda: go(tables=reference(10, dddot_rows=2)))
 case("step 0", "step", lambda: go(step=0.0))
 case("step NaN", "step", lambda: go(step=NAN))
-case("alpha0 of 2", "alpha0", lambda: go(alpha0=np.zeros(2)))
+case("x0 of 5", "x0", lambda: go(alpha0=np.zeros(2)))
+case("bdf2: substeps 0", "substeps", lambda: go(integrator="bdf2", substeps=0))
+case("a continuous law in sampled mode", "sampled", lambda: m.run(
+    analytic, Law(), m.RunSettings(), np.concatenate([a0, np.zeros(3)]), m.RunRecords()))
+def radau():
+    made = m.RunSettings()
+    made.integrator = "radau"
+    return made
+case("without a reference", "reference", lambda: m.run(
+    analytic, Law(), radau(), np.concatenate([a0, np.zeros(3)]), m.RunRecords(), np.zeros(0)))
 case("samples 0", "samples", lambda: go(samples=0))
 case("max_step 0", "max_step", lambda: go(max_step=0.0))
 case("rtol NaN", "rtol", lambda: go(rtol=NAN))

@@ -1,4 +1,4 @@
-// BDF2 with fixed steps h, the second integrator of the core's continuous loop (continuous.hpp):
+// BDF2 with fixed steps h, the second integrator of the core's continuous mode (run.hpp):
 //
 //     y_1 - y_0 = h f(t_1, y_1);    y_{n+1} - 4/3 y_n + 1/3 y_{n-1} = 2/3 h f(t_{n+1}, y_{n+1}),
 //

@@ -1,6 +1,6 @@
-// What the compiled core's loops need of a plant (docs/architecture.md section 8): the sampled
-// loop (CorePlant::run_sampled: RK4 sub-steps under a held torque) and the continuous loop
-// (continuous.hpp: Radau IIA in active coordinates) run any plant that implements CorePlant --
+// What the compiled core's run needs of a plant (docs/architecture.md section 8): its steppers
+// (run.hpp: RK4 sub-steps under a held torque; Radau IIA or BDF2 in active coordinates) run any
+// plant that implements CorePlant --
 // the constrained plant of a closed chain (closed_chain.hpp) or the paper's reduced Delta
 // (analytic_plant.hpp) -- and both plants read their time-varying truth from one TruthTable.
 #pragma once
@@ -14,12 +14,10 @@
 
 namespace delta_pin
 {
-  class SampledController;
   typedef Eigen::VectorXd Vector;
   typedef Eigen::MatrixXd Matrix;
   typedef Eigen::VectorXi Indices;
   typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> RowMatrix;
-  typedef Eigen::Ref<RowMatrix> RowsOut;
 
   // The plant's time-varying truth (delta_pin/sim/truth.py) tabulated at t = i step, i < rows:
   // the payload body's mass [kg], a point mass [kg], the friction's normal forces [N] and the
@@ -155,21 +153,9 @@ namespace delta_pin
     long projections() const { return projections_; }
     // the largest closure gap a projection brought back [m, rad] (0 before one)
     double largest_projected_gap() const { return largest_projected_gap_; }
-    // the simulated time [s] of the last SimulationFailure of run_sampled (NaN before one)
-    double failure_time() const { return failure_time_; }
-
-    // The sampled loop: the controller gives the torque held over sample k (controller.hpp: a
-    // C++ law, or the Python side's sensor, controller and drive); the plant takes `substeps`
-    // RK4 steps of dt / substeps. Records (steps + 1 rows) x's q and v, the end effector and
-    // the closure gap. Returns the number of samples recorded.
-    long run_sampled(
-      Vector x, long steps, int substeps, double dt, SampledController & controller, RowsOut q_out, RowsOut v_out,
-      RowsOut xyz_out, Eigen::Ref<Vector> gap_out);
-
   protected:
     Indices actuated_q_, actuated_v_;
     long projections_ = 0;
     double largest_projected_gap_ = 0.0;
-    double failure_time_ = std::numeric_limits<double>::quiet_NaN();
   };
 } // namespace delta_pin

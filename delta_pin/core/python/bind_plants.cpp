@@ -1,5 +1,5 @@
 // The plants in Python (issue 38, item 2: one binding file per part): the settings they take by
-// name (StribeckFriction, DriveSettings), CorePlant -- the sampled loop every plant shares --, the
+// name (StribeckFriction, DriveSettings), CorePlant -- what every plant of the run shares --, the
 // closed chain's constrained plant and the paper's reduced Delta.
 
 #include "binding.hpp"
@@ -7,7 +7,6 @@
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
-#include <nanobind/stl/function.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
@@ -58,7 +57,6 @@ void bind_plants(nb::module_ & m)
     .def_prop_ro("projections", &CorePlant::projections)
     .def_prop_ro("largest_projected_gap", &CorePlant::largest_projected_gap,
                  "The largest closure gap a projection brought back [m or rad] (0 before one).")
-    .def_prop_ro("failure_time", &CorePlant::failure_time)
     .def(
       "closure_gap",
       [](CorePlant & self, const Eigen::VectorXd & q)
@@ -83,32 +81,7 @@ void bind_plants(nb::module_ & m)
         return std::make_tuple(y, gap);
       },
       nb::arg("x"), nb::arg("tau"), nb::arg("t"), nb::arg("h"),
-      "One RK4 step of length h [s] from time t [s] under tau, the truth read by time: (x, closure gap).")
-    .def(
-      "run_sampled",
-      [](CorePlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
-         delta_pin::ProjectedLaw & controller, Table q, Table v, Table xyz, Column gap)
-      {
-        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
-        nb::gil_scoped_release release;  // nothing in the loop touches Python
-        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
-      },
-      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("controller"),
-      nb::arg("q").noconvert(), nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
-      "The sampled loop with a compiled law (its records stay in the controller).")
-    .def(
-      "run_sampled",
-      [](CorePlant & self, const Eigen::VectorXd & x, long steps, int substeps, double dt,
-         const std::function<Eigen::VectorXd(long, const Eigen::VectorXd &)> & control, Table q, Table v, Table xyz,
-         Column gap)
-      {
-        Eigen::Map<Eigen::VectorXd> gaps(gap.data(), (Eigen::Index)gap.shape(0));
-        delta_pin::FunctionController controller(control);
-        return self.run_sampled(x, steps, substeps, dt, controller, rows(q), rows(v), rows(xyz), gaps);
-      },
-      nb::arg("x"), nb::arg("steps"), nb::arg("substeps"), nb::arg("dt"), nb::arg("control"), nb::arg("q").noconvert(),
-      nb::arg("v").noconvert(), nb::arg("xyz").noconvert(), nb::arg("gap").noconvert(),
-      "The sampled loop with a Python law: control(k, x) -> the torque held over sample k.");
+      "One RK4 step of length h [s] from time t [s] under tau, the truth read by time: (x, closure gap).");
   nb::class_<ClosedChainPlant, CorePlant>(m, "ClosedChainPlant")
     .def(
       "__init__",

@@ -2,7 +2,7 @@
 // the array types Python hands over, the helpers that turn Python's numbers into the core's
 // structs, and the binders module.cpp calls -- bind_model.cpp (the closed chain's model),
 // bind_plants.cpp (the settings and the plants), python_plant.cpp (a plant written in Python),
-// continuous_binding.cpp (the continuous loop), bind_laws.cpp (the laws and their gains).
+// bind_run.cpp (the one run), bind_laws.cpp (the laws and their gains).
 #pragma once
 
 #include "analytic_plant.hpp"
@@ -71,5 +71,5 @@ namespace delta_pin::binding
 void bind_model(nanobind::module_ & m);  // bind_model.cpp
 void bind_plants(nanobind::module_ & m);  // bind_plants.cpp: the settings, CorePlant and the two plants
 void bind_python_plant(nanobind::module_ & m);  // python_plant.cpp
-void bind_continuous(nanobind::module_ & m);  // continuous_binding.cpp
+void bind_run(nanobind::module_ & m);  // bind_run.cpp: the one run
 void bind_laws(nanobind::module_ & m);  // bind_laws.cpp

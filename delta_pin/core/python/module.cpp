@@ -2,9 +2,9 @@
 //
 // The plants (plant.hpp) -- ClosedChainPlant (closed_chain.hpp), the constrained plant of any
 // fully actuated closed-chain robot, AnalyticDeltaPlant (analytic_plant.hpp), the paper's
-// reduced Delta, and PythonPlant (python_plant.cpp), a plant written in Python -- share the
-// sampled loop, which runs a compiled law or calls back into Python once per sample for the
-// torque (delta_pin/sim/compiled_plant.py builds them). One binding file per part (binding.hpp);
+// reduced Delta, and PythonPlant (python_plant.cpp), a plant written in Python -- share the one
+// run (run.hpp, bind_run.cpp), which runs a compiled law or calls a Python one back
+// (delta_pin/sim/compiled_plant.py builds the plants). One binding file per part (binding.hpp);
 // this one registers the module, its exceptions and the Ctrl-C hook, and calls the binders.
 //
 // Nothing here is compiled at run time: scikit-build-core builds this module when the package
@@ -22,7 +22,7 @@ namespace nb = nanobind;
 void bind_model(nb::module_ & m);
 void bind_plants(nb::module_ & m);
 void bind_python_plant(nb::module_ & m);
-void bind_continuous(nb::module_ & m);
+void bind_run(nb::module_ & m);
 void bind_laws(nb::module_ & m);
 
 namespace
@@ -60,6 +60,6 @@ NB_MODULE(_core, m)
   bind_model(m);
   bind_plants(m);
   bind_python_plant(m);
-  bind_continuous(m);
+  bind_run(m);
   bind_laws(m);
 }

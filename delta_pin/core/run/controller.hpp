@@ -1,9 +1,10 @@
-// The controllers of the compiled core: one interface for the sampled loop
-// (CorePlant::run_sampled, plant.hpp), which every law implements -- a C++ law, or a Python
-// callable behind an adapter (delta_pin/core/python/module.cpp).
+// The compiled laws of the core's run (run.hpp), behind its one interface (Law, law.hpp):
+// ProjectedLaw, the part every law on a closed chain's projected nominal model shares, and the
+// built-in laws on it.
 #pragma once
 
 #include "closed_chain.hpp"
+#include "law.hpp"
 #include "control/adaptive_robust_law.hpp"
 #include "control/delta_analytic.hpp"
 #include "control/digital_robust_law.hpp"
@@ -21,30 +22,6 @@
 
 namespace delta_pin
 {
-  // A law sampled once per period: the torque held over sample k from the plant state x and its
-  // actuated joints. It may throw SimulationFailure (a bad torque, a diverged state) with the
-  // sample's time.
-  class SampledController
-  {
-  public:
-    virtual ~SampledController() = default;
-    virtual Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) = 0;
-  };
-
-  // A law given as a function of (k, x): the Python controller of run_python_loop.
-  class FunctionController : public SampledController
-  {
-  public:
-    explicit FunctionController(std::function<Vector(long, const Vector &)> function)
-    : function_(std::move(function))
-    {
-    }
-    Vector control(long k, const Vector & x, const Vector &, const Vector &) override { return function_(k, x); }
-
-  private:
-    std::function<Vector(long, const Vector &)> function_;
-  };
-
   // The encoder and the drive between the plant and a law (ProjectedLaw::set_drive), by name:
   // the encoder's resolution [rad] and noise per sample [rad] (rows of one column per actuated
   // joint, or none), whether it gives the exact velocity; the drive's delay [samples] and torque
@@ -76,7 +53,7 @@ namespace delta_pin
     std::map<std::string, Vector> vectors;  // (samples,)
   };
 
-  class ProjectedLaw : public SampledController
+  class ProjectedLaw : public Law
   {
   public:
     ProjectedLaw(
@@ -104,11 +81,22 @@ namespace delta_pin
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
                   const Vector & ref_alpha_ddot, const Vector & state, Vector & tau, Vector & state_dot);
 
-    // The continuous mode (continuous.hpp), where the integrator gives the reference and the
+    // The continuous mode (run.hpp), where the integrator gives the reference and the
     // state: records for `samples` samples of `states` state values, then keep(k, ...) after the evaluate() of sample k
     // stores its torque, the state and the law's internals.
-    void start_continuous(long samples, Eigen::Index states);
-    void keep(long k, const Vector & torque, const Vector & state_k);
+    void start_continuous(long samples, Eigen::Index states) override;
+    void keep(long k, const Vector & torque, const Vector & state_k) override;
+    // the continuous face: evaluate() from the plant's assembly q as the warm start
+    void control_at(
+      double, const Vector & q, const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha,
+      const Vector & ref_alpha_dot, const Vector & ref_alpha_ddot, const Vector & z, Vector & tau,
+      Vector & z_dot) override
+    {
+      warm_start(q);
+      evaluate(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, tau, z_dot);
+    }
+    // a discrete-time law (set_discrete) has no continuous face: its state is not a rate
+    bool continuous() const override { return !discrete_; }
     // the nominal model's next assembly starts from q (the plant's, where it has the same
     // configuration space: Newton then closes at once when the kinematics agree)
     void warm_start(const Vector & q)
