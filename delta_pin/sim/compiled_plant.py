@@ -43,7 +43,8 @@ class CoreRecords:
     """What the core's run recorded at its samples (:func:`run_core`): the actuated joints
     ``alpha``, ``alpha_dot``, the torque that acted ``tau``, the law's integrated ``state``
     (continuous mode), the multibody ``q``, ``v`` (``None`` where the plant has no configuration),
-    the end effector ``xyz`` [m], the closure ``gap`` and the integrators' counters
+    the end effector ``xyz`` [m], the closure ``gap``, with a drive the law's ``commands`` [N m] and
+    the torque limit's ``hits``, and the integrators' counters
     (``radau_counters``, ``bdf2_counters``: see ``RunRecords``).
 
     For a plant written in Python (:func:`python_core_plant`) the core recorded its state x; the
@@ -53,6 +54,7 @@ class CoreRecords:
         self.alpha, self.alpha_dot = np.array(records.alpha), np.array(records.alpha_dot)
         self.tau, self.state = np.array(records.tau), np.array(records.state)
         self.xyz, self.gap = np.array(records.xyz), np.array(records.gap)
+        self.commands, self.hits = np.array(records.commands), int(records.hits)  # with a drive
         self.q = self.v = None
         self.radau_counters, self.bdf2_counters = records.radau_counters, records.bdf2_counters
         if isinstance(compiled, core().PythonPlant):

@@ -96,89 +96,73 @@ def run_sampled_loop(
     holds the reference at the samples.
 
     A controller with a compiled law (:meth:`Controller.sampled_core_law
-    <delta_pin.control.base.Controller.sampled_core_law>`) runs in the core with the sensor and
-    the drive, Python not called during the run (unless the plant is a Python one); any other is
-    called back once per sample.
+    <delta_pin.control.base.Controller.sampled_core_law>`) runs in the core, Python not called
+    during the run (unless the plant is a Python one); any other is called back once per sample.
+    Either way the sensor and the drive are the core's (``delta_pin/core/run/drive.hpp``).
     """
     steps, dt = len(t) - 1, t[1] - t[0]
     h = dt / substeps
-    dof = plant.dof
     controller.reset()
-    loop = ControlLoop(controller, plant)
     z = controller.initial_state().astype(float)
-    internals: dict[str, list] = {}
     reference_rows = table.rows(1)
-    taus = np.zeros((len(t), dof))
-    previous_reading = None  # the sensor's last angles, for a controller's own velocity estimate
-
-    def read(alpha: np.ndarray, alpha_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """What the controller sees of the joints: the sensor's reading (and its velocity, or the
-        controller's estimate where the sensor gives none)."""
-        nonlocal previous_reading
-        measured, velocity = sensor.read(alpha, alpha_dot, dt)
-        if velocity is None:
-            velocity = controller.estimate_velocity(measured, previous_reading, dt)
-        previous_reading = measured
-        return measured, velocity
-
+    settings = _sampled_settings(steps, substeps, dt)
+    if sensor is not None or drive is not None:
+        settings.drive = _core_drive(sensor, drive, steps + 1, plant.dof)
     bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
-    stride = max(steps // 100, 1)
     # the plant's compiled copy, or the plant itself called back from the core's loop
     core = plant.sampled_core(h, 2 * steps * substeps + 3) or python_core_plant(plant, len(x))
     law = controller.sampled_core_law()
     own_velocity = type(controller).estimate_velocity is not Controller.estimate_velocity
-    if sensor is not None and sensor.velocity == "none" and own_velocity:
-        law = None  # the controller estimates the velocity from the readings itself, in Python
-    if law is not None:
+    estimates = sensor is not None and sensor.velocity == "none" and own_velocity
+    if law is not None and not estimates:
         # the compiled plant, loop, drive and law: Python is not called until the run ends
-        if sensor is not None or drive is not None:
-            _set_core_drive(law, sensor, drive, steps + 1, dof)
-        reference_alpha, reference_alpha_dot, reference_alpha_ddot = (
-            np.ascontiguousarray(r) for r in reference_rows
-        )
-        law.start(
-            reference_alpha, reference_alpha_dot, reference_alpha_ddot, dt, z, steps + 1, MAX_JOINT_SPEED
-        )
-        recorded = run_core(core, law, _sampled_settings(steps, substeps, dt), x, plant)
-        keep_core_projections(plant, core)
-        record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
-        record.q, record.v = recorded.q, recorded.v
-        record.internals = controller.core_law_internals(law)
-        if drive is not None:
-            record.internals["tau_command"] = np.array(law.tau_command)
-            drive.hits = int(law.hits)
-        bar.close()
-        return record
-
-    out = None
-
-    def control(k: int, x: np.ndarray) -> np.ndarray:
-        """The torque acting on the plant from t_k (sensor, controller, drive), the controller's
-        output recorded with its internals."""
-        nonlocal z, out
-        joints = plant.joint_state(x)
-        if k:
-            z = controller.advance(z, out, dt)
-            check_state(t[k], x, z, *joints)
-            if k % stride == 0:
-                bar.update(round(stride * dt, 9))
-        reference = Reference(reference_rows[0][k], reference_rows[1][k], reference_rows[2][k])
-        tau, _, out = loop.control(t[k], x, reference, z, joints if sensor is None else read(*joints))
-        if drive is not None:
-            out.internals["tau_command"] = tau
-            tau = drive.apply(tau)
-        taus[k] = tau
-        for name, value in out.internals.items():
-            internals.setdefault(name, []).append(np.asarray(value, dtype=float))
-        return tau
-
-    recorded = run_core(core, control, _sampled_settings(steps, substeps, dt), x, plant)
+        law.start(*(np.ascontiguousarray(r) for r in reference_rows), dt, z, steps + 1)
+        recorded = run_core(core, law, settings, x, plant)
+        internals = controller.core_law_internals(law)
+    else:  # the controller called back once per sample, its velocity estimate its own
+        callback = _CalledBack(controller, plant, reference_rows, t, z, bar, estimates)
+        recorded = run_core(core, callback, settings, x, plant)
+        internals = _stacked(callback.internals)
     keep_core_projections(plant, core)
-    record = LoopRecord(recorded.alpha, recorded.alpha_dot, taus, recorded.xyz, recorded.gap)
+    record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
     record.q, record.v = recorded.q, recorded.v
+    record.internals = internals
+    if drive is not None:
+        record.internals["tau_command"] = recorded.commands
+        drive.hits = recorded.hits
     bar.close()
-    record.internals = _stacked(internals)
     return record
+
+
+class _CalledBack:
+    """A controller without a compiled law in the core's sampled run: called back once per sample
+    with the joints as the run's encoder reads them (the controller's own velocity estimate where
+    ``estimates``), its state advanced and checked, its output and internals recorded."""
+
+    def __init__(self, controller, plant, reference_rows, t, z, bar, estimates: bool) -> None:
+        self.controller, self.loop = controller, ControlLoop(controller, plant)
+        self.reference_rows, self.t, self.dt, self.z = reference_rows, t, t[1] - t[0], z
+        self.bar, self.stride = bar, max((len(t) - 1) // 100, 1)
+        self.estimates, self.previous_reading, self.out = estimates, None, None
+        self.internals: dict[str, list] = {}
+
+    def __call__(self, k: int, x: np.ndarray, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
+        t, dt = self.t[k], self.dt
+        if k:
+            self.z = self.controller.advance(self.z, self.out, dt)
+            if not all_finite(self.z):
+                raise SimulationError(f"the state became non-finite (alpha={alpha.tolist()})", t)
+            if k % self.stride == 0:
+                self.bar.update(round(self.stride * dt, 9))
+        if self.estimates:
+            alpha_dot = self.controller.estimate_velocity(alpha, self.previous_reading, dt)
+            self.previous_reading = alpha
+        rows = self.reference_rows
+        reference = Reference(rows[0][k], rows[1][k], rows[2][k])
+        tau, _, self.out = self.loop.control(t, x, reference, self.z, (alpha, alpha_dot))
+        for name, value in self.out.internals.items():
+            self.internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+        return tau
 
 
 def _sampled_settings(steps: int, substeps: int, dt: float):
@@ -186,14 +170,16 @@ def _sampled_settings(steps: int, substeps: int, dt: float):
     plant takes ``substeps`` RK4 steps."""
     settings = core().RunSettings()
     settings.integrator, settings.samples, settings.substeps, settings.dt = "rk4", steps + 1, substeps, dt
+    settings.max_joint_speed = MAX_JOINT_SPEED
     return settings
 
 
-def _set_core_drive(law, sensor: Encoder | None, drive: Drive | None, samples: int, dof: int) -> None:
-    """The encoder and the drive of :func:`run_sampled_loop` in a compiled law's loop: the same
-    readings (the encoder's noise drawn from its seed in the order :meth:`Encoder.read
-    <delta_pin.sim.drive.Encoder.read>` draws it, one row of ``dof`` angles per sample), delay and
-    torque limit."""
+def _core_drive(sensor: Encoder | None, drive: Drive | None, samples: int, dof: int):
+    """The encoder and the drive of :func:`run_sampled_loop` as the core's run takes them
+    (``DriveSettings``): the same readings (the encoder's noise drawn from its seed in the order
+    :meth:`Encoder.read <delta_pin.sim.drive.Encoder.read>` draws it, one row of ``dof`` angles
+    per sample; a velocity the controller estimates itself starts from the readings'
+    difference), delay and torque limit."""
     settings = core().DriveSettings()
     settings.noise = np.zeros((0, dof))
     if sensor is not None:
@@ -204,7 +190,7 @@ def _set_core_drive(law, sensor: Encoder | None, drive: Drive | None, samples: i
     if drive is not None:
         settings.drive, settings.delay = True, drive.delay
         settings.torque_limit = np.zeros(0) if drive.torque_limit is None else drive.torque_limit
-    law.set_drive(settings)
+    return settings
 
 
 def _stacked(internals: dict[str, list]) -> dict[str, np.ndarray]:

@@ -198,7 +198,7 @@ def settings(integrator="rk4", samples=5, substeps=2, dt=1e-3):  # the run's set
     made.integrator, made.samples, made.substeps, made.dt = integrator, samples, substeps, dt
     return made
 def sampled(x=x, samples=5, substeps=2, dt=1e-3, control=None, integrator="rk4", **continuous):
-    control = (lambda k, state: np.zeros(3)) if control is None else control
+    control = (lambda k, state, alpha, alpha_dot: np.zeros(3)) if control is None else control
     made = settings(integrator, samples, substeps, dt)
     return m.run(plant, control, made, x, m.RunRecords(), **continuous)
 case("derivative of an empty state", "x", lambda: plant.derivative(np.zeros(0), tau, 0.0))
@@ -229,7 +229,7 @@ case("run: samples -2", "samples", lambda: sampled(samples=-2))
 case("run: substeps 0", "substeps", lambda: sampled(substeps=0))
 case("run: dt NaN", "dt", lambda: sampled(dt=NAN))
 case("run: dt 0", "dt", lambda: sampled(dt=0.0))
-case("run: a torque of 2", "torque", lambda: sampled(control=lambda k, state: np.zeros(2)))
+case("run: a torque of 2", "torque", lambda: sampled(control=lambda k, state, alpha, alpha_dot: np.zeros(2)))
 case("run: integrator 'euler'", "integrator", lambda: sampled(integrator="euler"))
 case("run: a sampled run given z0", "z0", lambda: sampled(z0=np.zeros(1)))
 case("run: a law that is a number", "law", lambda: sampled(control=3.0))
@@ -253,7 +253,7 @@ def build(*constraints):
 def sampled(x=x, samples=5, substeps=2, dt=1e-3):
     made = m.RunSettings()
     made.samples, made.substeps, made.dt = samples, substeps, dt
-    return m.run(plant, lambda k, state: np.zeros(DOF), made, x, m.RunRecords())
+    return m.run(plant, lambda k, state, alpha, alpha_dot: np.zeros(DOF), made, x, m.RunRecords())
 case("constraint of 0 rows", "constraints", lambda: build(constraint(size=0)))
 case("constraint of -3 rows", "constraints", lambda: build(constraint(size=-3)))
 case("constraint joint = njoints", "constraints", lambda: build(constraint(j2=NJ)))
@@ -317,13 +317,13 @@ case("evaluate: alpha of 3", "alpha", lambda: law().evaluate(np.zeros(3), zeros,
 case("evaluate: NaN ref_alpha_ddot", "ref_alpha_ddot", lambda: law().evaluate(alpha0, zeros, alpha0, zeros, np.full(DOF, NAN), np.zeros(0)))
 def started(samples, reference, **drive):
     controller = law()
-    controller.start(*reference, 1e-3, np.zeros(0), samples, 100.0)
+    controller.start(*reference, 1e-3, np.zeros(0), samples)
     return controller
 case("start: an empty reference table", "alpha_d", lambda: started(5, table(0)))
 case("start: reference of 1 column", "alpha_d", lambda: started(5, table(5, 1)))
 case("start: samples -1", "samples", lambda: started(-1, table(5)))
-case("start: dt 0", "dt", lambda: law().start(*table(5), 0.0, np.zeros(0), 5, 100.0))
-case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5, 100.0))
+case("start: dt 0", "dt", lambda: law().start(*table(5), 0.0, np.zeros(0), 5))
+case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5))
 def discrete_in_continuous_mode():
     tdc = m.TimeDelayControl(chain, q0, zeros, "tdc", gains(
         "TimeDelayControl", period=1e-3, K_p=1.0, K_v=1.0, delay=1, mean_pairing=False))
@@ -332,18 +332,22 @@ def discrete_in_continuous_mode():
     m.run(plant, tdc, made, x, m.RunRecords(), np.zeros(0), m.HermiteReference())
 case("a discrete-time law in continuous mode", "continuous face", discrete_in_continuous_mode)
 case("run past the samples of start()", "samples", lambda: run(started(3, table(3))))
-def noise_after_start():
-    controller = started(5, table(5))
-    controller.set_drive(drive(sensor=True, resolution=1e-4, noise=np.zeros((1, DOF))))
-    run(controller)
-case("set_drive after start(): noise of 1 row", "noise", noise_after_start)
-def delay_after_start():
-    controller = started(5, table(5))
-    controller.set_drive(drive(exact_velocity=True, drive=True, delay=2))
-    run(controller)
-case("set_drive after start(): a delay of 2", "set_drive", delay_after_start)
-case("set_drive: noise of 3 columns", "noise", lambda: law().set_drive(drive(sensor=True, resolution=1e-4, noise=np.zeros((5, 3)))))
-case("set_drive: delay -1", "delay", lambda: law().set_drive(drive(exact_velocity=True, drive=True, delay=-1)))
+def driven(samples=5, **fields):  # a sampled run of the law through a drive of these settings
+    made = m.RunSettings()
+    made.samples, made.dt, made.drive = samples, 1e-3, drive(**fields)
+    return m.run(plant, started(samples, table(samples)), made, x, m.RunRecords())
+case("drive: noise of 1 row for 5 samples", "noise", lambda: driven(sensor=True, resolution=1e-4, noise=np.zeros((1, DOF))))
+case("drive: noise of 3 columns", "noise", lambda: driven(sensor=True, resolution=1e-4, noise=np.zeros((5, 3))))
+case("drive: resolution 0", "resolution", lambda: driven(sensor=True, resolution=0.0))
+case("drive: resolution NaN", "resolution", lambda: driven(sensor=True, resolution=NAN))
+case("drive: delay -1", "delay", lambda: driven(exact_velocity=True, drive=True, delay=-1))
+case("drive: torque limit of 3", "torque_limit", lambda: driven(drive=True, torque_limit=np.ones(3)))
+def drive_in_continuous_mode():
+    made = m.RunSettings()
+    made.integrator, made.drive = "radau", drive(drive=True, delay=1)
+    m.run(plant, law(), made, x, m.RunRecords(), np.zeros(0), m.HermiteReference())
+case("a drive in continuous mode", "drive", drive_in_continuous_mode)
+case("drive: a valid one", "noise:ok", lambda: driven(sensor=True, resolution=1e-4, noise=np.zeros((5, DOF)), drive=True, delay=2))
 def friction(normal_forces):  # eq. 12's friction by name, as the package builds it
     f = m.StribeckFriction()
     f.r_a, f.v_s, f.mu_s, f.mu_d, f.mu_v, f.sign_scale, f.normal_force = 0.0, 0.1, 0.1, 0.1, 0.1, 0.01, np.zeros(normal_forces)

@@ -50,7 +50,7 @@ void bind_laws(nb::module_ & m)
       "The Delta's analytic M, C, G (eqs. 7-10; lengths [m], the arm's inertia [kg m^2] and gravity torque "
       "[N m], g [m/s^2], m_eq [kg], the chain azimuths' cos and sin) as the nominal model instead of the projection (DeltaNominalModel).")
     .def("start", &delta_pin::ProjectedLaw::start,
-         "The reference table, the period [s], the initial state, the samples to record, the speed limit.")
+         "The reference table, the period [s], the initial state and the samples to record.")
     .def(
       "evaluate",
       [](delta_pin::ProjectedLaw & self, const Eigen::VectorXd & alpha, const Eigen::VectorXd & alpha_dot,
@@ -69,8 +69,6 @@ void bind_laws(nb::module_ & m)
       },
       nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("ref_alpha"), nb::arg("ref_alpha_dot"), nb::arg("ref_alpha_ddot"),
       nb::arg("state"), "(tau, the state's derivative) at one state.")
-    .def("set_drive", &delta_pin::ProjectedLaw::set_drive, nb::arg("settings"),
-         "The encoder and the drive between the plant and the law (DriveSettings), before start().")
     .def_prop_ro(
       "records",
       [](const delta_pin::ProjectedLaw & self)
@@ -86,8 +84,6 @@ void bind_laws(nb::module_ & m)
       "The law's own records of its last run by name (samples rows), besides tau and state: what its "
       "Python twin's evaluate() returns as internals.")
     .def_ro("tau", &delta_pin::ProjectedLaw::tau)
-    .def_ro("tau_command", &delta_pin::ProjectedLaw::tau_command)
-    .def_ro("hits", &delta_pin::ProjectedLaw::hits)
     .def_ro("state", &delta_pin::ProjectedLaw::state);
   for (const delta_pin::LawBinder bind_law : delta_pin::law_binders())  // core/laws/*.cpp
     bind_law(m);

@@ -1,5 +1,5 @@
 // The plants in Python (issue 38, item 2: one binding file per part): the settings they take by
-// name (StribeckFriction, DriveSettings), CorePlant -- what every plant of the run shares --, the
+// name (StribeckFriction), CorePlant -- what every plant of the run shares --, the
 // closed chain's constrained plant and the paper's reduced Delta.
 
 #include "binding.hpp"
@@ -31,17 +31,6 @@ void bind_plants(nb::module_ & m)
     .def_rw("mu_v", &delta_pin::FrictionSpec::mu_v)
     .def_rw("sign_scale", &delta_pin::FrictionSpec::sign_scale)
     .def_rw("normal_force", &delta_pin::FrictionSpec::normal_force);
-  nb::class_<delta_pin::DriveSettings>(
-    m, "DriveSettings", "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive "
-    "(delay [samples], torque limit [N m] per actuated joint, or empty) between a plant and a law.")
-    .def(nb::init<>())
-    .def_rw("sensor", &delta_pin::DriveSettings::sensor)
-    .def_rw("resolution", &delta_pin::DriveSettings::resolution)
-    .def_rw("noise", &delta_pin::DriveSettings::noise)
-    .def_rw("exact_velocity", &delta_pin::DriveSettings::exact_velocity)
-    .def_rw("drive", &delta_pin::DriveSettings::drive)
-    .def_rw("delay", &delta_pin::DriveSettings::delay)
-    .def_rw("torque_limit", &delta_pin::DriveSettings::torque_limit);
   using delta_pin::AnalyticDeltaPlant;
   using delta_pin::CorePlant;
   nb::class_<CorePlant>(m, "CorePlant", "A plant of the core's loops (plant.hpp).")

@@ -1,4 +1,4 @@
-// The Python face of the core's one run (run.hpp): RunSettings, RunRecords, HermiteReference and
+// The Python face of the core's one run (run.hpp): RunSettings, DriveSettings, RunRecords, HermiteReference and
 // run(), called from delta_pin/sim/loop.py (sampled) and delta_pin/sim/continuous_core.py
 // (continuous). Registered by module.cpp (bind_run).
 
@@ -22,8 +22,9 @@ namespace
 {
   using namespace delta_pin;
 
-  // A law written in Python behind the run's one interface (law.hpp): a callable control(k, x) ->
-  // tau (the sampled face), or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha,
+  // A law written in Python behind the run's one interface (law.hpp): a callable control(k, x,
+  // alpha, alpha_dot) -> tau (the sampled face: the plant state and the joints as the drive's
+  // encoder reads them), or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha,
   // ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, tau, z) (the continuous face).
   // Each call takes the GIL; an exception it raises is kept and the run unwound by CallbackError,
   // then raised again (raise()).
@@ -41,7 +42,8 @@ namespace
         control_ = nb::cast<nb::callable>(law);
       else
         throw std::invalid_argument(
-          "law must be a compiled law, a callable control(k, x) -> tau or an object with evaluate() and keep()");
+          "law must be a compiled law, a callable control(k, x, alpha, alpha_dot) -> tau or an object with "
+          "evaluate() and keep()");
     }
     ~CallbackLaw() override
     {
@@ -57,7 +59,7 @@ namespace
       nb::gil_scoped_acquire gil;
       try
       {
-        return nb::cast<Vector>(control_(k, x));
+        return nb::cast<Vector>(control_(k, x, alpha, alpha_dot));
       }
       catch (nb::python_error & error)
       {
@@ -133,6 +135,9 @@ namespace
       throw std::invalid_argument("integrator is '" + integrator + "', expected 'rk4', 'radau' or 'bdf2'");
     if (!law.continuous())
       throw Law::no_continuous_face();
+    if (settings.drive.active())
+      throw std::invalid_argument(
+        "settings.drive (an encoder, a delay, a torque limit) acts between samples: integrator='rk4'");
     if (!z0 || !reference)
       throw std::invalid_argument("a continuous run (integrator='" + integrator + "') needs z0 and reference");
     check_size(x0, plant.nq() + plant.nv(), "x0");  // [q, v]
@@ -156,6 +161,17 @@ namespace
 
 void bind_run(nb::module_ & m)
 {
+  nb::class_<delta_pin::DriveSettings>(
+    m, "DriveSettings", "The encoder (resolution [rad], noise per sample [rad], exact velocity) and the drive "
+    "(delay [samples], torque limit [N m] per actuated joint, or empty) between the plant and the law of a sampled run.")
+    .def(nb::init<>())
+    .def_rw("sensor", &delta_pin::DriveSettings::sensor)
+    .def_rw("resolution", &delta_pin::DriveSettings::resolution)
+    .def_rw("noise", &delta_pin::DriveSettings::noise)
+    .def_rw("exact_velocity", &delta_pin::DriveSettings::exact_velocity)
+    .def_rw("drive", &delta_pin::DriveSettings::drive)
+    .def_rw("delay", &delta_pin::DriveSettings::delay)
+    .def_rw("torque_limit", &delta_pin::DriveSettings::torque_limit);
   nb::class_<RunSettings>(m, "RunSettings", "What a run is asked for, by name (SI units; run.hpp).")
     .def(nb::init<>())
     .def_rw("integrator", &RunSettings::integrator, "'rk4' (sampled: the torque held over each period), "
@@ -169,7 +185,9 @@ void bind_run(nb::module_ & m)
     .def_rw("max_step", &RunSettings::max_step, "Radau IIA's largest step [s]")
     .def_rw("max_joint_speed", &RunSettings::max_joint_speed, "the divergence limit on |alpha_dot| [rad/s]")
     .def_rw("projection_interval", &RunSettings::projection_interval,
-            "samples between a whole-state continuous run's projections onto the loops (0: none)");
+            "samples between a whole-state continuous run's projections onto the loops (0: none)")
+    .def_rw("drive", &RunSettings::drive, "the encoder and the drive between the plant and the law (DriveSettings; "
+            "sampled mode)");
   nb::class_<RunRecords>(m, "RunRecords", "What a run recorded at its samples (run.hpp).")
     .def(nb::init<>())
     .def_ro("alpha", &RunRecords::alpha)
@@ -180,6 +198,8 @@ void bind_run(nb::module_ & m)
     .def_ro("v", &RunRecords::v)
     .def_ro("xyz", &RunRecords::xyz)
     .def_ro("gap", &RunRecords::gap)
+    .def_ro("commands", &RunRecords::commands, "with a drive: the law's command at each sample [N m]")
+    .def_ro("hits", &RunRecords::hits, "with a torque limit: the samples at which it bound")
     .def_ro("samples", &RunRecords::samples, "the samples recorded (all, or up to a failure)")
     .def_ro("failure_time", &RunRecords::failure_time, "[s] the time of the failure that stopped it (NaN: none)")
     .def_prop_ro("radau_counters", [](const RunRecords & run) {
@@ -225,7 +245,8 @@ void bind_run(nb::module_ & m)
     nb::arg("plant"), nb::arg("law"), nb::arg("settings"), nb::arg("x0"), nb::arg("records"),
     nb::arg("z0").none() = nb::none(), nb::arg("reference").none() = nb::none(),
     "The core's one run (run.hpp): the plant (ClosedChainPlant, AnalyticDeltaPlant, PythonPlant) from its state "
-    "x0 = [q, v] under the law -- a compiled law, a callable control(k, x) -> tau (sampled) or an object with "
+    "x0 = [q, v] under the law -- a compiled law, a callable control(k, x, alpha, alpha_dot) -> tau (sampled: the "
+    "joints as settings.drive's encoder reads them) or an object with "
     "evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, "
     "tau, z) (continuous) -- stepped by settings.integrator: 'rk4' (the torque at t_k held over the period), "
     "'radau' or 'bdf2' (plant and law as one ODE from the law's state z0 along the reference). What the law "

@@ -100,34 +100,9 @@ namespace delta_pin
     throw std::logic_error("law '" + name_ + "' overrides neither compute() nor law()");
   }
 
-  void ProjectedLaw::set_drive(const DriveSettings & settings)
-  {
-    const bool sensor = settings.sensor, drive = settings.drive;
-    const double resolution = settings.resolution;
-    const RowMatrix & noise = settings.noise;
-    const int delay = settings.delay;
-    const Vector & torque_limit = settings.torque_limit;
-    const Eigen::Index n = nominal_.dof();
-    if (sensor && !(resolution > 0.0))
-      throw std::invalid_argument("the encoder needs a resolution > 0 [rad]");
-    if (noise.size() && noise.cols() != n)
-      check_shape(noise, -1, n, "noise");  // one column per actuated joint (or none)
-    if (delay < 0)
-      throw std::invalid_argument("delay is " + std::to_string(delay) + ", expected >= 0 samples");
-    if (torque_limit.size())
-      check_size(torque_limit, n, "torque_limit");  // one per actuated joint (or none)
-    sensor_ = sensor;
-    resolution_ = resolution;
-    noise_ = noise;
-    exact_velocity_ = settings.exact_velocity;
-    drive_ = drive;
-    delay_ = drive ? delay : 0;
-    limit_ = drive ? torque_limit : Vector();
-  }
-
   void ProjectedLaw::start(
     const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
-    const Vector & state0, long samples, double max_joint_speed)
+    const Vector & state0, long samples)
   {
     const Eigen::Index n = nominal_.dof();
     if (samples < 0)
@@ -141,18 +116,10 @@ namespace delta_pin
     alpha_dot_d_ = alpha_dot_d;
     alpha_ddot_d_ = alpha_ddot_d;
     dt_ = dt;
-    max_joint_speed_ = max_joint_speed;
     z_ = state0;
     z_dot_ = Vector::Zero(state0.size());
-    if (sensor_ && noise_.size())
-      check_shape(noise_, samples, n, "noise");  // one row per sample
     tau.setZero(samples, n);
     state.setZero(samples, state0.size());
-    tau_command.setZero(drive_ ? samples : 0, n);
-    pending_.setZero(delay_, n);
-    head_ = 0;
-    hits = 0;
-    has_previous_ = false;
     start_records(samples);
   }
 
@@ -161,8 +128,6 @@ namespace delta_pin
     const Eigen::Index n = nominal_.dof();
     tau.setZero(samples, n);
     state.setZero(samples, states);
-    tau_command.setZero(0, n);
-    hits = 0;
     start_records(samples);
   }
 
@@ -175,17 +140,12 @@ namespace delta_pin
     record(k);
   }
 
-  Vector ProjectedLaw::control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot)
+  Vector ProjectedLaw::control(long k, const Vector & /*x*/, const Vector & alpha, const Vector & alpha_dot)
   {
     if (k < 0 || k >= tau.rows())
       throw std::invalid_argument(
         "sample " + std::to_string(k) + " lies beyond the " + std::to_string(tau.rows())
         + " samples of start(): steps + 1 must not exceed them");
-    // the drive as start() sized it (set_drive since then: start() again)
-    if ((sensor_ && noise_.size() && k >= noise_.rows()) || (drive_ && (k >= tau_command.rows() || pending_.rows() != delay_)))
-      throw std::invalid_argument(
-        "set_drive was called after start(): its noise, delay or command records do not match the run's; call "
-        "start() again");
     const double t = k * dt_;
     if (k > 0)
     {
@@ -193,25 +153,13 @@ namespace delta_pin
         z_ = z_dot_;  // Controller.advance: the discrete-time law's next state
       else
         z_ += dt_ * z_dot_;  // Controller.advance: explicit Euler once per sample
-      check_sample(x.allFinite() && z_.allFinite(), alpha, alpha_dot, max_joint_speed_, t);
-    }
-    Vector measured = alpha, rate = alpha_dot;
-    if (sensor_)  // Encoder.read
-    {
-      for (Eigen::Index i = 0; i < measured.size(); ++i)
-      {
-        const double angle = noise_.size() ? alpha[i] + noise_(k, i) : alpha[i];
-        measured[i] = std::nearbyint(angle / resolution_) * resolution_;  // np.round: half to even
-      }
-      if (!exact_velocity_)
-        rate = has_previous_ ? Vector((measured - previous_) / dt_) : Vector::Zero(measured.size());
-      previous_ = measured;
-      has_previous_ = true;
+      if (!z_.allFinite())  // the plant's state the run checked (HeldTorqueRk4)
+        throw failure_at("the state became non-finite (alpha=" + joint_values(alpha) + ")", t);
     }
     Vector torque;
     try
     {
-      evaluate(measured, rate, alpha_d_.row(k).transpose(), alpha_dot_d_.row(k).transpose(),
+      evaluate(alpha, alpha_dot, alpha_d_.row(k).transpose(), alpha_dot_d_.row(k).transpose(),
                alpha_ddot_d_.row(k).transpose(), z_, torque, z_dot_);
     }
     catch (SimulationFailure & failure)
@@ -221,24 +169,6 @@ namespace delta_pin
     }
     if (!torque.allFinite())
       throw failure_at("controller '" + name_ + "' returned a non-finite torque " + joint_values(torque), t);
-    if (drive_)  // Drive.apply
-    {
-      tau_command.row(k) = torque.transpose();
-      if (delay_ > 0)
-      {
-        const Vector command = torque;
-        torque = pending_.row(head_).transpose();
-        pending_.row(head_) = command.transpose();
-        head_ = (head_ + 1) % delay_;
-      }
-      if (limit_.size())
-      {
-        const Vector clipped = torque.cwiseMax(-limit_).cwiseMin(limit_);
-        if (clipped != torque)
-          ++hits;
-        torque = clipped;
-      }
-    }
     tau.row(k) = torque.transpose();
     state.row(k) = z_.transpose();
     record(k);

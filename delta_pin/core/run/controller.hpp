@@ -22,28 +22,6 @@
 
 namespace delta_pin
 {
-  // The encoder and the drive between the plant and a law (ProjectedLaw::set_drive), by name:
-  // the encoder's resolution [rad] and noise per sample [rad] (rows of one column per actuated
-  // joint, or none), whether it gives the exact velocity; the drive's delay [samples] and torque
-  // limit [N m] (one per actuated joint, or none).
-  struct DriveSettings
-  {
-    bool sensor = false;
-    double resolution = 0.0;
-    RowMatrix noise;
-    bool exact_velocity = false;
-    bool drive = false;
-    int delay = 0;
-    Vector torque_limit;
-  };
-
-  // A law on the projected nominal model of a closed chain, sampled once per period: the part
-  // every such law shares -- the nominal model (assembled from the previous sample), the
-  // reference table, the loop's checks of each sample (state finite, |alpha_dot| within the
-  // limit, the torque finite: the messages of delta_pin.sim.integrators.check_state and
-  // ControlLoop.control), the state advanced by explicit Euler or to a discrete-time law's next
-  // state (Controller.advance), the drive between the plant and the law (set_drive) and the
-  // records of the torque and the state.
   // A law's own records of its last run by name, one row (or entry) per sample, besides the torque
   // and the state: what its Python twin's evaluate() returns as internals (issue 38, item 3: the
   // names are written here once, and read by Python as `records`)
@@ -53,6 +31,13 @@ namespace delta_pin
     std::map<std::string, Vector> vectors;  // (samples,)
   };
 
+  // A law on the projected nominal model of a closed chain, sampled once per period: the part
+  // every such law shares -- the nominal model (assembled from the previous sample), the
+  // reference table, the checks of each sample (the law's state finite, the torque finite: the
+  // messages of delta_pin.sim.integrators.check_state and ControlLoop.control), the state
+  // advanced by explicit Euler or to a discrete-time law's next state (Controller.advance) and
+  // the records of its torque and state. It reads the joints as the run's drive gives them
+  // (drive.hpp).
   class ProjectedLaw : public Law
   {
   public:
@@ -68,14 +53,7 @@ namespace delta_pin
     // the reference per sample (rows: alpha^d, alpha_dot^d, alpha_ddot^d), the sample period
     // [s], the initial state and the number of samples to record
     void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
-               const Vector & state0, long samples, double max_joint_speed);
-    // The drive between the plant and the law (delta_pin/sim/drive.py), before start(): with
-    // `sensor`, the law reads round((alpha + noise_k) / q) q (q = resolution [rad]; noise: one row
-    // of angles [rad] per sample, or none) and, unless exact_velocity, the backward difference of
-    // the readings (zero at the first sample); with `drive`, the command of sample k acts from
-    // sample k + delay (zero before), clipped to +-torque_limit [N m] (empty: none), and `hits`
-    // counts the samples at which the limit bound.
-    void set_drive(const DriveSettings & settings);
+               const Vector & state0, long samples);
     Vector control(long k, const Vector & x, const Vector & alpha, const Vector & alpha_dot) override;
     // one evaluation at a state: tau and the state's derivative
     void evaluate(const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
@@ -105,11 +83,9 @@ namespace delta_pin
         q_ = q;
     }
 
-    RowMatrix tau, state;  // the records of the last run (samples rows): the torque that acted, the state
+    RowMatrix tau, state;  // the records of the last run (samples rows): the law's torque, its state
     // the law's own records (none by default)
     virtual Records records() const { return {}; }
-    RowMatrix tau_command;  // with a drive: the law's command (samples rows)
-    long hits = 0;  // with a torque limit: the samples at which it bound
 
   protected:
     // One evaluation: tau and the state's derivative (a continuous-time state) or its next value
@@ -137,13 +113,6 @@ namespace delta_pin
 
   private:
     bool discrete_ = false;
-    // the drive (set_drive)
-    bool sensor_ = false, exact_velocity_ = false, drive_ = false, has_previous_ = false;
-    double resolution_ = 0.0;
-    RowMatrix noise_, pending_;  // pending_: the delayed commands, a ring of delay rows
-    Vector limit_, previous_;
-    int delay_ = 0;
-    long head_ = 0;
     ClosedChainModel nominal_;
     bool delta_model_ = false;
     DeltaGeometry geometry_;
@@ -152,7 +121,7 @@ namespace delta_pin
     FrictionSpec friction_;
     std::string name_;
     RowMatrix alpha_d_, alpha_dot_d_, alpha_ddot_d_;
-    double dt_ = 0.0, max_joint_speed_ = 1e3;
+    double dt_ = 0.0;
     Vector z_, z_dot_;
   };
 

@@ -51,8 +51,10 @@ namespace delta_pin
     if (!(speed <= max_joint_speed))
     {
       std::ostringstream text;
-      text.precision(3);
-      text << "the run diverged: |alpha_dot| = " << speed << " rad/s > " << max_joint_speed << " rad/s";
+      text.precision(3);  // Python's {speed:.3g} and {limit:g} (delta_pin.sim.integrators.check_state)
+      text << "the run diverged: |alpha_dot| = " << speed << " rad/s > ";
+      text.precision(6);
+      text << max_joint_speed << " rad/s";
       throw failure_at(text.str(), t);
     }
   }

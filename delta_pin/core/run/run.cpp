@@ -69,6 +69,7 @@ namespace delta_pin
   , x_(x)
   , dt_(settings.dt)
   , h_(settings.dt / settings.substeps)
+  , max_joint_speed_(settings.max_joint_speed)
   , substeps_(settings.substeps)
   {
     if (settings.substeps < 1)
@@ -76,6 +77,8 @@ namespace delta_pin
     check_positive(settings.dt, "dt");
     check_size(x_, plant.nq() + plant.nv(), "x");  // [q, v]
     check_finite(x_, "x");
+    if (settings.drive.active())
+      drive_ = std::make_unique<Drive>(settings.drive, settings.samples, plant.dof(), settings.dt);
     gap_ = plant.closure_gap(x_.head(plant.nq()));
   }
 
@@ -85,9 +88,18 @@ namespace delta_pin
     s.alpha.resize(plant_.actuated_q().size());
     s.alpha_dot.resize(plant_.actuated_v().size());
     plant_.joint_state(x_, s.alpha, s.alpha_dot);
+    Vector command;
     try
     {
-      tau_ = law_.control(k, x_, s.alpha, s.alpha_dot);
+      if (k > 0)
+        check_sample(x_.allFinite(), s.alpha, s.alpha_dot, max_joint_speed_, k * dt_);
+      if (drive_)
+      {
+        drive_->read(k, s.alpha, s.alpha_dot, measured_, rate_);
+        command = law_.control(k, x_, measured_, rate_);
+      }
+      else
+        command = law_.control(k, x_, s.alpha, s.alpha_dot);
     }
     catch (SimulationFailure & failure)
     {
@@ -95,10 +107,11 @@ namespace delta_pin
         failure.time = k * dt_;
       throw;
     }
-    if (tau_.size() != plant_.dof())
+    if (command.size() != plant_.dof())
       throw std::invalid_argument(
-        "the control returned a torque of " + std::to_string(tau_.size()) + " entries at sample " + std::to_string(k)
-        + ", expected " + std::to_string(plant_.dof()));
+        "the control returned a torque of " + std::to_string(command.size()) + " entries at sample "
+        + std::to_string(k) + ", expected " + std::to_string(plant_.dof()));
+    tau_ = drive_ ? drive_->apply(k, command) : command;
     s.tau = tau_;
     s.z.resize(0);  // the sampled law keeps its own state
     s.q = x_.head(nq);
@@ -119,6 +132,15 @@ namespace delta_pin
         failure.time = k * dt_ + (j + 1) * h_;
         throw;
       }
+    }
+  }
+
+  void HeldTorqueRk4::count(RunRecords & records) const
+  {
+    if (drive_)
+    {
+      records.commands = drive_->commands;
+      records.hits = drive_->hits;
     }
   }
 

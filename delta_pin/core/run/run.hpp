@@ -1,6 +1,6 @@
 // The one run of the compiled core (docs/architecture.md section 7), built from parts: a plant
-// (CorePlant, plant.hpp), a law (Law, law.hpp: compiled or a Python call-back; a compiled law
-// holds its drive, drive.hpp) and a stepper, the integrator that takes the plant from one sample
+// (CorePlant, plant.hpp), a law (Law, law.hpp: compiled or a Python call-back), a drive between
+// them (drive.hpp: the encoder and the torque path, sampled mode) and a stepper, the integrator that takes the plant from one sample
 // t_k = k dt to the next:
 //  - HeldTorqueRk4 (sampled mode): the law's torque at t_k held over the period while the plant
 //    takes `substeps` RK4 steps (the zero-order hold of a digital controller);
@@ -11,6 +11,7 @@
 #pragma once
 
 #include "bdf2.hpp"
+#include "drive.hpp"
 #include "law.hpp"
 #include "plant.hpp"
 #include "radau.hpp"
@@ -24,8 +25,8 @@ namespace delta_pin
   // What a run is asked for, by name: the sample period [s] and count (t_k = k dt, k < samples),
   // the integrator ("rk4": sampled; "radau", "bdf2": continuous), its steps per sample (RK4's and
   // BDF2's fixed steps dt / substeps), Radau IIA's tolerances and step bounds [s], the divergence
-  // limit on |alpha_dot| [rad/s] and the samples between projections of a whole-state continuous
-  // run onto the loops (0: none)
+  // limit on |alpha_dot| [rad/s], the samples between projections of a whole-state continuous
+  // run onto the loops (0: none) and the drive between the plant and the law (sampled mode)
   struct RunSettings
   {
     std::string integrator = "rk4";
@@ -35,14 +36,17 @@ namespace delta_pin
     double rtol = 1e-6, atol = 1e-8, first_step = 1e-5, max_step = 1e-2;
     double max_joint_speed = 1e3;
     long projection_interval = 0;
+    DriveSettings drive;
   };
 
   // What a run records at its samples (samples rows each): the actuated joints, the torque that
   // acted, the law's integrated state (continuous mode; the sampled law keeps its own), the
-  // plant's q and v, the end effector [m] and the closure gap [m, rad]; the integrators' counters.
+  // plant's q and v, the end effector [m] and the closure gap [m, rad]; with a drive the law's
+  // commands [N m] and the samples at which the torque limit bound; the integrators' counters.
   struct RunRecords
   {
-    RowMatrix alpha, alpha_dot, tau, state, q, v, xyz;
+    RowMatrix alpha, alpha_dot, tau, state, q, v, xyz, commands;
+    long hits = 0;
     Vector gap;
     RadauCounters radau;
     Bdf2Counters bdf2;
@@ -73,21 +77,25 @@ namespace delta_pin
   // SimulationFailure leaves the samples before it recorded and its time in the records.
   void run(CorePlant & plant, Stepper & stepper, long samples, RunRecords & records);
 
-  // Sampled mode: from the plant state x = [q, v], the law's torque at t_k held over the period
-  // while the plant takes `substeps` RK4 steps of dt / substeps (CorePlant::step).
+  // Sampled mode: from the plant state x = [q, v], the law reads the joints through the drive's
+  // encoder at t_k (the true state checked first: finite, |alpha_dot| within the limit), and its
+  // command, through the drive's delay and limit, is held over the period while the plant takes
+  // `substeps` RK4 steps of dt / substeps (CorePlant::step).
   class HeldTorqueRk4 : public Stepper
   {
   public:
     HeldTorqueRk4(CorePlant & plant, Law & law, const Vector & x, const RunSettings & settings);
     void sample(long k, Sample & s) override;
     void advance(long k) override;
+    void count(RunRecords & records) const override;
 
   private:
     CorePlant & plant_;
     Law & law_;
-    Vector x_, tau_;
-    double dt_, h_, gap_;
+    Vector x_, tau_, measured_, rate_;
+    double dt_, h_, gap_, max_joint_speed_;
     int substeps_;
+    std::unique_ptr<Drive> drive_;  // none without a sensor or a drive
   };
 
   // alpha^d(t) on a uniform grid read by cubic Hermite interpolation (the arithmetic of
