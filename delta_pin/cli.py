@@ -1300,6 +1300,151 @@ def _add_identify_command(add) -> None:
     fit.set_defaults(func=_identify_fit)
 
 
+PLAN_FILES = ("plan.csv", "plan.json", "plan.png")  # what `plan` writes into --out (and singularity_map.png)
+
+
+def _add_plan_command(add) -> None:
+    plan = add(
+        "plan",
+        help="a time-optimal, torque-feasible pick-and-place of any closed chain, verified on the exact "
+        "model "
+        "(docs/planning.md)",
+    )
+    _add_robot_arguments(plan)
+    _robot_file_arguments(plan)
+    plan.add_argument(
+        "--path", choices=("adept",), default="adept",
+        help="adept: the Adept cycle (--height up, --width across, down, and back; rest at both ends of each "
+        "half); --corners replaces it with your own pick-and-place polyline",
+    )  # fmt: skip
+    plan.add_argument(
+        "--corners", default=None, metavar="X,Y,Z;X,Y,Z;...",
+        help="the frame's path through these points [m], from rest to rest, its corners blended (write "
+        "--corners=-0.02,0,-0.53;... when the first number is negative)",
+    )  # fmt: skip
+    plan.add_argument("--height", type=float, default=0.025, help="the Adept cycle's rise [m]")
+    plan.add_argument("--width", type=float, default=0.305, help="the Adept cycle's move across [m]")
+    plan.add_argument("--z", type=float, default=-0.40, help="the height of its pick and place points [m]")
+    plan.add_argument("--center", default="0,0", metavar="X,Y", help="the midpoint of pick and place [m]")
+    plan.add_argument("--blend", type=float, default=0.01, help="the corners' blend distance [m]")
+    plan.add_argument(
+        "--torque-limit", required=True, metavar="T[,T...]",
+        help="|tau| per actuated joint [N m or N]: one value for all, or one per joint",
+    )  # fmt: skip
+    plan.add_argument("--velocity-limit", default=None, metavar="V[,V...]", help="|alpha_dot| [rad/s or m/s]")
+    plan.add_argument("--points", type=_integer(3, 100_000), default=100, help="grid points per path")
+    plan.add_argument("--friction", action="store_true", help="the nominal friction (a recognised Delta's)")
+    plan.add_argument("--payload", type=float, default=0.0, help="a payload at the end effector [kg]")
+    plan.add_argument(
+        "--frame", default=None, help="the frame that follows the path (default the end effector)"
+    )
+    plan.add_argument(
+        "--axes", default=None, help="its controlled coordinates (default xyz, or xz for 2 motors)"
+    )
+    plan.add_argument("--rate", type=float, default=1000.0, help="the CSV's sample rate [Hz]")
+    plan.add_argument(
+        "--singularity-margin", type=float, default=5e-3,
+        help="refuse a path that comes this close to a Type I or II singularity (sigma_min/sigma_max; "
+        "0: never)",
+    )  # fmt: skip
+    plan.add_argument("--out", type=Path, required=True, help="the output folder: " + ", ".join(PLAN_FILES))
+    plan.set_defaults(func=_cmd_plan)
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from delta_pin.model.trajectory import AdeptCycle
+    from delta_pin.planning import BlendedPath, PlannedSequence, adept_paths, plan_time_optimal
+    from delta_pin.planning.files import write_plan
+    from delta_pin.planning.time_optimal import torque_model
+    from delta_pin.utils.manifest import claim
+    from delta_pin.viz.planning_plots import plot_plan
+    from delta_pin.viz.plots import save_figure
+
+    out = Path(args.out)
+    _check_output_dir("--out", out)
+    for flag, value in (("--rate", args.rate), ("--blend", args.blend), ("--payload", args.payload)):
+        if not (math.isfinite(value) and value >= 0.0 and (flag != "--rate" or value > 0.0)):
+            raise InvalidParameterError(
+                f"{flag} {value!r} must be a finite number >= 0{' (> 0)' if flag == '--rate' else ''}"
+            )
+    if not (math.isfinite(args.singularity_margin) and 0.0 <= args.singularity_margin < 1.0):
+        raise InvalidParameterError(f"--singularity-margin {args.singularity_margin!r} must be in [0, 1)")
+    robot = _closed_chain_robot(args) if args.robot is not None else _load_robot(args)
+    torque = _numbers("--torque-limit", args.torque_limit)
+    velocity = None if args.velocity_limit is None else _numbers("--velocity-limit", args.velocity_limit)
+    if args.corners is not None:
+        corners = [_numbers("--corners", point) for point in args.corners.split(";") if point.strip()]
+        if any(len(c) != 3 for c in corners):
+            raise InvalidParameterError(f"--corners {args.corners!r} must be points X,Y,Z separated by ';'")
+        paths = [BlendedPath(corners, args.blend)]
+        paths[0].name = "pick and place"
+    else:
+        center = _numbers("--center", args.center)
+        if len(center) != 2:
+            raise InvalidParameterError(f"--center {args.center!r} must be X,Y [m]")
+        cycle = AdeptCycle(height=args.height, width=args.width, z=args.z, center=center)
+        paths = list(adept_paths(cycle, args.blend))
+    options = {
+        "torque_limit": torque, "velocity_limit": velocity, "points": args.points, "frame": args.frame,
+        "axes": args.axes, "friction": True if args.friction else None, "payload_mass": args.payload,
+    }  # fmt: skip
+    plans = [
+        plan_time_optimal(
+            robot, path, torque if len(torque) > 1 else torque[0],
+            velocity_limit=None if velocity is None else (velocity if len(velocity) > 1 else velocity[0]),
+            points=args.points, frame=args.frame, axes=args.axes, friction=options["friction"],
+            payload_mass=args.payload, singularity_margin=args.singularity_margin,
+        )
+        for path in paths
+    ]  # fmt: skip
+    sequence = PlannedSequence(plans, " + ".join(p.path.name for p in plans))
+    summary = {
+        "robot": robot.name,
+        "path": [p.path.metadata() for p in plans],
+        "duration_s": sequence.duration,
+        "plans": [
+            {
+                "path": p.path.name, "duration_s": p.duration, "grid_points": len(p.s), "repairs": p.repairs,
+                "torque_ratio_10kHz": p.verification.torque_ratio,
+                "peak_torque": p.verification.peak_torque.tolist(),
+                "torque_margin": p.verification.margin.tolist(),
+                "singularity_type_I_min": float(p.singularity[0]),
+                "singularity_type_II_min": float(p.singularity[1]), "planning_time_s": p.planning_time,
+                "verification_time_s": p.verification_time,
+            }
+            for p in plans
+        ],
+        "options": options,
+    }  # fmt: skip
+    with claim(out, "plan", options, command_line=args.command_line, outputs=list(PLAN_FILES),
+               replace_same_command=True) as folder:  # fmt: skip
+        folder.start()
+        written = [
+            write_plan(
+                out / "plan.csv", sequence, robot, torque_model(robot, options["friction"], args.payload),
+                args.rate, {"torque_limit": torque, "paths": [p.path.name for p in plans]},
+            ),
+        ]  # fmt: skip
+        write_text_atomically(out / "plan.json", json.dumps(summary, indent=2) + "\n")
+        written.append(out / "plan.json")
+        written.append(save_figure(plot_plan(plans, sequence.name), out / "plan.png"))
+        folder.finish(written)
+    feasible = all(p.verification.feasible for p in plans)
+    halves = ", ".join(f"{p.path.name} {p.duration * 1e3:.1f} ms" for p in plans)
+    print(
+        f"{sequence.name}: {sequence.duration * 1e3:.1f} ms ({halves}); largest |tau|/limit on the exact "
+        "model "
+        f"at 10 kHz {max(p.verification.torque_ratio for p in plans):.4f}; wrote "
+        f"{', '.join(str(w) for w in written)}"
+    )
+    if not feasible:
+        print(
+            "  the verification still exceeds a limit after the repairs: the plan is not feasible",
+            file=sys.stderr,
+        )
+    return 0 if feasible else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="delta-pin",
@@ -1476,6 +1621,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     view.set_defaults(func=_cmd_view)
     _add_identify_command(add)  # identify excite | simulate | fit (issue 24)
+    _add_plan_command(add)  # plan (issue 40)
     return parser
 
 

@@ -15,6 +15,7 @@ __all__ = [
     "NativeUnavailableError",
     "NonFiniteError",
     "OptionalDependencyError",
+    "PlanningError",
     "SchedulerUnreachableError",
     "SimulationError",
     "URDFConventionError",
@@ -87,3 +88,7 @@ class OptionalDependencyError(DeltaPinError, ImportError):
 
 class SchedulerUnreachableError(DeltaPinError, ConnectionError):
     """No Dask scheduler answers at the given address within the connect timeout."""
+
+
+class PlanningError(DeltaPinError):
+    """No time law runs the path within the limits (delta_pin.planning), said in one line."""

@@ -123,12 +123,16 @@ class FramePath:
             )
         return axes
 
-    def joint_reference(self, robot, t) -> JointReference:
-        """alpha, alpha_dot, alpha_ddot at times ``t`` (N,) [s] (module docstring).
+    def joint_reference(self, robot, t, start: np.ndarray | None = None) -> JointReference:
+        """alpha, alpha_dot, alpha_ddot at times ``t`` (N,) [s] (module docstring), the inverse
+        kinematics of the first sample from ``start`` (a closed configuration q; default the
+        robot's last assembly, so a path continues from where the robot was).
 
         Raises:
             UnreachablePoseError: naming the time and point the frame cannot reach.
         """
+        if start is not None:
+            robot._last_q = robot._configuration_vector(start).copy()
         times = np.atleast_1d(np.asarray(t, dtype=float))
         axes = self._axes_for(robot)
         rows = ["xyz".index(a) for a in axes]

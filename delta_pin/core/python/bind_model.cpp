@@ -210,6 +210,61 @@ void bind_model(nb::module_ & m)
       nb::arg("q"), nb::arg("alpha_dot"), nb::arg("frame"),
       "The frame's classical linear acceleration at zero actuated acceleration [m/s^2].")
     .def(
+      "inverse_dynamics",
+      [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
+         const Eigen::VectorXd & guess, bool split)
+      {
+        const Eigen::Index n = alpha.rows(), dof = self.dof();
+        // one row per state, one column per actuated joint, the three alike
+        for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
+          if (table->rows() != n || table->cols() != dof)
+            throw std::invalid_argument(
+              std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
+              + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
+        check_finite(alpha_dot, "alpha_dot");
+        check_finite(alpha_ddot, "alpha_ddot");
+        if (guess.size() != self.nq())
+          throw std::invalid_argument(
+            "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(self.nq()));
+        RowMatrix inertial(n, dof), coriolis(n, dof), damping(n, dof), gravity(n, dof);
+        Eigen::VectorXd q = guess, closed, G, c_once, c_twice;
+        Eigen::MatrixXd M, C;
+        long failed = -1;
+        {
+          nb::gil_scoped_release release;
+          for (Eigen::Index i = 0; i < n; ++i)
+          {
+            if (!self.configuration(alpha.row(i).transpose(), q, closed))
+            {
+              failed = (long)i;
+              break;
+            }
+            q = closed;
+            const Eigen::VectorXd rate = alpha_dot.row(i).transpose();
+            self.reduced_terms(q, rate, M, C, G, c_once);
+            inertial.row(i) = (M * alpha_ddot.row(i).transpose()).transpose();
+            gravity.row(i) = G.transpose();
+            if (!split)
+            {
+              coriolis.row(i) = c_once.transpose();
+              damping.row(i).setZero();
+              continue;
+            }
+            // C alpha_dot = Q(alpha_dot) + D alpha_dot: the Coriolis part quadratic, the dampers linear
+            self.reduced_terms(q, 2.0 * rate, M, C, G, c_twice);
+            const Eigen::VectorXd quadratic = 0.5 * (c_twice - 2.0 * c_once);
+            coriolis.row(i) = quadratic.transpose();
+            damping.row(i) = (c_once - quadratic).transpose();
+          }
+        }
+        return std::make_tuple(failed, q, inertial, coriolis, damping, gravity);
+      },
+      nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"), nb::arg("guess"), nb::arg("split") = true,
+      "(first row whose loops do not close or -1, the last closed q, M alpha_ddot, the Coriolis torque (quadratic "
+      "in alpha_dot), the dampers' D alpha_dot, G) of the projected dynamics along rows (N, dof), each state "
+      "assembled from the one before: tau = the sum of the four. Without split, C alpha_dot whole in the "
+      "second and zeros in the third (one evaluation instead of two).")
+    .def(
       "joint_reference",
       [](ClosedChainModel & self, size_t frame, const Eigen::VectorXi & rows, const Eigen::VectorXd & times,
          const RowMatrix & xyz, const RowMatrix & xyz_dot, const RowMatrix & xyz_ddot, const Eigen::VectorXd & alpha0,

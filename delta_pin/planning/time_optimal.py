@@ -1,0 +1,577 @@
+"""Time-optimal parametrisation of a frame's path for any fully actuated closed chain, verified on
+the exact model.
+
+Along a geometric path x(s) of a frame (:mod:`delta_pin.planning.paths`) the actuated joints
+follow alpha(s), alpha'(s), alpha''(s) (the core's closed-loop inverse kinematics,
+:class:`~delta_pin.model.frame_path.FramePath`), and a time law s(t) gives
+
+    alpha_dot = alpha' s_dot,   alpha_ddot = alpha' s_ddot + alpha'' s_dot^2,
+
+so the actuated torque of the projected dynamics the controllers use (M, C, G of
+``robot.reduced_terms``, eq. 13's form for any closed chain) is affine in (s_ddot, s_dot^2):
+
+    tau = a(s) s_ddot + b(s) s_dot^2 + c(s),   a = M alpha',  b = M alpha'' + C(alpha, alpha') alpha',
+    c = G + F̄ + M̄_f(alpha' s_dot) (+ the joint dampers' D alpha' s_dot),
+
+with the nominal model's friction (eq. 12) and dampers, which depend on s_dot itself, taken at the
+previous solution's s_dot (three fixed-point passes). The time-optimal s(t) under |tau_j| <=
+limit_j and |alpha_dot_j| <= v_j is TOPP-RA's reachability analysis (Pham & Pham, IEEE T-RO
+2018), solved by the ``toppra`` library (its Seidel LP solver; its constraints given our a, b, c
+directly), with the *interpolation* discretisation: each interval's constant s_ddot is bounded at
+both of its ends, not only at the first.
+
+A grid bounds the torque at its points only. So every plan is **verified afterwards on the exact
+model**: the law s(t) (constant s_ddot on each interval, s_dot^2 linear in s) is sampled at
+``check_rate`` (10 kHz), alpha, alpha', alpha'' recomputed by inverse kinematics at each sample's
+s (not interpolated), and the torque evaluated by the same projected dynamics and friction.
+Where it exceeds a limit between grid points, the limit of that interval's two grid points is
+tightened by the overshoot and the law solved again (``repairs``), until the check holds:
+max_t |tau_j(t)| / limit_j <= 1 (:class:`Verification`). A plan that still exceeds after
+``max_repairs`` is returned with its verification saying so (``feasible`` False).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from delta_pin.control.nominal import ClosedChainNominalModel
+from delta_pin.errors import (
+    AssemblyError,
+    InvalidParameterError,
+    OptionalDependencyError,
+    PlanningError,
+    UnreachablePoseError,
+)
+from delta_pin.model.frame_path import FramePath
+from delta_pin.model.trajectory import JointReference
+
+__all__ = [
+    "PlannedSequence", "TimeOptimalPlan", "Verification", "path_joints", "plan_time_optimal", "torque_model",
+]  # fmt: skip
+
+FRICTION_PASSES = 3  # fixed-point passes of the friction and dampers at the previous s_dot
+CHECK_RATE = 1e4  # [Hz] of the verification on the exact model
+MAX_REPAIRS = 30
+REPAIR_MARGIN = 1e-4  # a tightened limit lands this far inside the overshoot's ratio
+REFINEMENTS = 3  # repairs that insert grid points where the torque overshoots, before tightening
+# sigma_min / sigma_max below which a path is refused: ~1 mm from the Delta's stretched-leg locus
+# (the measure falls as the square root of the distance to it)
+SINGULARITY_MARGIN = 5e-3
+
+
+@dataclass(frozen=True)
+class Verification:
+    """The plan's torque on the exact model at ``rate`` [Hz] over ``samples`` samples: the largest
+    |tau_j| / limit_j (``torque_ratio``, <= 1 when the plan holds), each joint's peak |tau_j| [N m]
+    and margin 1 - peak / limit, the time [s] of the largest ratio, and the largest |alpha_dot_j| /
+    v_j (``velocity_ratio``, None without velocity limits)."""
+
+    rate: float
+    samples: int
+    torque_ratio: float
+    peak_torque: np.ndarray
+    margin: np.ndarray
+    time_of_peak: float
+    velocity_ratio: float | None = None
+
+    @property
+    def feasible(self) -> bool:
+        return self.torque_ratio <= 1.0 and (self.velocity_ratio is None or self.velocity_ratio <= 1.0)
+
+
+@dataclass
+class TimeOptimalPlan:
+    """A time law s(t) along ``path`` for ``robot``'s ``frame``: the grid ``s`` (N + 1,) [m], the
+    path speed ``s_dot`` there [m/s], the constant ``s_ddot`` of each interval (N,) [m/s^2], the
+    grid's ``times`` [s] and the ``duration`` [s]; the limits it was planned for, its
+    :class:`Verification` and the planning's counts and wall times. A trajectory ``simulate``
+    takes (:meth:`joint_reference`; it holds the path's end after ``duration``)."""
+
+    path: Any
+    frame: str | None
+    axes: str | None
+    s: np.ndarray
+    s_dot: np.ndarray
+    s_ddot: np.ndarray
+    times: np.ndarray
+    torque_limit: np.ndarray
+    velocity_limit: np.ndarray | None
+    verification: Verification | None = None
+    checked: tuple[np.ndarray, np.ndarray] | None = None  # (times [s], tau (N, dof) [N m]) of the last check
+    singularity: np.ndarray | None = None  # the smallest (Type I, Type II) measures at the grid points
+    repairs: int = 0
+    planning_time: float = 0.0  # [s] of wall time: inverse kinematics, coefficients, TOPP-RA
+    verification_time: float = 0.0  # [s] of wall time, repairs included
+    name: str = field(default="time-optimal plan")
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def path_state(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s [m], s_dot [m/s], s_ddot [m/s^2]) at times t (N,) [s]: constant s_ddot on each
+        interval; the start before 0, the end (at rest) after the duration."""
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.s_ddot) - 1)
+        tau = t - self.times[k]
+        u = self.s_ddot[k]
+        s = np.minimum(self.s[k] + self.s_dot[k] * tau + 0.5 * u * tau * tau, self.s[-1])
+        s_dot = np.maximum(self.s_dot[k] + u * tau, 0.0)
+        end = t >= self.duration
+        s_dot[end], u = 0.0, np.where(end, 0.0, u)
+        s[end] = self.s[-1]
+        return s, s_dot, u
+
+    def joint_reference(self, robot, t) -> JointReference:
+        """alpha, alpha_dot, alpha_ddot at times t [s] from the path at s(t) (a task path: inverse
+        kinematics there, exact, not interpolated), and the frame's xyz with its rates."""
+        times = np.atleast_1d(np.asarray(t, dtype=float))
+        s, s_dot, s_ddot = self.path_state(times)
+        on_path = path_joints(robot, self.path, s, self.frame, self.axes)
+        sd, sdd = s_dot[:, None], s_ddot[:, None]
+
+        def rates(value, d1, d2):
+            return value, d1 * sd, d1 * sdd + d2 * sd * sd
+
+        return JointReference(
+            times, *rates(on_path.xyz, on_path.xyz_dot, on_path.xyz_ddot),
+            *rates(on_path.alpha, on_path.alpha_dot, on_path.alpha_ddot),
+        )  # fmt: skip
+
+    def metadata(self) -> dict[str, Any]:
+        check = self.verification
+        return {
+            "type": "TimeOptimalPlan",
+            "name": self.name,
+            "path": self.path.metadata(),
+            "duration": self.duration,
+            "grid_points": len(self.s),
+            "torque_limit": self.torque_limit.tolist(),
+            "velocity_limit": None if self.velocity_limit is None else self.velocity_limit.tolist(),
+            "repairs": self.repairs,
+            "torque_ratio": None if check is None else check.torque_ratio,
+            "check_rate_hz": None if check is None else check.rate,
+        }
+
+
+class PlannedSequence:
+    """Plans run one after the other (a whole Adept cycle: there, then back), as one trajectory
+    ``simulate`` takes; ``duration`` the sum of theirs [s]."""
+
+    def __init__(self, plans: list[TimeOptimalPlan], name: str = "planned sequence") -> None:
+        if not plans:
+            raise InvalidParameterError("a planned sequence needs at least one plan")
+        self.plans, self.name = list(plans), name
+        self.starts = np.concatenate([[0.0], np.cumsum([p.duration for p in plans])])
+        self.duration = float(self.starts[-1])
+
+    def joint_reference(self, robot, t) -> JointReference:
+        times = np.atleast_1d(np.asarray(t, dtype=float))
+        k = np.clip(np.searchsorted(self.starts, times, side="right") - 1, 0, len(self.plans) - 1)
+        parts = [self.plans[i].joint_reference(robot, times[k == i] - self.starts[i]) for i in np.unique(k)]
+        fields = ("xyz", "xyz_dot", "xyz_ddot", "alpha", "alpha_dot", "alpha_ddot")
+        return JointReference(times, *(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
+
+    def metadata(self) -> dict[str, Any]:
+        return {
+            "type": "PlannedSequence", "name": self.name, "duration": self.duration,
+            "plans": [p.metadata() for p in self.plans],
+        }  # fmt: skip
+
+
+def branch_configuration(robot, alpha: np.ndarray, steps: int = 20) -> np.ndarray:
+    """The closed configuration at ``alpha`` on the assembly branch of the robot's reference
+    configuration: continued from it along the straight line of the actuated joints (``steps``
+    assemblies, each from the one before), so that a plan's dynamics and singularity measures are
+    those of one branch whatever configuration the robot assembled last."""
+    start = robot.reference_configuration.copy()
+    alpha0 = start[robot.actuated_q_indices]
+    q = start
+    for t in np.linspace(0.0, 1.0, steps + 1)[1:]:
+        q = robot.configuration(alpha0 + t * (np.asarray(alpha, dtype=float) - alpha0), initial_guess=q)
+    return q
+
+
+def path_joints(robot, path, s, frame: str | None = None, axes: str | None = None) -> JointReference:
+    """The path at s (N,) in joint space, its "time" being s: alpha(s), alpha'(s), alpha''(s) and
+    the frame's xyz(s), xyz'(s), xyz''(s). A task path by the core's closed-loop inverse
+    kinematics (:class:`~delta_pin.model.frame_path.FramePath`, from the robot's reference
+    configuration, so the same path gives the same joints whatever the robot did before); a joint
+    path (``space == "joints"``) as it is, the frame's position by forward kinematics and its
+    rates by the frame's closed-loop Jacobian and drift.
+
+    Raises:
+        UnreachablePoseError: a task path leaves the workspace (naming the point; an inverse
+            kinematics whose iterates leave the loops' reach too).
+        AssemblyError: a joint path's loops cannot be closed (naming the joints)."""
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    if getattr(path, "space", "task") == "task":
+        try:
+            # from the robot's reference configuration: one assembly mode, whatever it assembled last
+            start = robot.reference_configuration
+            return FramePath(path, frame, axes).joint_reference(robot, s, start=start)
+        except (UnreachablePoseError, AssemblyError) as exc:  # FramePath names the "time": here it is s
+            text = re.sub(r"^t=(\S+) s: ", r"at s=\1 m of the path: ", str(exc))
+            raise UnreachablePoseError(text) from None
+    alpha, d1, d2 = (np.atleast_2d(f(s)) for f in (path.position, path.velocity, path.acceleration))
+    if alpha.shape[1] != robot.dof:
+        raise InvalidParameterError(
+            f"the joint path has {alpha.shape[1]} coordinates, the robot {robot.dof} actuated joints"
+        )
+    fid = robot.end_effector if frame is None else robot.frame_id(frame)
+    xyz, x1, x2 = (np.zeros((len(s), 3)) for _ in range(3))
+    q = None
+    for i in range(len(s)):
+        q = robot.configuration(alpha[i], initial_guess=q)
+        J = robot.frame_jacobian(q, fid)[:3]  # d xyz / d alpha along the closed loops
+        xyz[i] = robot.frame_placement(q, fid).translation
+        x1[i] = J @ d1[i]
+        x2[i] = J @ d2[i] + robot.frame_acceleration_drift(q, d1[i], fid)
+    return JointReference(s, xyz, x1, x2, alpha, d1, d2)
+
+
+def _limits(values, dof: int, name: str, unit: str) -> np.ndarray:
+    limits = np.broadcast_to(np.asarray(values, dtype=float), (dof,)).copy() if np.ndim(values) == 0 else None
+    if limits is None:
+        limits = np.asarray(values, dtype=float).reshape(-1)
+    if limits.shape != (dof,) or not np.all(np.isfinite(limits)) or np.any(limits <= 0.0):
+        raise InvalidParameterError(
+            f"{name}={np.asarray(values).tolist()!r} must be one positive value or {dof} (one per actuated "
+            f"joint) [{unit}]"
+        )
+    return limits
+
+
+class _Dynamics:
+    """The projected inverse dynamics along the path (the core's ``ClosedChainModel.inverse_dynamics``
+    over rows of states, each assembled from the one before): the coefficients a, b, c at path
+    points and the torque of states, with the nominal friction and the joint dampers."""
+
+    def __init__(self, robot, nominal: ClosedChainNominalModel, start: np.ndarray | None = None) -> None:
+        self.robot, self.nominal = robot, nominal
+        self.friction = nominal.friction_model is not None
+        # every batch of states is assembled from here, the next state from the one before
+        self.start = robot.reference_configuration.copy() if start is None else start
+
+    def _terms(self, alpha, alpha_dot, alpha_ddot, split: bool = True) -> tuple[np.ndarray, ...]:
+        """(M alpha_ddot, Coriolis torque, dampers' torque, G) (N, dof) each [N m] (without
+        ``split``: C alpha_dot whole in the second, zeros in the third)."""
+        failed, _, *terms = self.robot.compiled_model.inverse_dynamics(
+            np.ascontiguousarray(alpha),
+            np.ascontiguousarray(alpha_dot),
+            np.ascontiguousarray(alpha_ddot),
+            self.start,
+            split,
+        )
+        if failed >= 0:
+            raise AssemblyError(
+                f"{self.robot.name}: the loops do not close at alpha={np.asarray(alpha)[failed].tolist()} "
+                "on the path"
+            )
+        return tuple(terms)
+
+    def coefficients(self, alpha, d1, d2) -> tuple[np.ndarray, ...]:
+        """(a, b, c0, damping) (N, dof) each at the points: c0 the gravity, springs and F̄, and
+        ``damping`` the dampers' torque per unit s_dot (D alpha')."""
+        a = self._terms(alpha, np.zeros_like(d1), d1, split=False)[0]  # M alpha'
+        inertial, coriolis, damping, gravity = self._terms(alpha, d1, d2)
+        return a, inertial + coriolis, gravity + self.nominal.disturbance(), damping
+
+    def velocity_terms(self, d1, damping, s_dot) -> np.ndarray:
+        """The friction and dampers' torque at alpha_dot = alpha' s_dot (N, dof) [N m]."""
+        torque = damping * s_dot[:, None]
+        if self.friction:
+            torque = torque + self.nominal.friction(d1 * s_dot[:, None])
+        return torque
+
+    def torque(self, alpha, alpha_dot, alpha_ddot) -> np.ndarray:
+        """tau = M alpha_ddot + C alpha_dot + G + F̄ [+ M̄_f(alpha_dot)] at each state (N, dof) [N m]."""
+        inertial, c_dot, _, gravity = self._terms(alpha, alpha_dot, alpha_ddot, split=False)
+        tau = inertial + c_dot + gravity + self.nominal.disturbance()
+        return tau + self.nominal.friction(alpha_dot) if self.friction else tau
+
+
+def _solve(s, a, b, c, torque_limits, d1, velocity_limit) -> tuple[np.ndarray, np.ndarray]:
+    """TOPP-RA on the grid s with tau = a u + b x + c, |tau| <= torque_limits (N + 1, dof) and
+    |alpha' s_dot| <= velocity_limit (N + 1, dof) or None: (s_dot (N + 1,), s_ddot (N,));
+    PlanningError where no law exists (a point where the torque at rest already exceeds, or a path
+    TOPP-RA cannot control)."""
+    try:
+        import toppra
+        import toppra.algorithm
+        import toppra.constraint as constraint
+        import toppra.interpolator
+    except ImportError:
+        raise OptionalDependencyError(
+            "time-optimal planning needs toppra: pip install 'delta-pin[planning]'"
+        ) from None
+
+    dof = a.shape[1]
+    at_rest = np.abs(c) > torque_limits
+    if at_rest.any():
+        i, j = np.argwhere(at_rest)[0]
+        raise PlanningError(
+            f"at s={s[i]:.4g} m actuated joint {j + 1} needs {c[i, j]:.4g} N m at rest (gravity, springs, "
+            "friction), beyond "
+            f"its limit {torque_limits[i, j]:.4g} N m: no speed makes the path feasible"
+        )
+    F = np.vstack([np.eye(dof), -np.eye(dof)])
+
+    class Torque(constraint.LinearConstraint):
+        def __init__(self) -> None:
+            super().__init__()
+            self.dof = dof
+            self.set_discretization_type(constraint.DiscretizationType.Interpolation)
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            g = np.hstack([torque_limits, torque_limits])
+            Fs = np.broadcast_to(F, (len(gridpoints), 2 * dof, dof)).copy()
+            return constraint.canlinear_colloc_to_interpolate(a, b, c, Fs, g, None, None, gridpoints)
+
+    class Speed(constraint.LinearConstraint):
+        def __init__(self) -> None:
+            super().__init__()
+            self.dof = dof
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            with np.errstate(divide="ignore"):
+                bound = np.min((velocity_limit / np.maximum(np.abs(d1), 1e-300)) ** 2, axis=1)  # per point
+            xbound = np.column_stack([np.zeros(len(gridpoints)), bound])
+            return None, None, None, None, None, None, xbound
+
+    class GridPath(toppra.interpolator.AbstractGeometricPath):  # the grid only: the coefficients are ours
+        @property
+        def path_interval(self):
+            return np.array([s[0], s[-1]])
+
+        @property
+        def dof(self):
+            return dof
+
+        def __call__(self, path_positions, order=0):
+            raise NotImplementedError("the planner gives toppra its coefficients on the grid")
+
+    constraints = [Torque()] + ([Speed()] if velocity_limit is not None else [])
+    solver = toppra.algorithm.TOPPRA(constraints, GridPath(), gridpoints=s, solver_wrapper="seidel")
+    _, s_dot, _ = solver.compute_parameterization(0.0, 0.0)
+    if s_dot is None or not np.all(np.isfinite(s_dot)):
+        raise PlanningError(
+            "TOPP-RA found no time law within the limits (the path is not controllable from rest to rest "
+            "on this grid): raise the limits, or move the path away from a singularity"
+        )
+    x = s_dot * s_dot
+    return s_dot, (x[1:] - x[:-1]) / (2.0 * np.diff(s))  # s_ddot from x: exactly consistent with s_dot
+
+
+def plan_time_optimal(
+    robot,
+    path,
+    torque_limit,
+    *,
+    velocity_limit=None,
+    points: int = 100,
+    frame: str | None = None,
+    axes: str | None = None,
+    friction=None,
+    payload_mass: float = 0.0,
+    check_rate: float = CHECK_RATE,
+    max_repairs: int = MAX_REPAIRS,
+    verify: bool = True,
+    singularity_margin: float = SINGULARITY_MARGIN,
+) -> TimeOptimalPlan:
+    """The time-optimal law along ``path`` (a geometric path of ``frame``, default the end
+    effector; :mod:`delta_pin.planning.paths`) from rest to rest, under |tau_j| <= ``torque_limit``
+    [N m] and |alpha_dot_j| <= ``velocity_limit`` [rad/s] (one value or one per actuated joint),
+    on ``points`` grid points, the projected dynamics of ``robot`` with its nominal ``friction``
+    (a :class:`~delta_pin.model.friction.Friction`, ``True`` for a recognised Delta's, or None) and a
+    ``payload_mass`` [kg] at the end effector; verified on the exact model at ``check_rate`` [Hz]
+    and repaired where it exceeds (module docstring). With ``verify``, the distance to a
+    singularity is measured at the grid points too (:mod:`delta_pin.planning.singularity`,
+    ``plan.singularity``: the smallest Type I and Type II measures) and a path that comes within
+    ``singularity_margin`` of one is refused (0: never).
+
+    Raises:
+        InvalidParameterError: a bad limit, grid, rate or margin; a robot that is not fully actuated.
+        UnreachablePoseError: the path leaves the workspace (naming the point).
+        PlanningError: no law exists within the limits, or the path comes within
+            ``singularity_margin`` of a singularity (naming its kind and where).
+    """
+    dof = robot.dof
+    torque = _limits(torque_limit, dof, "torque_limit", "N m")
+    velocity = None if velocity_limit is None else _limits(velocity_limit, dof, "velocity_limit", "rad/s")
+    if not (isinstance(points, int | np.integer) and 3 <= points <= 100_000):
+        raise InvalidParameterError(f"points={points!r} must be an integer from 3 to 100000")
+    if not (math.isfinite(check_rate) and check_rate > 0.0):
+        raise InvalidParameterError(f"check_rate={check_rate!r} must be a positive rate [Hz]")
+    if not (math.isfinite(singularity_margin) and 0.0 <= singularity_margin < 1.0):
+        raise InvalidParameterError(f"singularity_margin={singularity_margin!r} must be in [0, 1)")
+    length = float(getattr(path, "length", getattr(path, "duration", 0.0)) or 0.0)
+    if not length > 0.0:
+        raise InvalidParameterError(f"path {getattr(path, 'name', path)!r} has no length to plan along")
+    wall = time.perf_counter()
+    nominal = ClosedChainNominalModel(robot, payload_mass=payload_mass, friction=friction)
+    robot = nominal.robot  # with the payload
+    start = branch_configuration(robot, np.array(path_joints(robot, path, [0.0], frame, axes).alpha[0]))
+    dynamics = _Dynamics(robot, nominal, start)
+    grid = _Grid(robot, path, frame, axes, dynamics, np.linspace(0.0, length, points), torque, velocity)
+
+    def solve() -> tuple[np.ndarray, np.ndarray]:
+        law = None
+        for _ in range(FRICTION_PASSES if (dynamics.friction or np.any(grid.damping)) else 1):
+            c = grid.c0 + dynamics.velocity_terms(grid.d1, grid.damping, grid.s_dot)
+            law = _solve(grid.s, grid.a, grid.b, c, grid.limits, grid.d1, grid.speed_limits)
+            grid.s_dot = law[0]
+        return law
+
+    s_dot, s_ddot = solve()
+    plan = TimeOptimalPlan(
+        path, frame, axes, grid.s, s_dot, s_ddot, _times(grid.s, s_dot), torque, velocity,
+        name=f"time-optimal {getattr(path, 'name', 'path')}",
+    )  # fmt: skip
+    plan.planning_time = time.perf_counter() - wall
+    if not verify:
+        return plan
+    wall = time.perf_counter()
+    plan.singularity = _singularity(robot, path, grid, frame, axes, singularity_margin, start)
+    for repair in range(max_repairs + 1):
+        check, ratios, plan.checked = _verify(plan, robot, dynamics, check_rate)
+        plan.verification, plan.repairs = check, repair
+        if check.feasible or repair == max_repairs:
+            break
+        torque_over, speed_over = ratios  # the largest ratios inside each interval
+        over = np.flatnonzero(np.maximum(torque_over, speed_over) > 1.0)
+        if repair < REFINEMENTS:  # a discretisation error: more points where a limit is exceeded
+            grid.refine(over)
+        else:  # tighten both grid points of an interval by its overshoot
+            grid.limits *= _tightening(torque_over, len(grid.s))[:, None]
+            if grid.speed_limits is not None:
+                grid.speed_limits *= _tightening(speed_over, len(grid.s))[:, None]
+        plan.s_dot, plan.s_ddot = solve()
+        plan.s, plan.times = grid.s, _times(grid.s, plan.s_dot)
+    plan.verification_time = time.perf_counter() - wall
+    return plan
+
+
+def _tightening(ratios: np.ndarray, points: int) -> np.ndarray:
+    """Per grid point, the factor that brings each interval whose ratio exceeds 1 inside it: both of
+    its points scaled by (1 - REPAIR_MARGIN) / ratio, the smaller where two intervals share one."""
+    scale = np.ones(points)
+    for i in np.flatnonzero(ratios > 1.0):
+        factor = (1.0 - REPAIR_MARGIN) / ratios[i]
+        scale[i], scale[i + 1] = min(scale[i], factor), min(scale[i + 1], factor)
+    return scale
+
+
+class _Grid:
+    """The grid s of a plan with the path's joints and the coefficients at its points, the torque
+    limits in force there and the last law's s_dot (the friction's speed); refined by inserting
+    the midpoints of chosen intervals (the path's inverse kinematics then runs along the whole
+    grid again: its Newton steps from one point to the next)."""
+
+    def __init__(
+        self, robot, path, frame, axes, dynamics: _Dynamics, s: np.ndarray, torque: np.ndarray, velocity
+    ) -> None:
+        self.robot, self.path, self.frame, self.axes, self.dynamics = robot, path, frame, axes, dynamics
+        self.limits = np.broadcast_to(torque, (len(s), len(torque))).copy()
+        self.speed_limits = (
+            None if velocity is None else np.broadcast_to(velocity, (len(s), len(velocity))).copy()
+        )
+        self._evaluate(s, np.full(len(s), 1e-3))  # the first pass: friction's sign along the path, near rest
+
+    def _evaluate(self, s: np.ndarray, s_dot: np.ndarray) -> None:
+        on_path = path_joints(self.robot, self.path, s, self.frame, self.axes)
+        self.s, self.s_dot = s, s_dot
+        self.d1 = np.array(on_path.alpha_dot)  # alpha'(s)
+        self.a, self.b, self.c0, self.damping = self.dynamics.coefficients(
+            np.array(on_path.alpha), self.d1, np.array(on_path.alpha_ddot)
+        )
+
+    def refine(self, intervals: np.ndarray) -> None:
+        """Insert the midpoint of each of these intervals (its limits and s_dot the mean of its
+        ends')."""
+        middle = 0.5 * (self.s[intervals] + self.s[intervals + 1])
+        order = np.argsort(np.concatenate([self.s, middle]), kind="stable")
+
+        def merged(values):
+            return np.concatenate([values, 0.5 * (values[intervals] + values[intervals + 1])])[order]
+
+        self.limits = merged(self.limits)
+        if self.speed_limits is not None:
+            self.speed_limits = merged(self.speed_limits)
+        s_dot = np.concatenate([self.s_dot, 0.5 * (self.s_dot[intervals] + self.s_dot[intervals + 1])])[order]
+        self._evaluate(np.concatenate([self.s, middle])[order], s_dot)
+
+
+def _singularity(robot, path, grid: _Grid, frame, axes, margin: float, start: np.ndarray) -> np.ndarray:
+    """The smallest (Type I, Type II) measures along the grid; PlanningError within ``margin``."""
+    from delta_pin.planning.singularity import path_singularity
+
+    alpha = np.array(path_joints(robot, path, grid.s, frame, axes).alpha)
+    closeness = path_singularity(robot, alpha, frame, axes, start)
+    worst = closeness.min(axis=0)
+    if worst.min() < margin:
+        kind = 0 if worst[0] <= worst[1] else 1
+        at = grid.s[int(np.argmin(closeness[:, kind]))]
+        raise PlanningError(
+            f"{getattr(path, 'name', 'the path')} passes within {worst[kind]:.2g} of a Type "
+            f"{'I' * (kind + 1)} singularity at s={at:.4g} m (singularity_margin {margin:g}): move the path, "
+            "or lower the margin"
+        )
+    return worst
+
+
+def torque_model(robot, friction=None, payload_mass: float = 0.0):
+    """The torque a state needs by the planner's projected dynamics (its nominal ``friction`` and
+    ``payload_mass`` [kg]): ``torque(alpha, alpha_dot, alpha_ddot)`` on rows (N, dof) -> (N, dof) [N m]."""
+    nominal = ClosedChainNominalModel(robot, payload_mass=payload_mass, friction=friction)
+    dynamics = _Dynamics(nominal.robot, nominal)
+
+    def torque(alpha, alpha_dot, alpha_ddot):
+        dynamics.start = branch_configuration(nominal.robot, np.asarray(alpha)[0])
+        return dynamics.torque(alpha, alpha_dot, alpha_ddot)
+
+    return torque
+
+
+def _times(s: np.ndarray, s_dot: np.ndarray) -> np.ndarray:
+    """The grid's times [s]: each interval takes 2 ds / (s_dot_i + s_dot_i+1) (constant s_ddot)."""
+    speeds = s_dot[:-1] + s_dot[1:]
+    if np.any(speeds <= 0.0):
+        raise PlanningError("the time law stops inside the path (s_dot = 0 on an interval)")
+    return np.concatenate([[0.0], np.cumsum(2.0 * np.diff(s) / speeds)])
+
+
+def _verify(
+    plan: TimeOptimalPlan, robot, dynamics: _Dynamics, rate: float
+) -> tuple[Verification, np.ndarray, tuple]:
+    """The plan's torque on the exact model at ``rate`` [Hz] (module docstring), the largest ratios
+    |tau| / limit and |alpha_dot| / limit inside each grid interval ((N,), (N,): zeros without a
+    velocity limit) and the samples (times [s], tau [N m])."""
+    times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
+    reference = plan.joint_reference(robot, times)
+    tau = dynamics.torque(
+        np.array(reference.alpha), np.array(reference.alpha_dot), np.array(reference.alpha_ddot)
+    )
+    ratio = np.abs(tau) / plan.torque_limit
+    worst = ratio.max(axis=1)
+    k = np.clip(np.searchsorted(plan.times, times, side="right") - 1, 0, len(plan.s_ddot) - 1)
+    per_interval, speed_per_interval = np.zeros(len(plan.s_ddot)), np.zeros(len(plan.s_ddot))
+    np.maximum.at(per_interval, k, worst)
+    peak = np.abs(tau).max(axis=0)
+    velocity_ratio = None
+    if plan.velocity_limit is not None:
+        speed = (np.abs(reference.alpha_dot) / plan.velocity_limit).max(axis=1)
+        np.maximum.at(speed_per_interval, k, speed)
+        velocity_ratio = float(speed.max())
+    check = Verification(
+        rate=rate, samples=len(times), torque_ratio=float(worst.max()), peak_torque=peak,
+        margin=1.0 - peak / plan.torque_limit, time_of_peak=float(times[int(np.argmax(worst))]),
+        velocity_ratio=velocity_ratio,
+    )  # fmt: skip
+    return check, (per_interval, speed_per_interval), (times, tau)
