@@ -1347,6 +1347,11 @@ def _add_plan_command(add) -> None:
         help="refuse a path that comes this close to a Type I or II singularity (sigma_min/sigma_max; "
         "0: never)",
     )  # fmt: skip
+    plan.add_argument(
+        "--map", action="store_true",
+        help="also draw singularity_map.png: the distance to a singularity over the plane of the path's "
+        "pick and place points (xy at their height; xz for a robot of 2 motors)",
+    )  # fmt: skip
     plan.add_argument("--out", type=Path, required=True, help="the output folder: " + ", ".join(PLAN_FILES))
     plan.set_defaults(func=_cmd_plan)
 
@@ -1372,6 +1377,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     robot = _closed_chain_robot(args) if args.robot is not None else _load_robot(args)
     torque = _numbers("--torque-limit", args.torque_limit)
     velocity = None if args.velocity_limit is None else _numbers("--velocity-limit", args.velocity_limit)
+    if args.map and robot.dof > 3:
+        raise InvalidParameterError(f"--map places a frame's position: {robot.name!r} has {robot.dof} motors")
     if args.corners is not None:
         corners = [_numbers("--corners", point) for point in args.corners.split(";") if point.strip()]
         if any(len(c) != 3 for c in corners):
@@ -1416,7 +1423,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         ],
         "options": options,
     }  # fmt: skip
-    with claim(out, "plan", options, command_line=args.command_line, outputs=list(PLAN_FILES),
+    names = [*PLAN_FILES, *(["singularity_map.png"] if args.map else [])]
+    with claim(out, "plan", options, command_line=args.command_line, outputs=names,
                replace_same_command=True) as folder:  # fmt: skip
         folder.start()
         written = [
@@ -1428,6 +1436,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         write_text_atomically(out / "plan.json", json.dumps(summary, indent=2) + "\n")
         written.append(out / "plan.json")
         written.append(save_figure(plot_plan(plans, sequence.name), out / "plan.png"))
+        if args.map:
+            figure = _singularity_map(robot, paths, args.frame, args.axes)
+            written.append(save_figure(figure, out / "singularity_map.png"))
         folder.finish(written)
     feasible = all(p.verification.feasible for p in plans)
     halves = ", ".join(f"{p.path.name} {p.duration * 1e3:.1f} ms" for p in plans)
@@ -1443,6 +1454,30 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return 0 if feasible else 1
+
+
+def _singularity_map(robot, paths, frame: str | None, axes: str | None):
+    """The figure of :func:`~delta_pin.planning.singularity.workspace_map` in the plane of the paths'
+    first corner, 61 x 61 points over a square around their corners (half-width the larger of
+    0.35 m and 1.5 times their spread), the paths drawn over it."""
+    import numpy as np
+
+    from delta_pin.planning.singularity import workspace_map
+    from delta_pin.viz.planning_plots import plot_singularity_map
+
+    corners = np.vstack([p.corners for p in paths])
+    plane = "xy" if robot.dof >= 3 else "xz"
+    u, v, fixed = (0, 1, 2) if plane == "xy" else (0, 2, 1)
+    centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+    half = max(0.35, 1.5 * float(np.ptp(corners[:, [u, v]], axis=0).max()))
+    xs, ys = (np.linspace(centre[i] - half, centre[i] + half, 61) for i in (u, v))
+    measure = workspace_map(robot, xs, ys, float(corners[0, fixed]), plane, frame, axes)
+    labels = (f"{plane[0]} [m]", f"{plane[1]} [m]")
+    where = f"{'xyz'[fixed]} = {corners[0, fixed]:g} m"
+    drawn = [p.position(np.linspace(0.0, p.length, 200))[:, [u, v]] for p in paths]
+    return plot_singularity_map(
+        measure, xs, ys, labels, f"{robot.name}: distance to a singularity at {where}", drawn
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -39,12 +39,15 @@ def plot_plan(plans: Sequence, title: str = "time-optimal plan") -> Figure:
 
 
 def plot_singularity_map(measure: np.ndarray, xs: np.ndarray, ys: np.ndarray, labels=("x [m]", "y [m]"),
-                         title: str = "distance to a singularity") -> Figure:  # fmt: skip
-    """The smaller singularity measure over a grid of positions (NaN: unreachable, left blank)."""
+                         title: str = "distance to a singularity", paths=()) -> Figure:  # fmt: skip
+    """The smaller singularity measure over a grid of positions (NaN: unreachable, left blank), with
+    ``paths`` ((N, 2) points each, in the map's plane) drawn over it."""
     fig = Figure(figsize=(6.0, 5.0), layout="constrained")
     ax = fig.add_subplot()
     image = ax.pcolormesh(xs, ys, measure, shading="nearest", cmap="viridis", gid="measure")
     fig.colorbar(image, ax=ax, label="min(Type I, Type II) σ_min/σ_max")
+    for number, points in enumerate(paths):
+        ax.plot(points[:, 0], points[:, 1], color="white", linewidth=1.5, gid=f"path_{number + 1}")
     ax.set_xlabel(labels[0])
     ax.set_ylabel(labels[1])
     ax.set_aspect("equal")
