@@ -43,6 +43,7 @@ BENCHMARKS = {
     "bench_unactuated.py": ["--repeats", "3"],
     "bench_identification.py": ["--repeats", "3"],
     "bench_identification_mujoco.py": [],  # ~1 min: three noise draws
+    "bench_planning.py": ["--repeats", "3"],
     "bench_install.py": ["--cache", "warm"],  # ~5 min: two fresh installs
 }
 QUICK = {
@@ -60,6 +61,7 @@ QUICK = {
     "bench_unactuated.py": ["--repeats", "1", "--t-end", "0.2"],
     "bench_identification.py": ["--repeats", "1", "--quick"],
     "bench_identification_mujoco.py": ["--quick"],
+    "bench_planning.py": ["--repeats", "1"],
 }
 # targets of issue 7 measured by a script that may not report them (missing, skipped or failed)
 EXPECTED = {

@@ -22,6 +22,7 @@ from delta_pin.errors import (
     NativeUnavailableError,
     NonFiniteError,
     OptionalDependencyError,
+    PlanningError,
     SchedulerUnreachableError,
     SimulationError,
     UnreachablePoseError,
@@ -138,7 +139,8 @@ _PUBLIC = {
     "delta_pin.identification.workflow": ("identify",),
 }
 _LAZY = {name: module for module, names in _PUBLIC.items() for name in names}
-_LAYERS = ("model", "control", "sim", "studies", "viz", "errors", "cli")  # dp.model, ... on first use
+# dp.model, dp.planning, ... on first use
+_LAYERS = ("model", "control", "sim", "planning", "studies", "viz", "errors", "cli")
 __all__ = sorted([*_LAZY, *errors.__all__])
 
 
