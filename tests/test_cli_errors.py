@@ -169,6 +169,20 @@ CASES = [
         2,
         "--rate: inf must be a finite number > 0",
     ),
+    # plan
+    (["plan", "--out", "{out}"], 2, "--torque-limit"),
+    (["plan", "--torque-limit", "20", "--out", "{file}"], 2, "--out {file} is a file"),
+    (["plan", "--torque-limit", "abc", "--out", "{out}"], 2, "--torque-limit 'abc'"),
+    (
+        ["plan", "--torque-limit", "20", "--points", "2", "--out", "{out}"],
+        2,
+        "--points: 2 must be an integer >= 3",
+    ),
+    (["plan", "--torque-limit", "20", "--blend", "nan", "--out", "{out}"], 2, "--blend nan"),
+    (["plan", "--torque-limit", "20", "--center", "0", "--out", "{out}"], 2, "--center '0'"),
+    (["plan", "--torque-limit", "20", "--corners=0,0,-0.4", "--out", "{out}"], 2, "corners must be"),
+    (["plan", "--torque-limit", "20", "--robot", "{missing}", "--out", "{out}"], 2, "{missing}"),
+    (["plan", "--torque-limit", "20", "--robot", "stewart", "--map", "--out", "{out}"], 2, "--map"),
     (["identify", "excite", "--out", "{out}/x.csv", "--seed", "-1"], 2, "--seed: -1 must be an integer >= 0"),
     (
         ["identify", "excite", "--out", "{out}/x.csv", "--iterations", "1000000000"],
