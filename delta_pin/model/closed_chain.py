@@ -1321,6 +1321,12 @@ class ClosedChainRobot:
         if reached:
             self._last_q = q
             return alpha
+        if not np.all(np.isfinite(alpha)):  # a singular step: the frame does not move along these axes
+            raise UnreachablePoseError(
+                f"{self._label}frame {self.model.frames[fid].name!r} cannot be placed along {axes!r} at "
+                f"{target.tolist()} m: it does not move along all of {axes!r} there (a singular Jacobian); "
+                "give the coordinates it moves along (axes=)"
+            )
         q = self.configuration(alpha, initial_guess=q)  # where the loops do not close: AssemblyError, named
         self._last_q = start  # a failed search leaves the assembly mode where it was
         pin.framesForwardKinematics(self.model, self.data, q)

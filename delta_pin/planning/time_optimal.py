@@ -52,7 +52,8 @@ from delta_pin.model.frame_path import FramePath
 from delta_pin.model.trajectory import JointReference
 
 __all__ = [
-    "PlannedSequence", "TimeOptimalPlan", "Verification", "path_joints", "plan_time_optimal", "torque_model",
+    "PlannedSequence", "TimeOptimalPlan", "Verification", "path_joints", "plan_time_optimal", "task_axes",
+    "torque_model",
 ]  # fmt: skip
 
 FRICTION_PASSES = 3  # fixed-point passes of the friction and dampers at the previous s_dot
@@ -198,6 +199,18 @@ def branch_configuration(robot, alpha: np.ndarray, steps: int = 20) -> np.ndarra
     return q
 
 
+def task_axes(robot, frame: str | None = None) -> str:
+    """The frame's task coordinates when none are given: as many of x, y, z as the robot has
+    motors, those the frame moves along most at the reference configuration (the rows of its
+    closed-loop Jacobian of largest norm; a five-bar in the xz plane: ``"xz"``)."""
+    if robot.dof >= 3:
+        return "xyz"
+    fid = robot.end_effector if frame is None else robot.frame_id(frame)
+    J = robot.frame_jacobian(robot.reference_configuration, fid)[:3]
+    rows = sorted(np.argsort(-np.linalg.norm(J, axis=1), kind="stable")[: robot.dof])
+    return "".join("xyz"[r] for r in rows)
+
+
 def path_joints(robot, path, s, frame: str | None = None, axes: str | None = None) -> JointReference:
     """The path at s (N,) in joint space, its "time" being s: alpha(s), alpha'(s), alpha''(s) and
     the frame's xyz(s), xyz'(s), xyz''(s). A task path by the core's closed-loop inverse
@@ -212,6 +225,7 @@ def path_joints(robot, path, s, frame: str | None = None, axes: str | None = Non
         AssemblyError: a joint path's loops cannot be closed (naming the joints)."""
     s = np.atleast_1d(np.asarray(s, dtype=float))
     if getattr(path, "space", "task") == "task":
+        axes = task_axes(robot, frame) if axes is None else axes
         try:
             # from the robot's reference configuration: one assembly mode, whatever it assembled last
             start = robot.reference_configuration
@@ -388,7 +402,8 @@ def plan_time_optimal(
     """The time-optimal law along ``path`` (a geometric path of ``frame``, default the end
     effector; :mod:`delta_pin.planning.paths`) from rest to rest, under |tau_j| <= ``torque_limit``
     [N m] and |alpha_dot_j| <= ``velocity_limit`` [rad/s] (one value or one per actuated joint),
-    on ``points`` grid points, the projected dynamics of ``robot`` with its nominal ``friction``
+    on ``points`` grid points (``axes``: the frame's task coordinates, default :func:`task_axes`),
+    the projected dynamics of ``robot`` with its nominal ``friction``
     (a :class:`~delta_pin.model.friction.Friction`, ``True`` for a recognised Delta's, or None) and a
     ``payload_mass`` [kg] at the end effector; verified on the exact model at ``check_rate`` [Hz]
     and repaired where it exceeds (module docstring). With ``verify``, the distance to a
@@ -415,6 +430,8 @@ def plan_time_optimal(
     if not length > 0.0:
         raise InvalidParameterError(f"path {getattr(path, 'name', path)!r} has no length to plan along")
     wall = time.perf_counter()
+    if axes is None and getattr(path, "space", "task") == "task":
+        axes = task_axes(robot, frame)
     nominal = ClosedChainNominalModel(robot, payload_mass=payload_mass, friction=friction)
     robot = nominal.robot  # with the payload
     start = branch_configuration(robot, np.array(path_joints(robot, path, [0.0], frame, axes).alpha[0]))

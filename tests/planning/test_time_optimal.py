@@ -227,3 +227,26 @@ def test_design_one_tracks_the_planned_cycle(delta):
         delta, dp.design1(nominal, sampling_period=1e-3), cycle, t_end=t_end, dt=1e-3, friction=True
     )
     assert np.abs(sampled.alpha - sampled.alpha_d).max() <= 1.5e-3
+
+
+def test_a_planar_robot_plans_in_the_plane_it_moves_in():
+    """The five-bar moves its tip in xz: without axes the planner takes those (task_axes, the frame
+    Jacobian's largest rows), and the plan equals the one given axes="xz" (1e-12 s)."""
+    from delta_pin.planning.time_optimal import task_axes
+
+    robot = dp.load_robot("five_bar", end_effector="tip")
+    assert task_axes(robot) == "xz" and task_axes(dp.load_delta()) == "xyz"
+    A, B, up = np.array([-0.02, 0.0, -0.53]), np.array([0.02, 0.0, -0.53]), np.array([0.0, 0.0, 0.01])
+    path = BlendedPath([A, A + up, B + up, B], 0.003)
+    found = plan_time_optimal(robot, path, 1.0, verify=False)
+    given = plan_time_optimal(robot, path, 1.0, axes="xz", verify=False)
+    assert found.axes == "xz" and abs(found.duration - given.duration) <= 1e-12
+
+
+def test_an_axis_the_frame_does_not_move_along_is_one_line():
+    """Inverse kinematics of the five-bar's tip along xy (it cannot move in y): before, a NaN step
+    surfaced as "alpha=[nan, nan] must be 2 finite numbers"; now the frame and the axes are named."""
+    robot = dp.load_robot("five_bar", end_effector="tip")
+    with pytest.raises(UnreachablePoseError) as error:
+        robot.inverse_kinematics([0.01, 0.0, -0.53], axes="xy")
+    assert "does not move along all of 'xy'" in str(error.value) and "\n" not in str(error.value)
