@@ -221,6 +221,7 @@ def test_every_option_a_message_suggests_exists():
         dp.simulate,
         dp.ClosedChainRobot,
         dp.ClosedChainRobot.configuration,
+        dp.ClosedChainRobot.inverse_kinematics,
         validate_closed_chain,
     ):
         parameters |= set(inspect.signature(entry).parameters)
