@@ -1319,8 +1319,9 @@ def _add_plan_command(add) -> None:
     )  # fmt: skip
     plan.add_argument(
         "--corners", default=None, metavar="X,Y,Z;X,Y,Z;...",
-        help="the frame's path through these points [m], from rest to rest, its corners blended (write "
-        "--corners=-0.02,0,-0.53;... when the first number is negative)",
+        help="the frame's path through these points [m], from rest to rest, its corners blended; quote it "
+        "(the shell ends a command at ';') and join it with '=' (a first number may be negative): "
+        "--corners='-0.02,0,-0.53;-0.02,0,-0.52;0.02,0,-0.52'",
     )  # fmt: skip
     plan.add_argument("--height", type=float, default=0.025, help="the Adept cycle's rise [m]")
     plan.add_argument("--width", type=float, default=0.305, help="the Adept cycle's move across [m]")
