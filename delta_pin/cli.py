@@ -1301,6 +1301,8 @@ def _add_identify_command(add) -> None:
 
 
 PLAN_FILES = ("plan.csv", "plan.json", "plan.png")  # what `plan` writes into --out (and singularity_map.png)
+# the plan CSV's rate: a pick-and-place lasts about a second, ~200 bytes a row (1e5 Hz: ~20 MB a second)
+MAX_PLAN_RATE = 1e5
 
 
 def _add_plan_command(add) -> None:
@@ -1342,7 +1344,9 @@ def _add_plan_command(add) -> None:
     plan.add_argument(
         "--axes", default=None, help="its controlled coordinates (default xyz, or xz for 2 motors)"
     )
-    plan.add_argument("--rate", type=float, default=1000.0, help="the CSV's sample rate [Hz]")
+    plan.add_argument(
+        "--rate", type=float, default=1000.0, help=f"the CSV's sample rate [Hz], at most {MAX_PLAN_RATE:g}"
+    )
     plan.add_argument(
         "--singularity-margin", type=float, default=5e-3,
         help="refuse a path that comes this close to a Type I or II singularity (sigma_min/sigma_max; "
@@ -1373,6 +1377,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             raise InvalidParameterError(
                 f"{flag} {value!r} must be a finite number >= 0{' (> 0)' if flag == '--rate' else ''}"
             )
+    if args.rate > MAX_PLAN_RATE:
+        raise InvalidParameterError(f"--rate {args.rate:g} Hz: at most {MAX_PLAN_RATE:g} Hz (the CSV's rows)")
     if not (math.isfinite(args.singularity_margin) and 0.0 <= args.singularity_margin < 1.0):
         raise InvalidParameterError(f"--singularity-margin {args.singularity_margin!r} must be in [0, 1)")
     robot = _closed_chain_robot(args) if args.robot is not None else _load_robot(args)

@@ -179,6 +179,7 @@ CASES = [
         "--points: 2 must be an integer >= 3",
     ),
     (["plan", "--torque-limit", "20", "--blend", "nan", "--out", "{out}"], 2, "--blend nan"),
+    (["plan", "--torque-limit", "20", "--rate", "1e9", "--out", "{out}"], 2, "--rate 1e+09 Hz: at most"),
     (["plan", "--torque-limit", "20", "--center", "0", "--out", "{out}"], 2, "--center '0'"),
     (["plan", "--torque-limit", "20", "--corners=0,0,-0.4", "--out", "{out}"], 2, "corners must be"),
     (["plan", "--torque-limit", "20", "--robot", "{missing}", "--out", "{out}"], 2, "{missing}"),
