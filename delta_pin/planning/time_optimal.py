@@ -251,9 +251,8 @@ def path_joints(robot, path, s, frame: str | None = None, axes: str | None = Non
 
 
 def _limits(values, dof: int, name: str, unit: str) -> np.ndarray:
-    limits = np.broadcast_to(np.asarray(values, dtype=float), (dof,)).copy() if np.ndim(values) == 0 else None
-    if limits is None:
-        limits = np.asarray(values, dtype=float).reshape(-1)
+    given = np.asarray(values, dtype=float)
+    limits = np.full(dof, float(given)) if given.ndim == 0 else given.reshape(-1)
     if limits.shape != (dof,) or not np.all(np.isfinite(limits)) or np.any(limits <= 0.0):
         raise InvalidParameterError(
             f"{name}={np.asarray(values).tolist()!r} must be one positive value or {dof} (one per actuated "
@@ -504,9 +503,9 @@ class _Grid:
     def _evaluate(self, s: np.ndarray, s_dot: np.ndarray) -> None:
         on_path = path_joints(self.robot, self.path, s, self.frame, self.axes)
         self.s, self.s_dot = s, s_dot
-        self.d1 = np.array(on_path.alpha_dot)  # alpha'(s)
+        self.alpha, self.d1 = np.array(on_path.alpha), np.array(on_path.alpha_dot)  # alpha(s), alpha'(s)
         self.a, self.b, self.c0, self.damping = self.dynamics.coefficients(
-            np.array(on_path.alpha), self.d1, np.array(on_path.alpha_ddot)
+            self.alpha, self.d1, np.array(on_path.alpha_ddot)
         )
 
     def refine(self, intervals: np.ndarray) -> None:
@@ -526,11 +525,10 @@ class _Grid:
 
 
 def _singularity(robot, path, grid: _Grid, frame, axes, margin: float, start: np.ndarray) -> np.ndarray:
-    """The smallest (Type I, Type II) measures along the grid; PlanningError within ``margin``."""
+    """The smallest (Type I, Type II) measures at the grid's joints; PlanningError within ``margin``."""
     from delta_pin.planning.singularity import path_singularity
 
-    alpha = np.array(path_joints(robot, path, grid.s, frame, axes).alpha)
-    closeness = path_singularity(robot, alpha, frame, axes, start)
+    closeness = path_singularity(robot, grid.alpha, frame, axes, start)
     worst = closeness.min(axis=0)
     if worst.min() < margin:
         kind = 0 if worst[0] <= worst[1] else 1

@@ -13,7 +13,6 @@
 
 #include <Eigen/Dense>
 
-#include <functional>
 #include <map>
 #include <memory>
 #include <string>
