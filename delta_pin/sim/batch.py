@@ -67,7 +67,7 @@ def simulate_batch(
         uncertainties: one profile per run (``None`` entries: no uncertainty), or ``None``.
         errors: ``"raise"`` the first failure, or ``"return"`` it in place of its run.
         integrator: continuous mode: ``"bdf2"`` (fixed steps dt / substeps) or ``"radau"`` (Radau
-            IIA with error control, :mod:`delta_pin.sim.continuous_core`; its samples every dt).
+            IIA with error control, :mod:`delta_pin.sim.loop`; its samples every dt).
         rtol, atol: ``"radau"``'s tolerances (relative; absolute in SI units of the state).
 
     Returns:

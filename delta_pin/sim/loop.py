@@ -1,31 +1,62 @@
-"""The sampled closed loop (docs/architecture.md section 6): any controller on any plant, stepped
-by the compiled core.
+"""The closed loop (docs/architecture.md section 6): any controller on any plant, by any of the
+core's integrators, as the compiled core's one run (``delta_pin/core/run/run.hpp``).
 
-The loop, its RK4 sub-steps and its checks are the core's one run (``delta_pin/core/run/run.hpp``,
-its ``HeldTorqueRk4`` stepper): a plant's
-compiled copy (:meth:`Plant.sampled_core <delta_pin.sim.plants.Plant.sampled_core>`), or a plant
-written in Python called back at every RK4 stage (``PythonPlant``,
-:func:`~delta_pin.sim.compiled_plant.python_core_plant`). The controller runs there as its
-compiled law or is called back once per sample. The readable Python loop these are tested
-against lives in ``tests/reference/python_loop.py``."""
+One entry, :func:`run_loop`. What differs between runs is declared once, not branched on by its
+callers:
+
+* the integrator (:data:`INTEGRATIONS`): ``"rk4"`` samples the controller once per period and
+  holds its torque while the plant takes ``substeps`` RK4 steps (a digital drive: the
+  controller's state advances once per period, z_{k+1} = z_k + dt z_dot_k, or to a discrete-time
+  law's next state); ``"radau"`` (Radau IIA of order 5 with error control,
+  ``delta_pin/core/integrate/radau.hpp``) and ``"bdf2"`` (fixed steps dt / substeps) integrate the
+  plant and the controller's state as one ODE, the law evaluated inside the integrator along the
+  reference's cubic Hermite table (the paper's analysis);
+* the plant: its compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`,
+  :meth:`~delta_pin.sim.plants.Plant.sampled_core`) or, under RK4 only, a plant written in Python,
+  its ``derivative`` called back at every stage
+  (:func:`~delta_pin.sim.compiled_plant.python_core_plant`);
+* the law: the controller's compiled law (:meth:`Controller.sampled_core_law
+  <delta_pin.control.base.Controller.sampled_core_law>`), Python not called during the run, or the
+  controller called back (:class:`CalledBack`: once per sample under RK4, at every evaluation of a
+  continuous integrator). Either way the encoder and the drive are the core's
+  (``delta_pin/core/run/drive.hpp``).
+
+A continuous run in active coordinates assembles q(alpha) by Newton at every evaluation; a closed
+chain with idle motions or passive joints is integrated in its whole state [q, v, z] instead,
+projected back onto the loops every :data:`~delta_pin.sim.integrators.PROJECTION_CHUNK` samples.
+The readable Python loop the core is tested against lives in ``tests/reference/python_loop.py``.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from delta_pin.compiled.core import core
 from delta_pin.control.base import Controller, ControlOutput, Reference
-from delta_pin.errors import NonFiniteError, SimulationError
-from delta_pin.sim.compiled_plant import keep_core_projections, python_core_plant, run_core
+from delta_pin.errors import InvalidParameterError, NonFiniteError, SimulationError
+from delta_pin.sim.compiled_plant import keep_core_projections, python_core_plant, run_core, set_core_truth
 from delta_pin.sim.drive import Drive, Encoder
-from delta_pin.sim.integrators import MAX_JOINT_SPEED, all_finite, check_state
+from delta_pin.sim.integrators import MAX_JOINT_SPEED, PROJECTION_CHUNK, all_finite, check_state
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import ReferenceTable
 from delta_pin.utils.progress import Progress
 
-__all__ = ["ControlLoop", "LoopRecord", "run_sampled_loop"]
+__all__ = [
+    "INTEGRATIONS",
+    "RADAU_FIRST_STEP",
+    "RADAU_MAX_STEP",
+    "CalledBack",
+    "ControlLoop",
+    "Integration",
+    "LoopRecord",
+    "run_loop",
+]
+
+RADAU_FIRST_STEP = 1e-5  # [s]: a run starts in the reaching phase, off the path
+RADAU_MAX_STEP = 1e-2  # [s]
 
 
 class ControlLoop:
@@ -73,71 +104,194 @@ class LoopRecord:
     v: np.ndarray | None = None  # and its velocity (N, nv)
 
 
-def run_sampled_loop(
+@dataclass(frozen=True)
+class Integration:
+    """How a run integrates: ``integrator`` (a key of :data:`INTEGRATIONS`), ``substeps`` (RK4 or
+    BDF2 steps per sample, >= 1) and Radau's tolerances (``rtol`` relative, ``atol`` absolute in
+    SI units of the state)."""
+
+    integrator: str
+    substeps: int = 1
+    rtol: float = 1e-6
+    atol: float = 1e-8
+
+    @property
+    def declared(self) -> IntegratorDeclaration:
+        return INTEGRATIONS[self.integrator]
+
+
+@dataclass(frozen=True)
+class IntegratorDeclaration:
+    """What an integrator of the core asks of a run.
+
+    Attributes:
+        sampled: the law is sampled once per period and its torque held (``"rk4"``), or evaluated
+            inside the integrator (a continuous one).
+        reference_per_sample: rows of the reference table per sample period, from the substeps
+            (the integrator's grid: the samples, the BDF2 steps, or dt/4 for Radau's cubic
+            Hermite table).
+        counters: the run's counters the integrator reports (``RunRecords`` field, metadata
+            names), or none.
+    """
+
+    sampled: bool
+    reference_per_sample: Callable[[int], int]
+    counters: tuple[str, tuple[str, ...]] | None = None
+
+
+INTEGRATIONS: dict[str, IntegratorDeclaration] = {
+    "rk4": IntegratorDeclaration(sampled=True, reference_per_sample=lambda substeps: 1),
+    "radau": IntegratorDeclaration(
+        sampled=False,
+        reference_per_sample=lambda substeps: 4,
+        counters=(
+            "radau_counters",
+            ("radau_steps", "radau_rejected", "rhs_evaluations", "jacobians", "factorizations"),
+        ),
+    ),
+    "bdf2": IntegratorDeclaration(
+        sampled=False,
+        reference_per_sample=lambda substeps: substeps,
+        counters=("bdf2_counters", ("bdf2_steps", "rhs_evaluations", "split_steps", "jacobians")),
+    ),
+}
+
+
+def run_loop(
     controller: Controller,
     plant: Plant,
     table: ReferenceTable,
-    x: np.ndarray,
+    alpha0: np.ndarray,
+    alpha_dot0: np.ndarray,
     t: np.ndarray,
+    integration: Integration,
     *,
-    substeps: int,
-    progress: bool | None,
+    progress: bool | None = False,
     sensor: Encoder | None = None,
     drive: Drive | None = None,
-) -> LoopRecord:
-    """Run ``controller`` on ``plant`` from the plant state x over the sample times t [s].
+) -> tuple[LoopRecord, dict]:
+    """Run ``controller`` on ``plant`` from (alpha0 [rad], alpha_dot0 [rad/s]) over the sample
+    times t [s] (module docstring): returns the record and the integrator's counters.
 
-    tau_k at t_k, held over the period while the plant takes ``substeps`` RK4 steps; the
-    controller state advances once per period (:meth:`Controller.advance
-    <delta_pin.control.base.Controller.advance>`: z_{k+1} = z_k + dt z_dot_k, or a discrete-time
-    law's next state). With a ``sensor`` the controller sees its readings instead of the true
-    joint state; with a ``drive`` its torque acts after the drive's delay and saturation (what is
-    recorded as ``tau``; the controller's own output is the internal ``tau_command``). ``table``
-    holds the reference at the samples.
+    ``table`` holds the reference on the integrator's grid
+    (:attr:`IntegratorDeclaration.reference_per_sample` rows per sample). With a ``sensor`` the
+    controller sees its readings instead of the true joint state; with a ``drive`` its torque acts
+    after the drive's delay and saturation (what is recorded as ``tau``; the controller's own
+    output is the internal ``tau_command``): RK4 only (``simulate`` checks).
 
-    A controller with a compiled law (:meth:`Controller.sampled_core_law
-    <delta_pin.control.base.Controller.sampled_core_law>`) runs in the core, Python not called
-    during the run (unless the plant is a Python one); any other is called back once per sample.
-    Either way the sensor and the drive are the core's (``delta_pin/core/run/drive.hpp``).
+    Raises:
+        InvalidParameterError: a continuous integrator on a plant without a compiled copy, a
+            discrete-time controller or a plant without actuated joints.
+        SimulationError: the loops cannot be closed, the state or the torque became non-finite,
+            |alpha_dot| exceeded the divergence limit or Radau's step size collapsed (at the time
+            it happened).
     """
-    steps, dt = len(t) - 1, t[1] - t[0]
-    h = dt / substeps
+    declared = integration.declared
+    steps, dt = len(t) - 1, float(t[1] - t[0])
     controller.reset()
-    z = controller.initial_state().astype(float)
-    reference_rows = table.rows(1)
-    settings = _sampled_settings(steps, substeps, dt)
+    z0 = np.asarray(controller.initial_state(), dtype=float)
+    x0 = plant.initial_state(np.asarray(alpha0, float), np.asarray(alpha_dot0, float))
+    compiled_plant = _core_plant(plant, controller, table, integration, steps, len(x0))
+    if compiled_plant.has_configuration:  # the core's plant steps the multibody's [q, v]
+        x0 = np.concatenate(plant.configuration_state(x0))
+    settings = _run_settings(integration, steps, dt)
     if sensor is not None or drive is not None:
         settings.drive = _core_drive(sensor, drive, steps + 1, plant.dof)
     bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
-    # the plant's compiled copy, or the plant itself called back from the core's loop
-    core = plant.sampled_core(h, 2 * steps * substeps + 3) or python_core_plant(plant, len(x))
-    law = controller.sampled_core_law()
-    own_velocity = type(controller).estimate_velocity is not Controller.estimate_velocity
-    estimates = sensor is not None and sensor.velocity == "none" and own_velocity
-    if law is not None and not estimates:
-        # the compiled plant, loop, drive and law: Python is not called until the run ends
-        law.start(*(np.ascontiguousarray(r) for r in reference_rows), dt, z, steps + 1)
-        recorded = run_core(core, law, settings, x, plant)
-        internals = controller.core_law_internals(law)
-    else:  # the controller called back once per sample, its velocity estimate its own
-        callback = _CalledBack(controller, plant, reference_rows, t, z, bar, estimates)
-        recorded = run_core(core, callback, settings, x, plant)
-        internals = _stacked(callback.internals)
-    keep_core_projections(plant, core)
+    law, reference = _law(controller, plant, table, declared, t, z0, sensor, bar)
+    recorded = run_core(compiled_plant, law, settings, x0, plant, None if declared.sampled else z0, reference)
+    bar.close()
+    keep_core_projections(plant, compiled_plant)
     record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
     record.q, record.v = recorded.q, recorded.v
-    record.internals = internals
+    called_back = isinstance(law, CalledBack)
+    record.internals = _stacked(law.internals) if called_back else controller.core_law_internals(law)
     if drive is not None:
         record.internals["tau_command"] = recorded.commands
         drive.hits = recorded.hits
-    bar.close()
-    return record
+    counters = {}
+    if declared.counters is not None:
+        field_name, names = declared.counters
+        counters = dict(zip(names, map(int, getattr(recorded, field_name)), strict=True))
+    return record, counters
 
 
-class _CalledBack:
-    """A controller without a compiled law in the core's sampled run: called back once per sample
-    with the joints as the run's encoder reads them (the controller's own velocity estimate where
-    ``estimates``), its state advanced and checked, its output and internals recorded."""
+def _core_plant(
+    plant: Plant,
+    controller: Controller,
+    table: ReferenceTable,
+    integration: Integration,
+    steps: int,
+    states: int,
+):
+    """The core's plant of a run, its truth tabulated on the integrator's grid: RK4's stage times
+    (h/2 apart), or the reference table's rows for a continuous integrator (interpolated
+    linearly between them); under RK4 a plant without a compiled copy is called back."""
+    if integration.declared.sampled:
+        h = float(table.step) / integration.substeps
+        plant.precompute_truth(h / 2.0, 2 * steps * integration.substeps + 1)
+        compiled = plant.sampled_core(h, 2 * steps * integration.substeps + 3)
+        return compiled if compiled is not None else python_core_plant(plant, states)
+    compiled = None
+    if getattr(controller, "dt", None) is None and plant.dof > 0:
+        compiled = plant.core_plant()
+    if compiled is None:
+        if getattr(controller, "dt", None) is not None:
+            why = f"controller {controller.name!r} is discrete-time (dt={controller.dt})"
+        elif plant.dof == 0:
+            why = "the robot has no actuated joint (a free motion)"
+        else:
+            why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
+        raise InvalidParameterError(
+            f"mode='continuous' runs in the compiled core's Radau IIA, and {why}: use mode='sampled'"
+        )
+    set_core_truth(compiled, plant, table.step, len(table.alpha))
+    return compiled
+
+
+def _run_settings(integration: Integration, steps: int, dt: float):
+    """The core's ``RunSettings`` of steps + 1 samples dt [s] apart by ``integration``."""
+    settings = core().RunSettings()
+    settings.integrator, settings.samples, settings.dt = integration.integrator, steps + 1, dt
+    settings.substeps, settings.max_joint_speed = integration.substeps, MAX_JOINT_SPEED
+    settings.rtol, settings.atol = integration.rtol, integration.atol
+    settings.first_step, settings.max_step = RADAU_FIRST_STEP, RADAU_MAX_STEP
+    settings.projection_interval = PROJECTION_CHUNK
+    return settings
+
+
+def _law(controller, plant, table, declared: IntegratorDeclaration, t, z0, sensor, bar):
+    """(the run's law, the Hermite reference of a continuous integrator or ``None``): the
+    controller's compiled law, given the reference per sample under RK4, or the controller called
+    back -- also under RK4 where the encoder gives no velocity and the controller estimates its
+    own."""
+    law = controller.sampled_core_law()
+    own_velocity = type(controller).estimate_velocity is not Controller.estimate_velocity
+    estimates = sensor is not None and sensor.velocity == "none" and own_velocity
+    if law is None or estimates:
+        law = CalledBack(controller, plant, table.rows(1), t, z0, bar, estimates)
+    reference = None
+    if not declared.sampled:
+        reference = core().HermiteReference()
+        reference.step = table.step
+        reference.alpha, reference.alpha_dot, reference.alpha_ddot, reference.alpha_dddot = (
+            np.ascontiguousarray(a)
+            for a in (table.alpha, table.alpha_dot, table.alpha_ddot, table.alpha_dddot)
+        )
+    elif not isinstance(law, CalledBack):
+        dt = float(t[1] - t[0])
+        law.start(*(np.ascontiguousarray(r) for r in table.rows(1)), dt, z0, len(t))
+    return law, reference
+
+
+class CalledBack:
+    """A controller without a compiled law in the core's run: its sampled face is called once per
+    sample with the joints as the run's encoder reads them (the controller's own velocity
+    estimate where ``estimates``), its state advanced and checked; its continuous face
+    (:meth:`evaluate`, :meth:`keep`) at every evaluation of a continuous integrator, with the
+    checks of :class:`ControlLoop` (a torque of the wrong shape or not finite is a
+    :class:`~delta_pin.errors.SimulationError` naming the controller and the time). Its internals
+    are recorded at the samples."""
 
     def __init__(self, controller, plant, reference_rows, t, z, bar, estimates: bool) -> None:
         self.controller, self.loop = controller, ControlLoop(controller, plant)
@@ -160,22 +314,24 @@ class _CalledBack:
         rows = self.reference_rows
         reference = Reference(rows[0][k], rows[1][k], rows[2][k])
         tau, _, self.out = self.loop.control(t, x, reference, self.z, (alpha, alpha_dot))
-        for name, value in self.out.internals.items():
-            self.internals.setdefault(name, []).append(np.asarray(value, dtype=float))
+        self._keep_internals()
         return tau
 
+    def evaluate(self, t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z):
+        reference = Reference(ref_alpha, ref_alpha_dot, ref_alpha_ddot)
+        tau, z_dot, self.out = self.loop.control(t, None, reference, z, (alpha, alpha_dot))
+        return tau, z_dot
 
-def _sampled_settings(steps: int, substeps: int, dt: float):
-    """The core's run of steps + 1 samples dt [s] apart, the torque held over each while the
-    plant takes ``substeps`` RK4 steps."""
-    settings = core().RunSettings()
-    settings.integrator, settings.samples, settings.substeps, settings.dt = "rk4", steps + 1, substeps, dt
-    settings.max_joint_speed = MAX_JOINT_SPEED
-    return settings
+    def keep(self, k, tau, z) -> None:
+        self._keep_internals()
+
+    def _keep_internals(self) -> None:
+        for name, value in self.out.internals.items():
+            self.internals.setdefault(name, []).append(np.asarray(value, dtype=float))
 
 
 def _core_drive(sensor: Encoder | None, drive: Drive | None, samples: int, dof: int):
-    """The encoder and the drive of :func:`run_sampled_loop` as the core's run takes them
+    """The encoder and the drive of :func:`run_loop` as the core's run takes them
     (``DriveSettings``): the same readings (the encoder's noise drawn from its seed in the order
     :meth:`Encoder.read <delta_pin.sim.drive.Encoder.read>` draws it, one row of ``dof`` angles
     per sample; a velocity the controller estimates itself starts from the readings'

@@ -6,11 +6,11 @@ Two timings (docs/architecture.md section 6):
   hold) over [t_k, t_k + dt) while the plant integrates with ``substeps`` RK4 steps; the
   controller's internal state (rho_hat) advances once per period, z_{k+1} = z_k + dt z_dot_k;
 * ``mode="continuous"`` -- the analysis of the paper: the controller is evaluated inside the
-  integrator (the compiled core's Radau IIA with error control, :mod:`delta_pin.sim.continuous_core`;
+  integrator (the compiled core's Radau IIA with error control, :mod:`delta_pin.sim.loop`;
   its fixed-step BDF2 on request), on a plant with a compiled copy.
 
 Every run goes through the compiled core: :func:`simulate` checks its arguments, hands the run to
-the core's sampled loop (:func:`~delta_pin.sim.loop.run_sampled_loop`) or continuous loop, and
+the core's one run (:func:`~delta_pin.sim.loop.run_loop`, by the integrator the mode names), and
 wraps the result in a :class:`Run`. The readable Python loop the core is tested against lives in
 ``tests/reference/``.
 """
@@ -36,10 +36,8 @@ from delta_pin.model.robot import Delta
 from delta_pin.model.trajectory import Trajectory
 from delta_pin.sim.arguments import check_mode, check_substeps, check_timing, joint_vector
 from delta_pin.sim.closed_chain_plant import ClosedChainPlant, make_plant
-from delta_pin.sim.continuous_core import continuous_core, run_core_continuous
 from delta_pin.sim.drive import Drive, Encoder, check_delay
-from delta_pin.sim.integrators import INTEGRATORS
-from delta_pin.sim.loop import run_sampled_loop
+from delta_pin.sim.loop import INTEGRATIONS, Integration, run_loop
 from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
@@ -54,30 +52,13 @@ def _choose_integrator(integrator: str, mode: str) -> str:
     ``integrator`` where it fits the mode."""
     if integrator == "auto":
         return "rk4" if mode == "sampled" else "radau"
-    fits = integrator == "rk4" if mode == "sampled" else integrator in ("radau", "bdf2")
-    if integrator not in INTEGRATORS or not fits:
+    declared = INTEGRATIONS.get(integrator)
+    if declared is None or declared.sampled != (mode == "sampled"):
         raise InvalidParameterError(
             f"integrator={integrator!r} does not run mode={mode!r}: 'rk4' runs sampled mode, 'radau' or "
             "'bdf2' continuous mode ('auto' picks)"
         )
     return integrator
-
-
-def _continuous_core(plant, controller):
-    """(the core's plant, the law) of a continuous run (:func:`continuous_core`), or one line that
-    says why the plant or controller has none."""
-    in_core = continuous_core(plant, controller)
-    if in_core is None:
-        if getattr(controller, "dt", None) is not None:
-            why = f"controller {controller.name!r} is discrete-time (dt={controller.dt})"
-        elif plant.dof == 0:
-            why = "the robot has no actuated joint (a free motion)"
-        else:
-            why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
-        raise InvalidParameterError(
-            f"mode='continuous' runs in the compiled core's Radau IIA, and {why}: use mode='sampled'"
-        )
-    return in_core
 
 
 def _engine_robot(robot, delta, plant, trajectory):
@@ -171,7 +152,7 @@ def simulate(
         substeps: RK4 steps per period (>= 1) for the ``"rk4"`` integrator.
         integrator: ``"rk4"`` (sampled mode: fixed steps dt / substeps), ``"radau"`` (continuous
             mode: the compiled core's Radau IIA of order 5 with error control,
-            :mod:`delta_pin.sim.continuous_core`: any plant with a compiled copy and any
+            :mod:`delta_pin.sim.loop`: any plant with a compiled copy and any
             continuous-time controller, its compiled law or its Python one) or ``"bdf2"``
             (continuous mode: the compiled implicit BDF2 with fixed steps dt / substeps, off by
             more than Radau in a reaching phase; what the sweeps of ``reproduce --full`` batch).
@@ -211,34 +192,24 @@ def simulate(
     _check_digital(as_controller(controller), mode, dt, drive_effects, delay)
     plant = make_plant(plant, robot, friction, uncertainty)
     controller = as_controller(controller)  # one wrapper: the core's law calls the run's controller
-    in_core = _continuous_core(plant, controller) if mode == "continuous" else None
-    dof, h = plant.dof, dt / substeps
-    # the reference on the integrator's grid: the samples in sampled mode, the BDF2 steps or dt/4
-    # (Radau's cubic Hermite table) in continuous mode
-    per_sample = 1 if mode == "sampled" else (substeps if integrator == "bdf2" else 4)
+    integration = Integration(integrator, substeps, rtol, atol)
+    dof = plant.dof
+    # the reference on the integrator's grid (sim/loop.py's declaration of the integrator)
+    per_sample = integration.declared.reference_per_sample(substeps)
     table, sample_xyz, alpha0 = tabulate_reference(robot, trajectory, alpha0, dof, steps, dt, per_sample)
     alpha0 = joint_vector(alpha0, "alpha0", dof)
     alpha_dot0 = np.zeros(dof) if alpha_dot0 is None else joint_vector(alpha_dot0, "alpha_dot0", dof)
-    if mode == "sampled":
-        plant.precompute_truth(h / 2.0, 2 * steps * substeps + 1)
     t = np.arange(steps + 1) * dt
     drive = Drive(dof, delay, torque_limit) if drive_effects else None
     if sensor is not None:
         sensor.reset()
 
     wall = time.perf_counter()
-    counters = {}
     try:
-        if in_core is not None:
-            record, counters = run_core_continuous(
-                in_core, controller, plant, table, alpha0, alpha_dot0, t, rtol, atol,
-                substeps if integrator == "bdf2" else 0,
-            )  # fmt: skip
-        else:
-            record = run_sampled_loop(
-                controller, plant, table, plant.initial_state(alpha0, alpha_dot0), t, substeps=substeps,
-                progress=progress, sensor=sensor, drive=drive,
-            )  # fmt: skip
+        record, counters = run_loop(
+            controller, plant, table, alpha0, alpha_dot0, t, integration, progress=progress, sensor=sensor,
+            drive=drive,
+        )  # fmt: skip
     except SimulationError as exc:
         raise _with_singularity(exc, robot) from None
     wall = time.perf_counter() - wall
@@ -250,7 +221,7 @@ def simulate(
     )  # fmt: skip
     if getattr(plant, "projections", 0):
         metadata["closure_projections"] = plant.projections
-    if getattr(plant, "stepped_in_core", False) or in_core is not None:
+    if getattr(plant, "stepped_in_core", False):
         metadata["core_plant"] = True  # the plant stepped in the compiled core
     metadata.update(counters)
     if drive is not None:

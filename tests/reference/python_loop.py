@@ -1,6 +1,6 @@
 """The readable Python closed loop: any controller on any plant's Python ``derivative``, sampled
 (RK4 under a held torque) or continuous (RK4 on [x, z], or SciPy's LSODA in chunks) -- the
-reference the compiled core's loops (:mod:`delta_pin.sim.loop`, :mod:`delta_pin.sim.continuous_core`)
+reference the compiled core's loops (:func:`delta_pin.sim.loop.run_loop`)
 are tested against. It was the package's own loop until the core took every run (issue 38).
 
 :func:`simulate_reference` sets a run up as :func:`delta_pin.simulate` does (the same reference

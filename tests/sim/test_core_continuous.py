@@ -1,4 +1,4 @@
-"""The continuous mode of closed chains in the compiled core (delta_pin/sim/continuous_core.py:
+"""The continuous mode of closed chains in the compiled core (delta_pin/sim/loop.py, run_loop:
 the core's plant and law integrated by its Radau IIA, delta_pin/core/integrate/radau.hpp) against the
 Python route it replaced (``simulate_reference``, tests/reference/python_loop.py): the Python plant
 in active coordinates with the readable law, integrated by LSODA at tight tolerances (rtol 1e-10,

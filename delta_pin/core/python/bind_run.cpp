@@ -1,6 +1,5 @@
 // The Python face of the core's one run (run.hpp): RunSettings, DriveSettings, RunRecords, HermiteReference and
-// run(), called from delta_pin/sim/loop.py (sampled) and delta_pin/sim/continuous_core.py
-// (continuous). Registered by module.cpp (bind_run).
+// run(), called from delta_pin/sim/loop.py (run_loop). Registered by module.cpp (bind_run).
 
 #include "binding.hpp"
 #include "failure.hpp"
@@ -22,10 +21,11 @@ namespace
 {
   using namespace delta_pin;
 
-  // A law written in Python behind the run's one interface (law.hpp): a callable control(k, x,
-  // alpha, alpha_dot) -> tau (the sampled face: the plant state and the joints as the drive's
-  // encoder reads them), or an object with evaluate(t, q, alpha, alpha_dot, ref_alpha,
-  // ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, tau, z) (the continuous face).
+  // A law written in Python behind the run's one interface (law.hpp), with either face or both: a
+  // callable control(k, x, alpha, alpha_dot) -> tau (the sampled face: the plant state and the
+  // joints as the drive's encoder reads them), and methods evaluate(t, q, alpha, alpha_dot,
+  // ref_alpha, ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, tau, z) (the
+  // continuous face).
   // Each call takes the GIL; an exception it raises is kept and the run unwound by CallbackError,
   // then raised again (raise()).
   class CallbackLaw : public Law
@@ -38,9 +38,9 @@ namespace
         evaluate_ = nb::cast<nb::callable>(law.attr("evaluate"));
         keep_ = nb::cast<nb::callable>(law.attr("keep"));
       }
-      else if (PyCallable_Check(law.ptr()))
+      if (PyCallable_Check(law.ptr()))
         control_ = nb::cast<nb::callable>(law);
-      else
+      if (!control_.is_valid() && !evaluate_.is_valid())
         throw std::invalid_argument(
           "law must be a compiled law, a callable control(k, x, alpha, alpha_dot) -> tau or an object with "
           "evaluate() and keep()");
@@ -245,8 +245,8 @@ void bind_run(nb::module_ & m)
     nb::arg("plant"), nb::arg("law"), nb::arg("settings"), nb::arg("x0"), nb::arg("records"),
     nb::arg("z0").none() = nb::none(), nb::arg("reference").none() = nb::none(),
     "The core's one run (run.hpp): the plant (ClosedChainPlant, AnalyticDeltaPlant, PythonPlant) from its state "
-    "x0 = [q, v] under the law -- a compiled law, a callable control(k, x, alpha, alpha_dot) -> tau (sampled: the "
-    "joints as settings.drive's encoder reads them) or an object with "
+    "x0 = [q, v] under the law -- a compiled law, or a Python one: callable as control(k, x, alpha, alpha_dot) -> "
+    "tau (sampled: the joints as settings.drive's encoder reads them) and/or with methods "
     "evaluate(t, q, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, "
     "tau, z) (continuous) -- stepped by settings.integrator: 'rk4' (the torque at t_k held over the period), "
     "'radau' or 'bdf2' (plant and law as one ODE from the law's state z0 along the reference). What the law "
