@@ -707,7 +707,8 @@ def _write_report(
         )
     body.append(
         "</table><h2>Metrics</h2><table border=1 cellpadding=4><tr>"
-        + "".join(f"<th>{html.escape(_column_header(c))}</th>" for c in COLUMNS)
+        # a break allowed after each underscore: the long names wrap instead of widening the table
+        + "".join(f"<th>{html.escape(_column_header(c)).replace('_', '_<wbr>')}</th>" for c in COLUMNS)
         + "</tr>"
     )
     for row in result.metrics:

@@ -679,12 +679,13 @@ def plot_trade_off(rows: Sequence[Mapping[str, Any]], ax: Axes | None = None) ->
         if not kept:
             continue
         xs, ys, _ = zip(*kept)
-        ax.plot(xs, ys, "o-", color=f"C{i}", markersize=max(3.0, 8.0 - 1.5 * i),
+        ax.plot(xs, ys, "o-", color=f"C{i}", markersize=max(3.0, 9.0 - 2.5 * i),
                 label=f"{label} (over {gains[label]})", gid=f"trade-off:{label}")  # fmt: skip
         for x, y, value in kept:
             ax.annotate(f"{value:g}", (x, y), fontsize=7, textcoords="offset points", xytext=(4, 2))
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.margins(x=0.1, y=0.08)  # room for the value labels of the outermost points
     ax.set_xlabel("torque roughness, RMS ‖τₖ − τₖ₋₁‖ over the last 5 s [N·m]")
     ax.set_ylabel("max ‖r‖, last 5 s [rad]")
     ax.set_title("error against roughness over each design's main gain", fontsize=9)
