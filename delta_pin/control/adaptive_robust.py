@@ -141,9 +141,10 @@ class AdaptiveRobustController(Controller):
 
     def sampled_core_law(self):
         """The compiled core's design I/II on the nominal model (``AdaptiveRobust`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic), where the
-        nominal model has one there (:meth:`NominalModel.core_law
-        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the
+        nominal model (:meth:`NominalModel.core_law
+        <delta_pin.control.nominal.NominalModel.core_law>`; a model written in Python is called
+        back)."""
         ctc, g = self.computed_torque, self.gains
         gains = {
             "D": ctc.D, "T_p": ctc.T_p, "T_v": ctc.T_v, "beta": g.beta, "xi": g.xi, "epsilon": g.epsilon,

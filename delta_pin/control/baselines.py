@@ -11,8 +11,8 @@
   change in Ḡ excepted). Default weights Q = diag(100 I, I), R = 0.01 I give K_p = 100 N m/rad and
   K_d ~ 10 N m s/rad, the stiffness and damping scale of design I's PD part (T_p + D T_v = 84,
   T_v + D M̄ ~ 9.3) so the comparison is about the model, not the gains.
-  Its law also exists compiled, in the core (:meth:`LQR.sampled_core_law`, where the nominal model
-  has one there); :meth:`LQR.evaluate` stays the readable law it is tested against.
+  Its law also exists compiled, in the core (:meth:`LQR.sampled_core_law`, on any nominal model);
+  :meth:`LQR.evaluate` stays the readable law it is tested against.
 """
 
 from __future__ import annotations

@@ -125,9 +125,9 @@ class TimeDelayControl(Controller):
 
     def sampled_core_law(self):
         """The compiled core's time-delay control (``TimeDelayControl`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
-        model has one there (:meth:`NominalModel.core_law
-        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``. Its first samples' N̂ is
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the nominal
+        model (:meth:`NominalModel.core_law <delta_pin.control.nominal.NominalModel.core_law>`; a
+        model written in Python is called back). Its first samples' N̂ is
         C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""
         gains = {
             "period": self.dt, "K_p": self.K_p, "K_v": self.K_v, "delay": self.delay,

@@ -226,9 +226,9 @@ class DigitalRobustController(Controller):
 
     def sampled_core_law(self):
         """The compiled core's law with its observer (``DigitalRobust`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) where the nominal
-        model has one there (:meth:`NominalModel.core_law
-        <delta_pin.control.nominal.NominalModel.core_law>`); else ``None``."""
+        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the nominal
+        model (:meth:`NominalModel.core_law <delta_pin.control.nominal.NominalModel.core_law>`; a
+        model written in Python is called back)."""
         observer = self.observer
         limit = np.zeros(0) if self.torque_limit is None else self.torque_limit
         gains = {

@@ -33,16 +33,40 @@ __all__ = [
     "NominalModel",
     "PinocchioNominalModel",
     "core_law_of",
+    "python_core_law",
 ]
 
 
 def core_law_of(nominal, kind: str, name: str, *gains, friction_compensation: bool = True):
-    """The compiled law ``kind`` on ``nominal`` (:meth:`NominalModel.core_law`), or ``None`` where
-    the nominal model declares none: any object with the :class:`NominalModel` methods serves a
-    controller as its nominal model (a robot's own ``terms``, say), and one without ``core_law``
-    has no compiled law (the core then calls the controller's ``evaluate`` back)."""
+    """The compiled law ``kind`` on ``nominal`` (:meth:`NominalModel.core_law`): any object with
+    the :class:`NominalModel` methods serves a controller as its nominal model (a robot's own
+    ``terms``, say); one without ``core_law`` is called back by the compiled law
+    (:func:`python_core_law`)."""
     make = getattr(nominal, "core_law", None)
-    return None if make is None else make(kind, name, *gains, friction_compensation=friction_compensation)
+    if make is None:
+        return python_core_law(nominal, kind, name, gains, friction_compensation)
+    return make(kind, name, *gains, friction_compensation=friction_compensation)
+
+
+def python_core_law(nominal, kind: str, name: str, gains, friction_compensation: bool = True):
+    """The compiled law ``kind`` on a nominal model written in Python: its ``terms(alpha,
+    alpha_dot)`` and ``compensation(alpha_dot, friction_compensation)`` (F̄ [+ M̄_f]; an object
+    without it: its ``disturbance()`` [+ ``friction(alpha_dot)``]) called back at every
+    evaluation (``PythonTerms`` of ``delta_pin/core/python/bind_laws.cpp``), the law's arithmetic
+    compiled."""
+    from delta_pin.compiled.core import core
+
+    def compensation(alpha_dot):
+        own = getattr(nominal, "compensation", None)
+        if own is not None:
+            return np.asarray(own(alpha_dot, friction_compensation), dtype=float)
+        value = np.asarray(nominal.disturbance(), dtype=float)
+        return (
+            value + np.asarray(nominal.friction(alpha_dot), dtype=float) if friction_compensation else value
+        )
+
+    terms = core().PythonTerms(int(nominal.dof), nominal.terms, compensation)
+    return _core_law(terms, kind, name, gains, np.zeros(int(nominal.dof)), None, None, None)
 
 
 class NominalModel(ABC):
@@ -64,9 +88,10 @@ class NominalModel(ABC):
 
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
         """A law of the compiled core on this nominal model (``kind``: ``"AdaptiveRobust"``,
-        ``"ComputedTorque"``, ``"PDGravity"`` of ``delta_pin/core/run/controller.hpp``, with its gains),
-        or ``None`` (the default) where the core holds no such model."""
-        return None
+        ``"ComputedTorque"``, ``"PDGravity"``, ... of ``delta_pin/core/run/controller.hpp``, with
+        its gains): by default the law calls :meth:`terms` and :meth:`compensation` back
+        (:func:`python_core_law`); a model the core holds overrides this."""
+        return python_core_law(self, kind, name, gains, friction_compensation)
 
     def compensation(self, q_dot: np.ndarray, friction: bool) -> np.ndarray:
         """F̄ [+ M̄_f(q_dot) when ``friction``] (n,) [N m]: what eq. 23 adds besides M̄, C̄, Ḡ."""
@@ -139,27 +164,26 @@ class DeltaNominalModel(NominalModel):
         """The compiled law ``kind`` on this analytic model (eqs. 7-10 in the core,
         ``core/control/delta_analytic.hpp``; F̄ and, with ``friction_compensation``, the nominal
         friction), for the closed chain of the Delta's URDF, where the core takes it."""
-        chain = self.robot.pinocchio
-        law = _core_law(
-            chain, kind, name, gains, self._disturbance, self.stribeck if friction_compensation else None,
-            self.friction_model, self.normal_force,
-        )  # fmt: skip
-        if law is not None:
-            p = self.robot.params
-            arm_gravity = 0.5 * (p.m_a + p.m_b) * p.g * p.l_a  # eq. 9 (corrected)
-            law.use_delta_model(
-                p.R,
-                p.r,
-                p.l_a,
-                p.l_b,
-                p.arm_equivalent_inertia,
-                arm_gravity,
-                p.g,
-                self.m_eq,
-                self._cos,
-                self._sin,
-            )
-        return law
+        from delta_pin.compiled.core import core
+
+        p = self.robot.params
+        arm_gravity = 0.5 * (p.m_a + p.m_b) * p.g * p.l_a  # eq. 9 (corrected)
+        terms = core().DeltaTerms(
+            p.R,
+            p.r,
+            p.l_a,
+            p.l_b,
+            p.arm_equivalent_inertia,
+            arm_gravity,
+            p.g,
+            self.m_eq,
+            self._cos,
+            self._sin,
+        )
+        stribeck = self.stribeck if friction_compensation else None
+        return _core_law(
+            terms, kind, name, gains, self._disturbance, stribeck, self.friction_model, self.normal_force
+        )
 
     def disturbance(self):
         return self._disturbance
@@ -288,11 +312,14 @@ class ClosedChainNominalModel(NominalModel):
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
         """The compiled law ``kind`` on this projected model (its robot, F̄ and, with
         ``friction_compensation``, the nominal friction), where the core takes the robot."""
-        if self._core is None:
-            return None
+        from delta_pin.compiled.core import core
+
+        if self._core is None:  # a model the core refuses: its terms called back
+            return python_core_law(self, kind, name, gains, friction_compensation)
+        terms = core().ProjectedTerms(core_chain(self.robot), self.robot.reference_configuration)
         stribeck = self.stribeck if friction_compensation else None
         return _core_law(
-            self.robot, kind, name, gains, self._disturbance, stribeck, self.friction_model, self.normal_force
+            terms, kind, name, gains, self._disturbance, stribeck, self.friction_model, self.normal_force
         )
 
     def disturbance(self):
@@ -339,9 +366,9 @@ def named_gains(module, kind: str, gains: Mapping):
     return struct
 
 
-def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
-    """The compiled law ``kind`` of ``delta_pin/core/run/controller.hpp`` for the closed chain
-    ``robot`` (its projected nominal model; F̄ ``disturbance`` [N m]; the Stribeck friction it
+def _core_law(terms, kind: str, name: str, gains, disturbance, stribeck, friction, normal_force):
+    """The compiled law ``kind`` of ``delta_pin/core/run/controller.hpp`` on the nominal model
+    ``terms`` (a ``NominalTerms`` of the core; F̄ ``disturbance`` [N m]; the Stribeck friction it
     compensates, or ``None``).
 
     Raises:
@@ -352,9 +379,7 @@ def _core_law(robot, kind: str, name: str, gains, disturbance, stribeck, frictio
     module = core()
     if len(gains) == 1 and isinstance(gains[0], Mapping):  # gains by name: the law's gains struct
         gains = (named_gains(module, kind, gains[0]),)
-    law = getattr(module, kind)(
-        core_chain(robot), robot.reference_configuration, np.asarray(disturbance, dtype=float), name, *gains
-    )
+    law = getattr(module, kind)(terms, np.asarray(disturbance, dtype=float), name, *gains)
     if stribeck is not None:
         law.set_friction(core_friction(stribeck, friction.sign_velocity_scale, normal_force))
     return law

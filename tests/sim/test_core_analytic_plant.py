@@ -129,27 +129,79 @@ def test_the_readable_law_called_back_on_the_core_plant_is_the_compiled_law(robo
     np.testing.assert_allclose(runs[0].tau, runs[1].tau, rtol=1e-10, atol=1e-12)
 
 
-def test_a_nominal_model_without_a_compiled_law_is_called_back(robot, needs_core):
-    """A controller's nominal model may be any object with the NominalModel methods; one without
-    ``core_law`` has no compiled law, and the core's plant calls the controller back (before, the
-    run stopped with an AttributeError)."""
+def test_a_nominal_model_written_in_python_gets_the_compiled_law(robot, needs_core):
+    """A controller's nominal model may be any object with the NominalModel methods. One the core
+    does not hold (here without ``core_law``) gets the compiled law all the same, its ``terms`` and
+    ``compensation`` called back at every evaluation (``PythonTerms``; before, the controller's
+    readable ``evaluate`` was the run-time path): the run equals the readable law called back
+    (tests/reference/laws.py) to the module's 1e-10, sampled and continuous; in continuous mode the
+    torque to 1e-4 of its RMS: inside the robust term's boundary layer its gain (measured ~3e5
+    N m per rad/s here) turns the two runs' velocity difference (~7e-11 rad/s, Radau's steps
+    taken on two law implementations equal to round-off) into ~2e-5 N m."""
 
     class Terms:  # the analytic model's terms, no core_law
         dof = 3
 
         def __init__(self):
-            self._nominal = dp.DeltaNominalModel(robot)
+            self._nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+            self.calls = 0
 
         def terms(self, q, q_dot):
+            self.calls += 1
             return self._nominal.terms(q, q_dot)
 
         def compensation(self, q_dot, friction):
-            return np.zeros(3)
+            return self._nominal.compensation(q_dot, friction)
 
         def metadata(self):
             return {"name": "terms"}
 
-    controller = dp.PDGravity(Terms())
-    assert controller.sampled_core_law() is None
-    run = dp.simulate(robot, controller, dp.PathI(), plant="analytic", t_end=0.05, alpha0=ALPHA0)
-    assert run.metadata["core_plant"] and np.isfinite(run.tau).all()
+    for mode in ("sampled", "continuous"):
+        terms = Terms()
+        compiled, readable = dp.design1(terms), called_back(dp.design1(terms))
+        assert compiled.sampled_core_law() is not None and readable.sampled_core_law() is None
+        options = dict(plant="analytic", t_end=0.05, alpha0=ALPHA0, friction=dp.Friction(), mode=mode)
+        runs = [dp.simulate(robot, controller, dp.PathI(), **options) for controller in (compiled, readable)]
+        assert terms.calls > 50 and all(run.metadata["core_plant"] for run in runs)
+        np.testing.assert_allclose(runs[0].alpha, runs[1].alpha, rtol=1e-10, atol=1e-12)
+        if mode == "sampled":
+            np.testing.assert_allclose(runs[0].tau, runs[1].tau, rtol=1e-10, atol=1e-10)
+        else:
+            rms = np.sqrt(np.mean(runs[1].tau ** 2))
+            assert np.abs(runs[0].tau - runs[1].tau).max() < 1e-4 * rms
+        np.testing.assert_allclose(runs[0].internals["rho_hat"], runs[1].internals["rho_hat"], rtol=1e-10)
+
+
+class _Failing:
+    """A nominal model whose terms raise after ``after`` calls, and one whose terms have the wrong
+    shape."""
+
+    dof = 3
+
+    def __init__(self, robot, after: int, shape_ok: bool = True):
+        self._nominal, self.after, self.shape_ok, self.calls = dp.DeltaNominalModel(robot), after, shape_ok, 0
+
+    def terms(self, q, q_dot):
+        self.calls += 1
+        if self.calls > self.after:
+            raise KeyError("the user's model broke")
+        M, C, G = self._nominal.terms(q, q_dot)
+        return (M, C, G) if self.shape_ok else (M[:2, :2], C, G)
+
+    def compensation(self, q_dot, friction):
+        return np.zeros(3)
+
+    def metadata(self):
+        return {}
+
+
+@pytest.mark.parametrize("mode", ["sampled", "continuous"])
+def test_what_a_python_nominal_model_raises_passes_through_the_compiled_run(robot, needs_core, mode):
+    """The user's own exception, unchanged (not a SimulationError the integrator made of it), from
+    inside the core's run, sampled (RK4) and continuous (Radau, which turns other exceptions of a
+    step into a failure); a wrong shape is one line naming what was expected."""
+    options = dict(plant="analytic", t_end=0.05, alpha0=ALPHA0, mode=mode)
+    with pytest.raises(KeyError, match="the user's model broke"):
+        dp.simulate(robot, dp.design1(_Failing(robot, after=10)), dp.PathI(), **options)
+    with pytest.raises(ValueError, match=r"expected \(3, 3\), \(3, 3\) and 3"):
+        dp.simulate(robot, dp.PDGravity(_Failing(robot, after=10**6, shape_ok=False)), dp.PathI(), **options)

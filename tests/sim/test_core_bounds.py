@@ -288,7 +288,7 @@ def gains(kind, **fields):
 def ct(D=ones, T_p=ones, T_v=ones):
     return gains("ComputedTorque", D=D, T_p=T_p, T_v=T_v)
 def law():
-    return m.ComputedTorque(chain, q0, zeros, "ct", ct())
+    return m.ComputedTorque(m.ProjectedTerms(chain, q0), zeros, "ct", ct())
 def drive(**fields):  # the encoder and drive by name, as the package builds them
     settings = m.DriveSettings()
     settings.noise = np.zeros((0, DOF))
@@ -304,14 +304,23 @@ def run(controller, samples=5):
     made = m.RunSettings()
     made.samples, made.dt = samples, 1e-3
     return m.run(plant, controller, made, x, m.RunRecords())
-case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(chain, np.zeros(3), zeros, "ct", ct()))
-case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(chain, q0, zeros, "ct", ct(D=np.ones(3))))
+case("ComputedTorque: reference configuration of 3", "reference_configuration", lambda: m.ComputedTorque(m.ProjectedTerms(chain, np.zeros(3)), zeros, "ct", ct()))
+case("ComputedTorque: D of 3", "D", lambda: m.ComputedTorque(m.ProjectedTerms(chain, q0), zeros, "ct", ct(D=np.ones(3))))
 case("ComputedTorque: chain with a closure of 0 rows", "closures", lambda: m.ComputedTorque(
-    describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)]), q0, zeros, "ct", ct()).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
-case("PDGravity: K_d empty", "K_d", lambda: m.PDGravity(chain, q0, zeros, "pd", gains("PDGravity", K_p=ones, K_d=np.zeros(0))))
-case("TimeDelayControl: delay -1", "delay", lambda: m.TimeDelayControl(chain, q0, zeros, "tdc", gains(
+    m.ProjectedTerms(describe(closures=[(FRAMES[0][0], FRAMES[0][1], 0)]), q0), zeros, "ct", ct()).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("PythonTerms: dof 0", "dof", lambda: m.PythonTerms(0, lambda a, v: None, lambda v: None))
+case("PythonTerms: terms not callable", "terms:TypeError", lambda: m.PythonTerms(DOF, None, lambda v: zeros))
+case("ComputedTorque: disturbance of 3 on a Python model", "disturbance", lambda: m.ComputedTorque(
+    m.PythonTerms(DOF, lambda a, v: (np.eye(DOF), np.zeros((DOF, DOF)), zeros), lambda v: zeros), np.zeros(3), "ct", ct()))
+case("evaluate: a Python model's terms return None", "terms", lambda: m.ComputedTorque(
+    m.PythonTerms(DOF, lambda a, v: None, lambda v: zeros), zeros, "ct", ct()).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("evaluate: a Python model's compensation of 3", "compensation", lambda: m.ComputedTorque(
+    m.PythonTerms(DOF, lambda a, v: (np.eye(DOF), np.zeros((DOF, DOF)), zeros), lambda v: np.zeros(3)), zeros, "ct", ct()
+    ).evaluate(alpha0, zeros, alpha0, zeros, zeros, np.zeros(0)))
+case("PDGravity: K_d empty", "K_d", lambda: m.PDGravity(m.ProjectedTerms(chain, q0), zeros, "pd", gains("PDGravity", K_p=ones, K_d=np.zeros(0))))
+case("TimeDelayControl: delay -1", "delay", lambda: m.TimeDelayControl(m.ProjectedTerms(chain, q0), zeros, "tdc", gains(
     "TimeDelayControl", period=1e-3, K_p=1.0, K_v=1.0, delay=-1, mean_pairing=False)))
-case("LQR: gain of n x n", "gain", lambda: m.LQR(chain, q0, zeros, "lqr", gains(
+case("LQR: gain of n x n", "gain", lambda: m.LQR(m.ProjectedTerms(chain, q0), zeros, "lqr", gains(
     "LQR", alpha0=alpha0, gravity=zeros, gravity_slope=np.eye(DOF), inertia=np.eye(DOF), gain=np.eye(DOF))))
 case("evaluate: alpha of 3", "alpha", lambda: law().evaluate(np.zeros(3), zeros, alpha0, zeros, zeros, np.zeros(0)))
 case("evaluate: NaN ref_alpha_ddot", "ref_alpha_ddot", lambda: law().evaluate(alpha0, zeros, alpha0, zeros, np.full(DOF, NAN), np.zeros(0)))
@@ -325,7 +334,7 @@ case("start: samples -1", "samples", lambda: started(-1, table(5)))
 case("start: dt 0", "dt", lambda: law().start(*table(5), 0.0, np.zeros(0), 5))
 case("start: dt NaN", "dt", lambda: law().start(*table(5), NAN, np.zeros(0), 5))
 def discrete_in_continuous_mode():
-    tdc = m.TimeDelayControl(chain, q0, zeros, "tdc", gains(
+    tdc = m.TimeDelayControl(m.ProjectedTerms(chain, q0), zeros, "tdc", gains(
         "TimeDelayControl", period=1e-3, K_p=1.0, K_v=1.0, delay=1, mean_pairing=False))
     made = m.RunSettings()
     made.integrator = "radau"

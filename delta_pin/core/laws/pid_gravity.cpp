@@ -7,12 +7,14 @@
 #include "law_registry.hpp"
 
 #include <nanobind/eigen/dense.h>
+#include <nanobind/stl/shared_ptr.h>
 #include <nanobind/stl/string.h>
+
+#include <memory>
 
 namespace
 {
   namespace nb = nanobind;
-  using delta_pin::ChainDescription;
   using delta_pin::Matrix;
   using delta_pin::Vector;
 
@@ -25,9 +27,9 @@ namespace
   {
   public:
     PIDGravityLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance,
-      const std::string & name, const PIDGravityGains & gains)
-    : ProjectedLaw(chain, reference_configuration, disturbance, name)
+      std::shared_ptr<delta_pin::NominalTerms> model, const Vector & disturbance, const std::string & name,
+      const PIDGravityGains & gains)
+    : ProjectedLaw(std::move(model), disturbance, name)
     , gains_(gains)
     {
       delta_pin::check_size(gains_.K_p, dof(), "K_p");  // one per actuated joint
@@ -59,9 +61,8 @@ namespace
       .def_rw("K_i", &PIDGravityGains::K_i)
       .def_rw("K_d", &PIDGravityGains::K_d);
     nb::class_<PIDGravityLaw, delta_pin::ProjectedLaw>(m, "PIDGravity")
-      .def(nb::init<const ChainDescription &, const Vector &, const Vector &, const std::string &, const PIDGravityGains &>(),
-           nb::arg("chain"), nb::arg("reference_configuration"), nb::arg("disturbance"), nb::arg("name"),
-           nb::arg("gains"));
+      .def(nb::init<std::shared_ptr<delta_pin::NominalTerms>, const Vector &, const std::string &, const PIDGravityGains &>(),
+           nb::arg("model"), nb::arg("disturbance"), nb::arg("name"), nb::arg("gains"));
   }
 
   const delta_pin::RegisterLaw registered(&bind);

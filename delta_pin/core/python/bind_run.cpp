@@ -20,6 +20,8 @@ namespace nb = nanobind;
 namespace
 {
   using namespace delta_pin;
+  using binding::keep_python_error;
+  using binding::raise_kept_python_error;
 
   // A law written in Python behind the run's one interface (law.hpp), with either face or both: a
   // callable control(k, x, alpha, alpha_dot) -> tau (the sampled face: the plant state and the
@@ -27,7 +29,7 @@ namespace
   // ref_alpha, ref_alpha_dot, ref_alpha_ddot, z) -> (tau, z_dot) and keep(k, tau, z) (the
   // continuous face).
   // Each call takes the GIL; an exception it raises is kept and the run unwound by CallbackError,
-  // then raised again (raise()).
+  // then raised again (binding.hpp).
   class CallbackLaw : public Law
   {
   public:
@@ -102,16 +104,10 @@ namespace
     }
     bool sampled() const override { return control_.is_valid(); }
     bool continuous() const override { return evaluate_.is_valid(); }
-    [[noreturn]] void raise() { throw *error_; }
 
   private:
-    [[noreturn]] void keep_error(nb::python_error & error)
-    {
-      error_ = std::make_unique<nb::python_error>(std::move(error));
-      throw CallbackError();
-    }
+    [[noreturn]] void keep_error(nb::python_error & error) { keep_python_error(error); }
     nb::callable control_, evaluate_, keep_;
-    std::unique_ptr<nb::python_error> error_;
   };
 
   // the plant, the law and the stepper of settings.integrator, run from the plant state x0
@@ -227,8 +223,16 @@ void bind_run(nb::module_ & m)
       ProjectedLaw * compiled = nullptr;
       if (nb::try_cast<ProjectedLaw *>(law, compiled) && compiled != nullptr)
       {
-        nb::gil_scoped_release release;  // Python is not called unless the plant is a Python one
-        run_parts(plant, *compiled, settings, x0, z0, reference, records);
+        try
+        {
+          // Python is not called unless the plant or the law's nominal model is a Python one
+          nb::gil_scoped_release release;
+          run_parts(plant, *compiled, settings, x0, z0, reference, records);
+        }
+        catch (const CallbackError &)
+        {
+          raise_kept_python_error();
+        }
         return;
       }
       CallbackLaw adapter(law);
@@ -239,7 +243,7 @@ void bind_run(nb::module_ & m)
       }
       catch (const CallbackError &)
       {
-        adapter.raise();
+        raise_kept_python_error();
       }
     },
     nb::arg("plant"), nb::arg("law"), nb::arg("settings"), nb::arg("x0"), nb::arg("records"),

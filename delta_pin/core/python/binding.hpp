@@ -9,11 +9,14 @@
 #include "checks.hpp"
 #include "closed_chain.hpp"
 #include "controller.hpp"
+#include "failure.hpp"
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 
+#include <memory>
+#include <stdexcept>
 #include <tuple>
 #include <vector>
 
@@ -56,6 +59,27 @@ namespace delta_pin::binding
     geometry.g = g;
     geometry.m_eq = m_eq;
     return geometry;
+  }
+
+  // A Python error raised by a call-back inside a compiled run (a Python law or nominal model):
+  // kept here while the run unwinds by CallbackError (the integrators turn other exceptions into
+  // a SimulationFailure), then raised again unchanged by the binding that started the run
+  inline std::unique_ptr<nb::python_error> & kept_python_error()
+  {
+    thread_local std::unique_ptr<nb::python_error> kept;
+    return kept;
+  }
+  [[noreturn]] inline void keep_python_error(nb::python_error & error)
+  {
+    kept_python_error() = std::make_unique<nb::python_error>(std::move(error));
+    throw CallbackError();
+  }
+  [[noreturn]] inline void raise_kept_python_error()
+  {
+    std::unique_ptr<nb::python_error> error = std::move(kept_python_error());
+    if (!error)
+      throw std::runtime_error("a Python call-back failed inside the run");
+    throw *error;
   }
 
   inline std::vector<ClosureFrames> frames_of(const std::vector<std::tuple<size_t, size_t, int>> & closures)

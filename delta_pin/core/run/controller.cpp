@@ -12,22 +12,21 @@
 
 namespace delta_pin
 {
-  ProjectedLaw::ProjectedLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name)
-  : nominal_(chain)
-  , q_(reference_configuration)
+  ProjectedLaw::ProjectedLaw(std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name)
+  : model_(std::move(model))
   , disturbance_(disturbance)
   , name_(name)
   {
-    check_size(disturbance_, nominal_.dof(), "disturbance");  // one per actuated joint
-    check_size(q_, nominal_.nq(), "reference_configuration");
-    friction_.normal_force = Vector::Zero(nominal_.dof());
+    if (!model_)
+      throw std::invalid_argument("a law needs a nominal model");
+    check_size(disturbance_, model_->dof(), "disturbance");  // one per actuated joint
+    friction_.normal_force = Vector::Zero(model_->dof());
   }
 
   void ProjectedLaw::set_friction(const FrictionSpec & friction)
   {
     if (friction.enabled)
-      check_size(friction.normal_force, nominal_.dof(), "normal_force");  // one per actuated joint
+      check_size(friction.normal_force, model_->dof(), "normal_force");  // one per actuated joint
     friction_ = friction;
   }
 
@@ -35,7 +34,7 @@ namespace delta_pin
     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
     const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
   {
-    const Eigen::Index n = nominal_.dof();  // one value per actuated joint
+    const Eigen::Index n = model_->dof();  // one value per actuated joint
     check_size(alpha, n, "alpha");
     check_size(alpha_dot, n, "alpha_dot");
     check_size(ref_alpha, n, "ref_alpha");
@@ -44,39 +43,26 @@ namespace delta_pin
     compute(alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
   }
 
-  void ProjectedLaw::use_delta_model(const DeltaGeometry & geometry)
-  {
-    if (nominal_.dof() != 3)
-      throw std::invalid_argument("the Delta's analytic model needs three actuated joints");
-    geometry_ = geometry;
-    delta_model_ = true;
-  }
-
   void ProjectedLaw::terms(const Vector & alpha, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G)
   {
-    if (delta_model_)
-    {
-      Vector3 xyz, G3;
-      Matrix3 J, J_dot, M3, C3;
-      if (!delta_kinematics(geometry_, alpha, alpha_dot, xyz, J, J_dot))
-        throw SimulationFailure("the nominal model's forward kinematics has no solution at alpha=" + joint_values(alpha));
-      delta_dynamics(geometry_, alpha, J, J_dot, M3, C3, G3);
-      M = M3;
-      C = C3;
-      G = G3;
-      return;
-    }
-    Vector q;
-    if (!nominal_.configuration(alpha, q_, q))
-      throw SimulationFailure("the nominal model's loops do not close at alpha=" + joint_values(alpha));
-    q_ = q;
-    Vector C_alpha_dot;
-    nominal_.reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
+    model_->terms(alpha, alpha_dot, M, C, G);
+    const Eigen::Index n = model_->dof();
+    if (M.rows() != n || M.cols() != n || C.rows() != n || C.cols() != n || G.size() != n)
+      throw std::invalid_argument(
+        "the nominal model returned M " + shape_text(M.rows(), M.cols()) + ", C " + shape_text(C.rows(), C.cols())
+        + " and G of " + std::to_string(G.size()) + " entries, expected " + shape_text(n, n) + ", " + shape_text(n, n)
+        + " and " + std::to_string(n));
   }
 
   Vector ProjectedLaw::compensation(const Vector & alpha_dot) const
   {
-    Vector compensation = disturbance_;
+    Vector compensation;
+    if (model_->compensation(alpha_dot, compensation))  // the model's own (a Python model's)
+    {
+      check_size(compensation, model_->dof(), "the nominal model's compensation");
+      return compensation;
+    }
+    compensation = disturbance_;
     if (friction_.enabled)
       for (Eigen::Index i = 0; i < compensation.size(); ++i)
         compensation[i] += friction_.torque(alpha_dot[i], friction_.normal_force[i]);
@@ -104,7 +90,7 @@ namespace delta_pin
     const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
     const Vector & state0, long samples)
   {
-    const Eigen::Index n = nominal_.dof();
+    const Eigen::Index n = model_->dof();
     if (samples < 0)
       throw std::invalid_argument("samples is " + std::to_string(samples) + ", expected >= 0");
     check_positive(dt, "dt");
@@ -125,7 +111,7 @@ namespace delta_pin
 
   void ProjectedLaw::start_continuous(long samples, Eigen::Index states)
   {
-    const Eigen::Index n = nominal_.dof();
+    const Eigen::Index n = model_->dof();
     tau.setZero(samples, n);
     state.setZero(samples, states);
     start_records(samples);
@@ -176,10 +162,9 @@ namespace delta_pin
   }
 
   ComputedTorqueLaw::ComputedTorqueLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name, const Vector & D,
     const Vector & T_p, const Vector & T_v)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , D_(D)
   , T_p_(T_p)
   , T_v_(T_v)
@@ -200,10 +185,9 @@ namespace delta_pin
   }
 
   PDGravityLaw::PDGravityLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name, const Vector & K_p,
     const Vector & K_d)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , K_p_(K_p)
   , K_d_(K_d)
   {
@@ -221,10 +205,9 @@ namespace delta_pin
   }
 
   AdaptiveRobust::AdaptiveRobust(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
     const AdaptiveRobustGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , gains_(gains)
   {
     check_size(gains_.D, dof(), "D");  // one per actuated joint
@@ -266,10 +249,9 @@ namespace delta_pin
   }
 
   TimeDelayControlLaw::TimeDelayControlLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
     const TimeDelayGains & gains)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , gains_(gains)
   {
     if (!(gains_.period > 0.0) || gains_.delay < 0)
@@ -298,10 +280,9 @@ namespace delta_pin
   void TimeDelayControlLaw::record(long k) { lumped_estimate.row(k) = lumped_.transpose(); }
 
   DigitalRobustLaw::DigitalRobustLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
     const DigitalRobustGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , gains_(gains)
   {
     const Eigen::Index size = gains_.transition.rows();
@@ -356,10 +337,9 @@ namespace delta_pin
   }
 
   LqrLaw::LqrLaw(
-    const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+    std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
     const LqrGains<Eigen::Dynamic> & gains)
-  : ProjectedLaw(chain, reference_configuration,
-                 disturbance, name)
+  : ProjectedLaw(std::move(model), disturbance, name)
   , gains_(gains)
   {
     const Eigen::Index n = dof();

@@ -3,10 +3,9 @@
 // built-in laws on it.
 #pragma once
 
-#include "closed_chain.hpp"
 #include "law.hpp"
+#include "nominal_terms.hpp"
 #include "control/adaptive_robust_law.hpp"
-#include "control/delta_analytic.hpp"
 #include "control/digital_robust_law.hpp"
 #include "control/lqr_law.hpp"
 #include "control/time_delay_control.hpp"
@@ -30,8 +29,8 @@ namespace delta_pin
     std::map<std::string, Vector> vectors;  // (samples,)
   };
 
-  // A law on the projected nominal model of a closed chain, sampled once per period: the part
-  // every such law shares -- the nominal model (assembled from the previous sample), the
+  // A law on a nominal model (nominal_terms.hpp: a closed chain's projection, the Delta's analytic
+  // model or a Python one), sampled once per period: the part every such law shares -- the nominal model, the
   // reference table, the checks of each sample (the law's state finite, the torque finite: the
   // messages of delta_pin.sim.integrators.check_state and ControlLoop.control), the state
   // advanced by explicit Euler or to a discrete-time law's next state (Controller.advance) and
@@ -40,15 +39,12 @@ namespace delta_pin
   class ProjectedLaw : public Law
   {
   public:
-    ProjectedLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name);
+    // the law on `model` (its nominal M, C, G: nominal_terms.hpp), F̄ = disturbance [N m]
+    ProjectedLaw(std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name);
     virtual ~ProjectedLaw() = default;
 
     // the nominal friction compensated (eq. 23's M̄_f; not called: none)
     void set_friction(const FrictionSpec & friction);
-    // the Delta's analytic model (eqs. 7-10, control/delta_analytic.hpp) as the nominal M, C, G
-    // instead of the projection (DeltaNominalModel); three actuated joints
-    void use_delta_model(const DeltaGeometry & geometry);
     // the reference per sample (rows: alpha^d, alpha_dot^d, alpha_ddot^d), the sample period
     // [s], the initial state and the number of samples to record
     void start(const RowMatrix & alpha_d, const RowMatrix & alpha_dot_d, const RowMatrix & alpha_ddot_d, double dt,
@@ -76,11 +72,7 @@ namespace delta_pin
     bool continuous() const override { return !discrete_; }
     // the nominal model's next assembly starts from q (the plant's, where it has the same
     // configuration space: Newton then closes at once when the kinematics agree)
-    void warm_start(const Vector & q)
-    {
-      if (q.size() == q_.size())
-        q_ = q;
-    }
+    void warm_start(const Vector & q) { model_->warm_start(q); }
 
     RowMatrix tau, state;  // the records of the last run (samples rows): the law's torque, its state
     // the law's own records (none by default)
@@ -108,14 +100,11 @@ namespace delta_pin
     void set_discrete() { discrete_ = true; }
     virtual void start_records(long /*samples*/) {}
     virtual void record(long /*k*/) {}
-    int dof() const { return nominal_.dof(); }
+    int dof() const { return (int)model_->dof(); }
 
   private:
     bool discrete_ = false;
-    ClosedChainModel nominal_;
-    bool delta_model_ = false;
-    DeltaGeometry geometry_;
-    Vector q_;  // the nominal model's last assembly (warm start)
+    std::shared_ptr<NominalTerms> model_;
     Vector disturbance_;
     FrictionSpec friction_;
     std::string name_;
@@ -130,7 +119,7 @@ namespace delta_pin
   {
   public:
     ComputedTorqueLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & D,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name, const Vector & D,
       const Vector & T_p, const Vector & T_v);
 
   protected:
@@ -147,7 +136,7 @@ namespace delta_pin
   {
   public:
     PDGravityLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name, const Vector & K_p,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name, const Vector & K_p,
       const Vector & K_d);
 
   protected:
@@ -165,7 +154,7 @@ namespace delta_pin
   {
   public:
     AdaptiveRobust(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
       const AdaptiveRobustGains<Eigen::Dynamic> & gains);
 
     RowMatrix robust_torque;  // records, with the state (rho_hat) and the torque
@@ -195,7 +184,7 @@ namespace delta_pin
   {
   public:
     TimeDelayControlLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
       const TimeDelayGains & gains);
 
     RowMatrix lumped_estimate;  // records [N m]
@@ -220,7 +209,7 @@ namespace delta_pin
   {
   public:
     DigitalRobustLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
       const DigitalRobustGains<Eigen::Dynamic> & gains);
 
     // records: rho_hat (samples x 1) [N m], the robust torque and M̄ f̂ [N m], the velocity
@@ -250,7 +239,7 @@ namespace delta_pin
   {
   public:
     LqrLaw(
-      const ChainDescription & chain, const Vector & reference_configuration, const Vector & disturbance, const std::string & name,
+      std::shared_ptr<NominalTerms> model, const Vector & disturbance, const std::string & name,
       const LqrGains<Eigen::Dynamic> & gains);
 
   protected:
