@@ -133,6 +133,7 @@ class Controller(ABC):
         :meth:`step`)."""
         self.state = self.initial_state()
         self._previous_sample: tuple[float, np.ndarray, ControlOutput] | None = None
+        self._step_law = _NOT_BUILT  # step()'s compiled law, built at its first sample
 
     def sampled_core_law(self):
         """This law in the compiled core for the sampled loop (``delta_pin/core/run/controller.hpp``),
@@ -189,7 +190,9 @@ class Controller(ABC):
 
         The internal state advances once per sample by :meth:`advance`, at the start of the next
         call: over :attr:`dt` or, for a continuous-time law, over the time since the previous call
-        (z_k = z_{k-1} + T z_dot_{k-1}, as ``simulate``'s sampled loop).
+        (z_k = z_{k-1} + T z_dot_{k-1}, as ``simulate``'s sampled loop). A built-in law runs its
+        compiled copy, the one ``simulate`` runs (:meth:`sampled_core_law`); a law of your own its
+        :meth:`evaluate`.
         """
         if not hasattr(self, "state"):
             self.reset()
@@ -207,9 +210,28 @@ class Controller(ABC):
             alpha_dot = np.asarray(alpha_dot_measured, dtype=float)
         else:
             alpha_dot = self.estimate_velocity(alpha, None if previous is None else previous_alpha, period)
-        output = self.evaluate(t, alpha, alpha_dot, reference, self.state)
+        output = self._sample(t, alpha, alpha_dot, reference)
         self._previous_sample = (t, alpha, output)
         return np.asarray(output.tau, dtype=float)
+
+    def _sample(
+        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference
+    ) -> ControlOutput:
+        """One evaluation of :meth:`step` at the current state: the compiled law's (the one
+        :meth:`sampled_core_law` gives ``simulate``, built at the first sample after
+        :meth:`reset`) where the controller has one, else :meth:`evaluate`."""
+        if getattr(self, "_step_law", _NOT_BUILT) is _NOT_BUILT:
+            self._step_law = self.sampled_core_law()
+        law = self._step_law
+        if law is None:
+            return self.evaluate(t, alpha, alpha_dot, reference, self.state)
+        tau, rate = law.evaluate(
+            alpha, alpha_dot, reference.alpha, reference.alpha_dot, reference.alpha_ddot,
+            np.asarray(self.state, dtype=float),
+        )  # fmt: skip
+        if law.discrete:  # a discrete-time law returns its next state
+            return ControlOutput(np.asarray(tau), next_state=np.asarray(rate))
+        return ControlOutput(np.asarray(tau), state_derivative=np.asarray(rate))
 
     @property
     def dof(self) -> int | None:
@@ -267,6 +289,9 @@ class Controller(ABC):
     def metadata(self) -> dict:
         """JSON-serialisable description (name and gains) stored with every run."""
         return {"name": self.name}
+
+
+_NOT_BUILT = object()  # Controller._step_law before the first sample
 
 
 class CallableController(Controller):

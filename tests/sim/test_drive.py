@@ -169,8 +169,10 @@ def test_step_outside_simulate_is_the_sampled_loop(robot, make, moved):
         uncertainty=dp.PaperUncertainty(), mode="sampled",
     )  # fmt: skip
     torques, x = _stepped_by_hand(robot, controller, 0.2)
-    np.testing.assert_array_equal(torques, run.tau[:-1])
-    np.testing.assert_array_equal(x[:3], run.alpha[-1])
+    # step() runs the compiled law, the reference loop the readable one: equal per evaluation to
+    # round-off (tests/sim/test_core_laws.py), here to 1e-9 after 200 samples of the closed loop
+    np.testing.assert_allclose(torques, run.tau[:-1], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(x[:3], run.alpha[-1], rtol=0, atol=1e-12)
     internal = np.reshape(run.internals[moved], (len(run.t), -1))
     assert np.abs(internal[-1] - internal[0]).max() > 1e-3  # the law's state really moved
 
@@ -185,3 +187,27 @@ def test_step_estimates_velocity_by_difference_when_none_is_measured():
     hold = dp.Reference.hold(np.zeros(3))
     np.testing.assert_array_equal(echo.step(0.0, np.zeros(3), hold), np.zeros(3))
     np.testing.assert_allclose(echo.step(0.002, np.array([1e-3, 0.0, -2e-3]), hold), [0.5, 0.0, -1.0])
+
+
+def test_step_runs_a_built_in_law_compiled_and_a_users_law_as_written(robot):
+    """Controller.step evaluates a built-in law by its compiled copy, the one simulate runs (its
+    readable evaluate is not called: replaced here by one that raises), and a user's own law by
+    its evaluate."""
+    nominal = dp.DeltaNominalModel(robot, nominal_disturbance=(2, 4, 6))
+    for controller in (dp.design1(nominal), dp.digital_robust(nominal, 1e-3)):
+
+        def readable(*arguments):
+            raise AssertionError("the readable evaluate ran")
+
+        controller.evaluate = readable
+        torques, _ = _stepped_by_hand(robot, controller, 0.01)
+        assert torques.shape == (10, 3) and np.isfinite(torques).all()
+    echoed = []
+
+    class Own(dp.Controller):
+        def evaluate(self, t, alpha, alpha_dot, reference, state):
+            echoed.append(t)
+            return dp.control.ControlOutput(np.zeros(3))
+
+    _stepped_by_hand(robot, Own(), 0.005)
+    assert len(echoed) == 5
