@@ -1,7 +1,14 @@
 """Controllers: one shared base (:mod:`.base`), one module per control law."""
 
 from delta_pin.control.adaptive_robust import AdaptiveRobustController, AdaptiveRobustGains, design1, design2
-from delta_pin.control.base import CallableController, Controller, ControlOutput, Reference, as_controller
+from delta_pin.control.base import (
+    CallableController,
+    CompiledController,
+    Controller,
+    ControlOutput,
+    Reference,
+    as_controller,
+)
 from delta_pin.control.baselines import LQR, ComputedTorque, PDGravity
 from delta_pin.control.digital import TimeDelayControl, tdc
 from delta_pin.control.digital_robust import DigitalRobustController, digital_robust
@@ -18,6 +25,7 @@ __all__ = [
     "AdaptiveRobustGains",
     "CallableController",
     "ClosedChainNominalModel",
+    "CompiledController",
     "ComputedTorque",
     "ControlOutput",
     "Controller",

@@ -37,12 +37,11 @@ boundedness with a larger ball, now actually reachable by a digital drive.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.control.base import CompiledController
 from delta_pin.control.baselines import ComputedTorque
 from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
@@ -87,8 +86,9 @@ class AdaptiveRobustGains:
                 )
 
 
-class AdaptiveRobustController(Controller):
-    """Design I or II on any nominal model (see the module docstring for the law).
+class AdaptiveRobustController(CompiledController):
+    """Design I or II on any nominal model (see the module docstring for the law; its compiled
+    copy is what runs, :class:`~delta_pin.control.base.CompiledController`).
 
     Args:
         nominal: what the controller knows (:class:`~delta_pin.control.nominal.NominalModel`).
@@ -141,7 +141,7 @@ class AdaptiveRobustController(Controller):
 
     def sampled_core_law(self):
         """The compiled core's design I/II on the nominal model (``AdaptiveRobust`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the
+        ``delta_pin/core/run/controller.hpp``, the module docstring's arithmetic) on the
         nominal model (:meth:`NominalModel.core_law
         <delta_pin.control.nominal.NominalModel.core_law>`; a model written in Python is called
         back)."""
@@ -155,13 +155,6 @@ class AdaptiveRobustController(Controller):
         return core_law_of(
             self.nominal, "AdaptiveRobust", self.name, gains, friction_compensation=self.friction_compensation
         )
-
-    # ----------------------------------------------------------------------- the law's pieces
-    def bound(self, rho_hat: np.ndarray, a_ref: np.ndarray, v_ref: np.ndarray) -> tuple[float, np.ndarray]:
-        """Lambda(rho_hat, ...) of eq. 67 and dLambda/drho (constant: Lambda is linear in rho)."""
-        kappa = np.array([math.sqrt(a_ref @ a_ref), math.sqrt(v_ref @ v_ref), 1.0])
-        gradient = kappa if self.vector_rho else np.array([kappa.sum()])
-        return float(gradient @ rho_hat), gradient
 
     def boundary_layer(self, alpha_dot_d: np.ndarray, alpha_ddot_d: np.ndarray) -> float:
         """Thinnest boundary layer [rad/s] in s along a reference (N, 3): xi / Lambda_max, with
@@ -179,67 +172,6 @@ class AdaptiveRobustController(Controller):
         rho0 = self.initial_state()
         largest = float((kappa @ rho0 if self.vector_rho else kappa.sum(axis=-1) * rho0[0]).max())
         return self.gains.xi / largest
-
-    def robust_gain_factor(self, omega_norm: float) -> float:
-        """phi of eq. 31 (design I) or eq. 56 (design II) for ||omega||."""
-        xi = self.gains.xi
-        if self.design == "I":
-            return 1.0 / omega_norm if omega_norm > xi else 1.0 / xi
-        return omega_norm / (omega_norm * omega_norm + omega_norm * xi + xi * xi)
-
-    def adaptation_rate(
-        self, rho_hat: np.ndarray, s_norm: float, gradient: np.ndarray
-    ) -> tuple[np.ndarray, bool]:
-        """rho_hat_dot of eq. 24 and whether the estimate is outside the dead-zone (eq. 25)."""
-        g = self.gains
-        leak = (g.b2 * math.exp(-s_norm) + g.b3) * rho_hat
-        active = s_norm * math.sqrt(gradient @ gradient) > g.epsilon
-        if active:
-            return g.beta * (g.b1 * gradient * s_norm - leak), True
-        return -g.beta * leak, False
-
-    def evaluate(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """Torque [N m], rho_hat_dot and internals: the law of the module docstring
-        (:meth:`evaluate_reference`)."""
-        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-
-    def evaluate_reference(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """The law as the module docstring writes it (the reference the compiled core's law is
-        tested against)."""
-        nominal = self.computed_torque.terms(alpha, alpha_dot, reference)  # C1 + C2
-        s, M = nominal.s, nominal.M
-        a_ref, v_ref = nominal.a_ref, nominal.v_ref
-        Lambda, gradient = self.bound(state, a_ref, v_ref)
-        s_norm = math.sqrt(s @ s)
-        omega_norm = s_norm * Lambda
-        gain = self.robust_gain_factor(omega_norm) * Lambda * Lambda  # phi Lambda^2 [N m s/rad]
-        if self.sampling_period is None:
-            c3 = -gain * s
-        else:  # per inertia direction: k_j = min(gain, margin mu_j / T - T_v)
-            inertia, directions = np.linalg.eigh(M)
-            caps = np.maximum(
-                self.sampling_margin * inertia / self.sampling_period - float(self.T_v.max()), 0.0
-            )
-            gains = np.minimum(gain, caps)
-            c3 = -(directions @ (gains * (directions.T @ s)))
-            gain = float(gains.min())
-        rate, active = self.adaptation_rate(state, s_norm, gradient)
-        return ControlOutput(
-            tau=nominal.tau + c3,
-            state_derivative=rate,
-            internals={
-                "rho_hat": state.copy(),
-                "Lambda": Lambda,
-                "robust_gain": gain,
-                "omega_norm": omega_norm,
-                "robust_torque": c3,
-                "adaptation_active": float(active),
-            },
-        )
 
     def metadata(self) -> dict:
         gains = {k: (np.asarray(v).tolist()) for k, v in asdict(self.gains).items()}

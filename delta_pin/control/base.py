@@ -27,6 +27,7 @@ from delta_pin.errors import InvalidParameterError
 
 __all__ = [
     "CallableController",
+    "CompiledController",
     "ControlOutput",
     "Controller",
     "Reference",
@@ -133,7 +134,6 @@ class Controller(ABC):
         :meth:`step`)."""
         self.state = self.initial_state()
         self._previous_sample: tuple[float, np.ndarray, ControlOutput] | None = None
-        self._step_law = _NOT_BUILT  # step()'s compiled law, built at its first sample
 
     def sampled_core_law(self):
         """This law in the compiled core for the sampled loop (``delta_pin/core/run/controller.hpp``),
@@ -190,9 +190,9 @@ class Controller(ABC):
 
         The internal state advances once per sample by :meth:`advance`, at the start of the next
         call: over :attr:`dt` or, for a continuous-time law, over the time since the previous call
-        (z_k = z_{k-1} + T z_dot_{k-1}, as ``simulate``'s sampled loop). A built-in law runs its
-        compiled copy, the one ``simulate`` runs (:meth:`sampled_core_law`); a law of your own its
-        :meth:`evaluate`.
+        (z_k = z_{k-1} + T z_dot_{k-1}, as ``simulate``'s sampled loop). A built-in law evaluates
+        its compiled copy, the one ``simulate`` runs (:class:`CompiledController`); a law of your
+        own its :meth:`evaluate`.
         """
         if not hasattr(self, "state"):
             self.reset()
@@ -210,28 +210,9 @@ class Controller(ABC):
             alpha_dot = np.asarray(alpha_dot_measured, dtype=float)
         else:
             alpha_dot = self.estimate_velocity(alpha, None if previous is None else previous_alpha, period)
-        output = self._sample(t, alpha, alpha_dot, reference)
+        output = self.evaluate(t, alpha, alpha_dot, reference, self.state)
         self._previous_sample = (t, alpha, output)
         return np.asarray(output.tau, dtype=float)
-
-    def _sample(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference
-    ) -> ControlOutput:
-        """One evaluation of :meth:`step` at the current state: the compiled law's (the one
-        :meth:`sampled_core_law` gives ``simulate``, built at the first sample after
-        :meth:`reset`) where the controller has one, else :meth:`evaluate`."""
-        if getattr(self, "_step_law", _NOT_BUILT) is _NOT_BUILT:
-            self._step_law = self.sampled_core_law()
-        law = self._step_law
-        if law is None:
-            return self.evaluate(t, alpha, alpha_dot, reference, self.state)
-        tau, rate = law.evaluate(
-            alpha, alpha_dot, reference.alpha, reference.alpha_dot, reference.alpha_ddot,
-            np.asarray(self.state, dtype=float),
-        )  # fmt: skip
-        if law.discrete:  # a discrete-time law returns its next state
-            return ControlOutput(np.asarray(tau), next_state=np.asarray(rate))
-        return ControlOutput(np.asarray(tau), state_derivative=np.asarray(rate))
 
     @property
     def dof(self) -> int | None:
@@ -291,7 +272,27 @@ class Controller(ABC):
         return {"name": self.name}
 
 
-_NOT_BUILT = object()  # Controller._step_law before the first sample
+class CompiledController(Controller):
+    """A built-in law: its arithmetic is the compiled core's (:meth:`sampled_core_law`, the law
+    ``simulate`` runs, ``delta_pin/core/run/controller.hpp``), and :meth:`evaluate` is one
+    evaluation of it -- no internals (a run records them: :meth:`core_law_internals`). The
+    readable Python law it is tested against lives in ``tests/reference/laws.py``."""
+
+    def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
+        """Torque [N m] and the state's derivative (or a discrete-time law's next state) at
+        (alpha [rad], alpha_dot [rad/s]) along ``reference`` from ``state``, by the compiled law
+        (built at the first call; its nominal model's assembly warm-started from the last)."""
+        law = self.__dict__.get("_compiled")
+        if law is None:
+            law = self._compiled = self.sampled_core_law()
+        tau, rate = law.evaluate(
+            np.asarray(alpha, dtype=float), np.asarray(alpha_dot, dtype=float),
+            np.asarray(reference.alpha, dtype=float), np.asarray(reference.alpha_dot, dtype=float),
+            np.asarray(reference.alpha_ddot, dtype=float), np.asarray(state, dtype=float),
+        )  # fmt: skip
+        if law.discrete:  # a discrete-time law returns its next state
+            return ControlOutput(np.asarray(tau), next_state=np.asarray(rate))
+        return ControlOutput(np.asarray(tau), state_derivative=np.asarray(rate))
 
 
 class CallableController(Controller):

@@ -11,22 +11,20 @@
   change in Ḡ excepted). Default weights Q = diag(100 I, I), R = 0.01 I give K_p = 100 N m/rad and
   K_d ~ 10 N m s/rad, the stiffness and damping scale of design I's PD part (T_p + D T_v = 84,
   T_v + D M̄ ~ 9.3) so the comparison is about the model, not the gains.
-  Its law also exists compiled, in the core (:meth:`LQR.sampled_core_law`, on any nominal model);
-  :meth:`LQR.evaluate` stays the readable law it is tested against.
+  Its law runs compiled, in the core (:meth:`LQR.sampled_core_law`, on any nominal model); the
+  readable law it is tested against lives in ``tests/reference/laws.py``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from delta_pin.control.base import Controller, ControlOutput, Reference
+from delta_pin.control.base import CompiledController
 from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
 
-__all__ = ["LQR", "ComputedTorque", "ComputedTorqueTerms", "PDGravity"]
+__all__ = ["LQR", "ComputedTorque", "PDGravity"]
 
 
 def _positive_diagonal(value, dof: int, name: str) -> np.ndarray:
@@ -36,28 +34,7 @@ def _positive_diagonal(value, dof: int, name: str) -> np.ndarray:
     return array
 
 
-@dataclass(frozen=True)
-class ComputedTorqueTerms:
-    """The pieces of C1 + C2 at one instant (SI units).
-
-    Attributes:
-        r, r_dot: joint error alpha - alpha^d [rad] and its rate [rad/s] (eq. 14).
-        s: the error surface r_dot + D r [rad/s].
-        a_ref, v_ref: alpha_ddot^d - D r_dot [rad/s^2] and alpha_dot^d - D r [rad/s].
-        M: the nominal inertia M̄ [kg m^2] at the state.
-        tau: C1 + C2 [N m].
-    """
-
-    r: np.ndarray
-    r_dot: np.ndarray
-    s: np.ndarray
-    a_ref: np.ndarray
-    v_ref: np.ndarray
-    M: np.ndarray
-    tau: np.ndarray
-
-
-class ComputedTorque(Controller):
+class ComputedTorque(CompiledController):
     """C1 + C2 (eqs. 23 and 26) on a nominal model: tau = M̄ (alpha_ddot^d - D r_dot) +
     C̄ (alpha_dot^d - D r) + Ḡ + F̄ [+ M̄_f] - T_p r - T_v r_dot. Designs I and II add their robust
     term to exactly this."""
@@ -72,22 +49,8 @@ class ComputedTorque(Controller):
         self.T_v = _positive_diagonal(T_v, n, "T_v")
         self.friction_compensation = friction_compensation
 
-    def terms(self, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference) -> ComputedTorqueTerms:
-        """C1 + C2 and the quantities the robust designs reuse."""
-        r = alpha - reference.alpha
-        r_dot = alpha_dot - reference.alpha_dot
-        a_ref = reference.alpha_ddot - self.D * r_dot
-        v_ref = reference.alpha_dot - self.D * r
-        M, C, G = self.nominal.terms(alpha, alpha_dot)
-        c1 = M @ a_ref + C @ v_ref + G + self.nominal.compensation(alpha_dot, self.friction_compensation)
-        c2 = -self.T_p * r - self.T_v * r_dot
-        return ComputedTorqueTerms(r, r_dot, r_dot + self.D * r, a_ref, v_ref, M, c1 + c2)
-
-    def evaluate(self, t, alpha, alpha_dot, reference: Reference, state) -> ControlOutput:
-        return ControlOutput(self.terms(alpha, alpha_dot, reference).tau)
-
     def sampled_core_law(self):
-        """The compiled core's C1 + C2 where the nominal model has one there."""
+        """The compiled core's C1 + C2 on the nominal model."""
         gains = {"D": self.D, "T_p": self.T_p, "T_v": self.T_v}
         return core_law_of(
             self.nominal, "ComputedTorque", self.name, gains, friction_compensation=self.friction_compensation
@@ -104,7 +67,7 @@ class ComputedTorque(Controller):
         }
 
 
-class PDGravity(Controller):
+class PDGravity(CompiledController):
     """tau = Ḡ(alpha) + F̄ [+ M̄_f] - K_p r - K_d r_dot [N m]; K_p [N m/rad], K_d [N m s/rad]."""
 
     name = "pd"
@@ -115,17 +78,8 @@ class PDGravity(Controller):
         self.K_d = _positive_diagonal(K_d, nominal.dof, "K_d")
         self.friction_compensation = friction_compensation
 
-    def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
-        _, _, G = self.nominal.terms(alpha, alpha_dot)
-        return ControlOutput(
-            G
-            + self.nominal.compensation(alpha_dot, self.friction_compensation)
-            - self.K_p * (alpha - reference.alpha)
-            - self.K_d * (alpha_dot - reference.alpha_dot)
-        )
-
     def sampled_core_law(self):
-        """The compiled core's PD + gravity where the nominal model has one there."""
+        """The compiled core's PD + gravity on the nominal model."""
         gains = {"K_p": self.K_p, "K_d": self.K_d}
         return core_law_of(
             self.nominal, "PDGravity", self.name, gains, friction_compensation=self.friction_compensation
@@ -141,7 +95,7 @@ class PDGravity(Controller):
         }
 
 
-class LQR(Controller):
+class LQR(CompiledController):
     """LQR on the nominal model linearised at ``alpha_linearisation`` (see the module docstring).
 
     Args:
@@ -196,20 +150,9 @@ class LQR(Controller):
             raise InvalidParameterError(f"LQR weight {name}={value!r} must be positive definite")
         return matrix
 
-    def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
-        error = np.concatenate([alpha - reference.alpha, alpha_dot - reference.alpha_dot])
-        return ControlOutput(
-            self.G0
-            + self.nominal.compensation(alpha_dot, self.friction_compensation)
-            + self.dG @ (reference.alpha - self.alpha0)
-            + self.M0 @ reference.alpha_ddot
-            - self.K @ error
-        )
-
     def sampled_core_law(self):
-        """The compiled core's LQR (``LQR`` of ``delta_pin/core/run/controller.hpp``, :meth:`evaluate`'s
-        arithmetic with this linearisation and gain) where the nominal model has one there; else
-        ``None``."""
+        """The compiled core's LQR (``LQR`` of ``delta_pin/core/run/controller.hpp``, the module
+        docstring's arithmetic with this linearisation and gain) on the nominal model."""
         gains = {
             "alpha0": self.alpha0,
             "gravity": self.G0,

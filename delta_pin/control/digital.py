@@ -45,7 +45,7 @@ import math
 
 import numpy as np
 
-from delta_pin.control.base import Controller, ControlOutput, Reference, check_delay, check_period
+from delta_pin.control.base import CompiledController, check_delay, check_period
 from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
 
@@ -54,7 +54,7 @@ __all__ = ["PAIRINGS", "TimeDelayControl", "tdc"]
 PAIRINGS = ("last", "mean")
 
 
-class TimeDelayControl(Controller):
+class TimeDelayControl(CompiledController):
     """Time-delay control at sample period ``dt`` (see the module docstring).
 
     Args:
@@ -95,37 +95,9 @@ class TimeDelayControl(Controller):
         n = self.nominal.dof
         return np.zeros(2 * n + n * (self.delay + 2) + 1)
 
-    def evaluate(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """The torque [N m] of this sample and the next state (:meth:`evaluate_reference`)."""
-        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-
-    def evaluate_reference(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """The law as written in the module docstring (the reference of the compiled core's
-        ``TimeDelayControl``)."""
-        n = self.nominal.dof
-        previous, before, commands, seen = state[:n], state[n : 2 * n], state[2 * n : -1], state[-1]
-        commands = commands.reshape(self.delay + 2, n)  # newest first: tau_cmd[k-1], ..., [k-2-d]
-        r, r_dot = alpha - reference.alpha, alpha_dot - reference.alpha_dot
-        M, C, G = self.nominal.terms(alpha, alpha_dot)
-        if seen >= 3:
-            acceleration = (alpha - 2.0 * previous + before) / self.dt**2
-            # the second difference is the mean acceleration over [t_{k-2}, t_k], where the
-            # commands of samples k-2-d and k-1-d acted: pair it with their mean
-            acted = commands[-2] if self.pairing == "last" else 0.5 * (commands[-1] + commands[-2])
-            lumped = acted - M @ acceleration
-        else:
-            lumped = C @ alpha_dot + G + self.nominal.disturbance()
-        tau = M @ (reference.alpha_ddot - self.K_v * r_dot - self.K_p * r) + lumped
-        next_state = np.concatenate([alpha, previous, tau, commands[:-1].ravel(), [min(seen + 1.0, 3.0)]])
-        return ControlOutput(tau=tau, next_state=next_state, internals={"lumped_estimate": lumped})
-
     def sampled_core_law(self):
         """The compiled core's time-delay control (``TimeDelayControl`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the nominal
+        ``delta_pin/core/run/controller.hpp``, the module docstring's arithmetic) on the nominal
         model (:meth:`NominalModel.core_law <delta_pin.control.nominal.NominalModel.core_law>`; a
         model written in Python is called back). Its first samples' N̂ is
         C̄ alpha_dot + Ḡ + F̄, without the nominal friction."""

@@ -63,9 +63,7 @@ import math
 import numpy as np
 
 from delta_pin.control.base import (
-    Controller,
-    ControlOutput,
-    Reference,
+    CompiledController,
     check_delay,
     check_period,
     check_torque_limit,
@@ -85,7 +83,7 @@ def _positive(name: str, value: float, unit: str, *, allow_zero: bool = False) -
     return float(value)
 
 
-class DigitalRobustController(Controller):
+class DigitalRobustController(CompiledController):
     """The sampled-data adaptive robust law of the module docstring, with a discrete-time state.
 
     Args:
@@ -154,79 +152,9 @@ class DigitalRobustController(Controller):
         n, size = self.nominal.dof, self.observer.size
         return np.concatenate([np.zeros(size * n + n * (self.delay + 1) + n * n + n), [self.rho0, 0.0]])
 
-    def _split(self, state: np.ndarray):
-        """Views of a state: (estimate, commands, M-bar and n-bar at the estimate, rho_hat, started)."""
-        n, size = self.nominal.dof, self.observer.size
-        first = size * n
-        model = first + n * (self.delay + 1)
-        estimate = state[:first].reshape(size, n)
-        commands = state[first:model].reshape(self.delay + 1, n)
-        return (
-            estimate, commands, state[model : model + n * n].reshape(n, n), state[model + n * n : -2],
-            state[-2], state[-1],
-        )  # fmt: skip
-
-    def _model(self, estimate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(M̄, n̄) at an estimate's angle and velocity."""
-        alpha, alpha_dot = estimate[0], estimate[1]
-        M, C, G = self.nominal.terms(alpha, alpha_dot)
-        return M, C @ alpha_dot + G + self.nominal.compensation(alpha_dot, self.friction_compensation)
-
-    def evaluate(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """The torque of sample k from the measured angles ``alpha`` [rad] (``alpha_dot`` is not
-        used: the observer's velocity replaces it) [N m] (:meth:`evaluate_reference`)."""
-        return self.evaluate_reference(t, alpha, alpha_dot, reference, state)
-
-    def evaluate_reference(
-        self, t: float, alpha: np.ndarray, alpha_dot: np.ndarray, reference: Reference, state: np.ndarray
-    ) -> ControlOutput:
-        """The law as written in the module docstring (the reference of the compiled core's
-        ``DigitalRobust``)."""
-        d, T = self.delay, self.dt
-        estimate, commands, M_last, n_last, rho, started = self._split(state)
-        if started:  # the torque that acted over [t_{k-1}, t_k) was commanded at sample k-1-d
-            predicted = self.observer.predict(estimate, np.linalg.solve(M_last, commands[-1] - n_last))
-            estimate = self.observer.correct(predicted, alpha)
-        else:
-            estimate = self.observer.start(alpha)
-        M_estimate, n_estimate = M, n_bar = self._model(estimate)  # kept for the next sample
-        ahead = estimate
-        for j in range(d):  # over [t_{k+j}, t_{k+j+1}) acts the command of sample k+j-d
-            ahead = self.observer.predict(ahead, np.linalg.solve(M, commands[d - 1 - j] - n_bar))
-            M, n_bar = self._model(ahead)
-        lead = d * T  # the reference at t_{k+d}, by its Taylor series
-        alpha_d = reference.alpha + lead * reference.alpha_dot + 0.5 * lead**2 * reference.alpha_ddot
-        alpha_dot_d = reference.alpha_dot + lead * reference.alpha_ddot
-        r, r_dot = ahead[0] - alpha_d, ahead[1] - alpha_dot_d
-        disturbance = ahead[2]  # f̂ [rad/s^2]
-        tau = M @ (reference.alpha_ddot - self.K_v * r_dot - self.K_p * r - disturbance) + n_bar
-        s = r_dot + self.D * r
-        damper = np.linalg.eigvalsh(M)[0] / (self.layer_samples * T) * s
-        size = float(np.linalg.norm(damper))
-        robust = -damper if size <= rho else -rho / size * damper  # the projection on ||v|| <= rho
-        tau = tau + robust
-        acting = tau if self.torque_limit is None else np.clip(tau, -self.torque_limit, self.torque_limit)
-        s_norm = float(np.linalg.norm(s))
-        leakage = self.b2 * math.exp(-s_norm) + self.b3
-        growth = self.b1 * s_norm if s_norm > self.epsilon else 0.0  # the dead zone, eq. 25
-        rho_next = max(rho + T * self.beta * (growth - leakage * rho), 0.0)
-        next_state = np.concatenate(
-            [estimate.ravel(), acting, commands[:-1].ravel(), M_estimate.ravel(), n_estimate, [rho_next, 1.0]]
-        )
-        internals = {
-            "rho_hat": np.array([rho]),
-            "robust_torque": robust,
-            "disturbance_estimate": M @ disturbance,
-            "velocity_estimate": estimate[1].copy(),
-            "s": s,
-        }
-        return ControlOutput(tau=tau, next_state=next_state, internals=internals)
-
     def sampled_core_law(self):
         """The compiled core's law with its observer (``DigitalRobust`` of
-        ``delta_pin/core/run/controller.hpp``, :meth:`evaluate_reference`'s arithmetic) on the nominal
+        ``delta_pin/core/run/controller.hpp``, the module docstring's arithmetic) on the nominal
         model (:meth:`NominalModel.core_law <delta_pin.control.nominal.NominalModel.core_law>`; a
         model written in Python is called back)."""
         observer = self.observer

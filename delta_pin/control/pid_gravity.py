@@ -4,8 +4,9 @@
 
 with the integral z [rad s] the law's continuous-time state (z(0) = 0). The integral removes the
 steady error a PD + gravity law keeps under a constant unmodelled torque. Its compiled twin is
-``delta_pin/core/laws/pid_gravity.cpp``; :meth:`PIDGravity.evaluate` is the readable law it is
-tested against. The module declares itself (``DECLARATION``), which the registry collects.
+``delta_pin/core/laws/pid_gravity.cpp``, the law that runs; its readable twin, the reference it is
+tested against, is ``tests/reference/laws.py``'s. The module declares itself (``DECLARATION``),
+which the registry collects.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from delta_pin.control.base import Controller, ControlOutput
+from delta_pin.control.base import CompiledController
 from delta_pin.control.declaration import FRICTION_COMPENSATION, ControllerDeclaration, LawOptions
 from delta_pin.control.nominal import NominalModel, core_law_of
 from delta_pin.errors import InvalidParameterError
@@ -29,7 +30,7 @@ def _gain(value, dof: int, name: str, *, zero: bool = False) -> np.ndarray:
     return array
 
 
-class PIDGravity(Controller):
+class PIDGravity(CompiledController):
     """PID + gravity (module docstring); K_p [N m/rad], K_i [N m/(rad s)] (0: PD + gravity),
     K_d [N m s/rad]."""
 
@@ -46,18 +47,6 @@ class PIDGravity(Controller):
 
     def initial_state(self) -> np.ndarray:
         return np.zeros(self.nominal.dof)  # the integral of r [rad s]
-
-    def evaluate(self, t, alpha, alpha_dot, reference, state) -> ControlOutput:
-        _, _, G = self.nominal.terms(alpha, alpha_dot)
-        r = alpha - reference.alpha
-        tau = (
-            G
-            + self.nominal.compensation(alpha_dot, self.friction_compensation)
-            - self.K_p * r
-            - self.K_i * state
-            - self.K_d * (alpha_dot - reference.alpha_dot)
-        )
-        return ControlOutput(tau, state_derivative=r)
 
     def sampled_core_law(self):
         """The compiled core's PID + gravity where the nominal model has one there."""
@@ -77,7 +66,7 @@ class PIDGravity(Controller):
         }
 
 
-def _build(nominal: NominalModel, options: LawOptions, gains: Mapping) -> Controller:
+def _build(nominal: NominalModel, options: LawOptions, gains: Mapping) -> CompiledController:
     return PIDGravity(nominal, friction_compensation=options.friction_compensation, **gains)
 
 

@@ -1,6 +1,6 @@
 """Golden vectors for examples/drive_cpp: design I (or II), or the digital-robust law, on the
-Delta's analytic nominal model, computed by delta-pin's readable law
-(``AdaptiveRobustController.evaluate_reference``, ``DigitalRobustController.evaluate_reference``)
+Delta's analytic nominal model, computed by delta-pin's law (``Controller.evaluate``: the compiled
+core's copy, which tests/sim/test_core_laws.py holds to the readable laws of tests/reference/laws.py)
 along the joint states of a simulated run, sample by sample with the law's state advancing as a
 drive advances it.
 
@@ -60,7 +60,7 @@ def main() -> None:
     rows = []
     for k in range(len(run.t)):
         reference = Reference(path.alpha[k], path.alpha_dot[k], path.alpha_ddot[k])
-        out = controller.evaluate_reference(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
+        out = controller.evaluate(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
         rows.append([*run.alpha[k], *run.alpha_dot[k], *reference.alpha, *reference.alpha_dot,
                      *reference.alpha_ddot, *out.tau, z[0]])  # fmt: skip
         z = controller.advance(z, out, dt)
@@ -90,7 +90,7 @@ def digital_robust(robot, nominal, dt: float, args) -> None:
     rows = []
     for k in range(len(run.t)):
         reference = Reference(path.alpha[k], path.alpha_dot[k], path.alpha_ddot[k])
-        out = controller.evaluate_reference(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
+        out = controller.evaluate(run.t[k], run.alpha[k], run.alpha_dot[k], reference, z)
         rows.append([*run.alpha[k], *run.alpha_dot[k], *reference.alpha, *reference.alpha_dot,
                      *reference.alpha_ddot, *out.tau, z[-2]])  # fmt: skip
         z = controller.advance(z, out, dt)

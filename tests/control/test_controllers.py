@@ -9,6 +9,7 @@ import pytest
 import delta_pin as dp
 from delta_pin.control import AdaptiveRobustGains, NominalModel, Reference
 from delta_pin.studies.metrics import compute_metrics
+from tests.reference.laws import readable_evaluate, robust_gain_factor
 
 
 class UnitNominal(NominalModel):
@@ -26,11 +27,18 @@ REFERENCE = Reference(np.array([0.2, 0.3, 0.4]), np.array([0.5, 0.5, 0.5]), np.a
 
 
 def _evaluate(design, state=None, r=R, r_dot=R_DOT, **options):
+    """The readable law's output (tests/reference/laws.py, with its internals), checked against
+    the compiled law's torque and rho_hat rate to 1e-12 (the same arithmetic in C++: equal to
+    round-off on these numbers of order 1-100)."""
     controller = dp.AdaptiveRobustController(UnitNominal(), design, **options)
     state = controller.initial_state() if state is None else state
     alpha = REFERENCE.alpha + r
     alpha_dot = REFERENCE.alpha_dot + r_dot
-    return controller, controller.evaluate(0.0, alpha, alpha_dot, REFERENCE, state)
+    out = readable_evaluate(controller)(0.0, alpha, alpha_dot, REFERENCE, state)
+    compiled = controller.evaluate(0.0, alpha, alpha_dot, REFERENCE, state)
+    np.testing.assert_allclose(compiled.tau, out.tau, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(compiled.state_derivative, out.state_derivative, rtol=1e-12, atol=1e-12)
+    return controller, out
 
 
 def test_design1_torque_by_hand():
@@ -95,7 +103,7 @@ def test_design2_gain_never_exceeds_design1_remark9():
     one = dp.AdaptiveRobustController(UnitNominal(), "I")
     two = dp.AdaptiveRobustController(UnitNominal(), "II")
     for w in np.concatenate([[0.0], np.logspace(-8, 4, 500)]):
-        assert two.robust_gain_factor(w) <= one.robust_gain_factor(w)
+        assert robust_gain_factor(two, w) <= robust_gain_factor(one, w)
 
 
 @pytest.mark.parametrize("name", ["T_v", "T_p", "D", "beta", "xi", "epsilon", "b1", "b2", "b3", "rho0"])

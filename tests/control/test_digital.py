@@ -14,6 +14,7 @@ import delta_pin as dp
 from delta_pin.control.nominal import NominalModel
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.drive import Drive
+from tests.reference.laws import readable_evaluate
 
 
 class UnitInertia(NominalModel):
@@ -33,8 +34,11 @@ def _double_integrator(controller, lumped, delay, steps=40, dt=1e-3):
     alpha, velocity, state = np.zeros(3), np.zeros(3), controller.initial_state()
     reference = dp.Reference(np.array([0.01, -0.02, 0.03]), np.zeros(3), np.zeros(3))
     applied = []
+    law = readable_evaluate(controller)  # the readable law: its lumped estimate is an internal
     for k in range(steps):
-        out = controller.evaluate(k * dt, alpha, velocity, reference, state)
+        out = law(k * dt, alpha, velocity, reference, state)
+        compiled = controller.evaluate(k * dt, alpha, velocity, reference, state)
+        np.testing.assert_allclose(compiled.tau, out.tau, rtol=1e-12, atol=1e-12)
         state = controller.advance(state, out, dt)
         tau = drive.apply(out.tau)
         applied.append(tau)

@@ -20,6 +20,7 @@ from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.studies.experiments import RunSpec, run_spec
 from delta_pin.studies.metrics import compute_metrics
+from tests.reference.laws import _split, readable_evaluate
 
 
 class OneJoint(NominalModel):
@@ -76,11 +77,16 @@ def _evaluate(controller, rho, alpha_measured):
     """One sample from a chosen state: the observer already at rest at alpha = 0 (started, with
     the nominal model there kept), rho_hat = rho, so s = D r + r_dot is known in closed form."""
     state = controller.initial_state()
-    _, _, inertia, bias, _, _ = controller._split(state)  # views into the state
+    _, _, inertia, bias, _, _ = _split(controller, state)  # views into the state
     inertia[:] = controller.nominal.inertia
     bias[:] = controller.nominal.gravity
     state[-2:] = (rho, 1.0)
-    return controller.evaluate(0.0, alpha_measured, np.zeros(1), dp.Reference.hold(np.zeros(1)), state)
+    hold = dp.Reference.hold(np.zeros(1))
+    out = readable_evaluate(controller)(0.0, alpha_measured, np.zeros(1), hold, state)  # with internals
+    compiled = controller.evaluate(0.0, alpha_measured, np.zeros(1), hold, state)
+    np.testing.assert_allclose(compiled.tau, out.tau, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(compiled.next_state, out.next_state, rtol=1e-12, atol=1e-12)
+    return out
 
 
 @pytest.mark.parametrize("rho", [1e3, 1e-3])
@@ -112,7 +118,7 @@ def test_the_observer_is_told_the_clipped_torque_and_the_drive_clips():
     controller = dp.digital_robust(OneJoint(), 1e-3, torque_limit=0.5, delay=1)
     output = _evaluate(controller, 0.0, np.array([0.3]))  # far from the set point: a large torque
     assert output.tau[0] < -0.5  # the command: the drive clips it and counts the hit
-    commands = controller._split(output.next_state)[1]
+    commands = _split(controller, output.next_state)[1]
     assert commands[0, 0] == -0.5  # what will act, as the observer's state keeps it
 
 

@@ -10,6 +10,7 @@ from delta_pin.control.base import Reference
 from delta_pin.control.pid_gravity import PIDGravity
 from delta_pin.control.registry import declaration
 from delta_pin.errors import InvalidParameterError
+from tests.reference.laws import readable_evaluate
 
 
 @pytest.mark.parametrize("robot", ["delta", "five_bar"])
@@ -28,7 +29,7 @@ def test_the_compiled_law_is_its_python_twin(robot):
         alpha_dot, ref, ref_dot = (rng.normal(0, 0.3, model.dof) for _ in range(3))
         ref = model.home + 0.05 * ref
         state = rng.normal(0, 0.01, model.dof)
-        python = controller.evaluate(
+        python = readable_evaluate(controller)(
             0.0, alpha, alpha_dot, Reference(ref, ref_dot, np.zeros(model.dof)), state
         )
         tau, state_dot = law.evaluate(alpha, alpha_dot, ref, ref_dot, np.zeros(model.dof), state)

@@ -4,7 +4,8 @@ reference the compiled core's loops (:func:`delta_pin.sim.loop.run_loop`)
 are tested against. It was the package's own loop until the core took every run (issue 38).
 
 :func:`simulate_reference` sets a run up as :func:`delta_pin.simulate` does (the same reference
-table, plant, initial state and checks) and runs it here.
+table, plant, initial state and checks) and runs it here, a built-in controller by its readable
+law (:mod:`tests.reference.laws`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from delta_pin.sim.plants import Plant
 from delta_pin.sim.reference import ReferenceTable, tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 from delta_pin.sim.runner import _check_digital, _engine_robot
+from tests.reference.laws import called_back
 
 __all__ = ["integrate_lsoda", "run_python_loop", "simulate_reference"]
 
@@ -237,7 +239,7 @@ def simulate_reference(
         elif integrator == "lsoda" and not robot.has_unactuated_motion:
             options["coordinates"] = "active"
     plant = make_plant(plant, robot, friction, uncertainty, **options)
-    controller = as_controller(controller)
+    controller = called_back(as_controller(controller))  # a built-in law's readable twin (laws.py)
     dof, h = plant.dof, dt / substeps
     per_sample = 1 if mode == "sampled" else {"rk4": 2 * substeps}.get(integrator, 4)
     table, sample_xyz, alpha0 = tabulate_reference(robot, trajectory, alpha0, dof, steps, dt, per_sample)

@@ -32,6 +32,7 @@ from delta_pin.studies.experiments import (
     run_batch,
     run_spec,
 )
+from tests.reference.laws import readable_evaluate
 from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
@@ -227,7 +228,7 @@ def test_recorded_outputs_are_the_readable_law_at_the_recorded_states(robot, pap
         reference = Reference(
             run.alpha_d[k], run.alpha_dot_d[k], dp.PathI().joint_reference(robot, run.t[k]).alpha_ddot[0]
         )
-        out = controller.evaluate_reference(
+        out = readable_evaluate(controller)(
             run.t[k], run.alpha[k], run.alpha_dot[k], reference, run.internals["rho_hat"][k]
         )
         np.testing.assert_allclose(run.tau[k], out.tau, rtol=1e-9, atol=1e-9)

@@ -1,7 +1,7 @@
 """The compiled core's time-delay control, digital-robust law (with its extended-state observer) and
 LQR (``delta_pin/core/run/controller.hpp``, arithmetic in ``delta_pin/core/control/``) against the
-readable Python laws they are compiled from (``TimeDelayControl.evaluate_reference``,
-``DigitalRobustController.evaluate_reference``, ``LQR.evaluate``), on the five-bar's projected nominal
+readable Python laws they are compiled from (tests/reference/laws.py: time-delay control,
+digital-robust, LQR), on the five-bar's projected nominal
 model with a nominal disturbance and friction.
 
 Two comparisons:
@@ -24,6 +24,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.control.base import ControlOutput, Reference
+from tests.reference.laws import called_back, readable_evaluate
 from tests.reference.python_loop import simulate_reference
 
 DT = 1e-3
@@ -85,6 +86,7 @@ def _replay(controller, states):
     torques, compiled next states or rates) at the Python law's state of each sample."""
     law = controller.sampled_core_law()
     assert law is not None
+    readable = readable_evaluate(controller)
     t, alpha, alpha_dot, ref, ref_dot, ref_ddot = states
     z_python = controller.initial_state().astype(float)
     z_core = z_python.copy()
@@ -92,7 +94,7 @@ def _replay(controller, states):
     discrete = controller.dt is not None
     for k in range(len(t)):
         reference = Reference(ref[k], ref_dot[k], ref_ddot[k])
-        out = controller.evaluate(t[k], alpha[k], alpha_dot[k], reference, z_python)
+        out = readable(t[k], alpha[k], alpha_dot[k], reference, z_python)
         same = law.evaluate(alpha[k], alpha_dot[k], ref[k], ref_dot[k], ref_ddot[k], z_python)
         tau, step = law.evaluate(alpha[k], alpha_dot[k], ref[k], ref_dot[k], ref_ddot[k], z_core)
         python_step = out.next_state if discrete else out.state_derivative
@@ -181,7 +183,7 @@ def test_each_compiled_law_in_the_loop_equals_the_readable_law_in_the_loop(
         if compiled_law:
             controller.evaluate = _fail
         else:
-            controller.sampled_core_law = lambda: None
+            controller = called_back(controller)
         plant = dp.ClosedChainPlant(robot, dp.Friction(stribeck=stribeck), payload_mass=0.05)
         options = {"t_end": 0.3, "mode": "sampled", "alpha0": robot.home}
         runs.append(dp.simulate(robot, controller, circle, plant=plant, **options))
@@ -218,7 +220,7 @@ def test_each_compiled_law_on_a_drive_equals_the_readable_law_on_it(kind, robot,
         if compiled_law:
             controller.evaluate = _fail
         else:
-            controller.sampled_core_law = lambda: None
+            controller = called_back(controller)
         plant = dp.ClosedChainPlant(robot, dp.Friction(stribeck=stribeck), payload_mass=0.05)
         options = {"t_end": 0.3, "mode": "sampled", "alpha0": robot.home, "delay": setting["delay"]}
         options.update(sensor=sensor, torque_limit=setting["torque_limit"])

@@ -15,6 +15,7 @@ import pytest
 import delta_pin as dp
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.batch import simulate_batch
+from tests.reference.laws import readable_evaluate
 from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)
@@ -44,7 +45,7 @@ def test_the_default_continuous_run_is_within_1e6_rad_of_a_tight_reference(robot
     for k in (0, 7, 500, 1999):
         desired = dp.PathI().joint_reference(robot, fast.t[k])
         reference = dp.Reference(fast.alpha_d[k], fast.alpha_dot_d[k], desired.alpha_ddot[0])
-        out = controller.evaluate_reference(
+        out = readable_evaluate(controller)(
             fast.t[k], fast.alpha[k], fast.alpha_dot[k], reference, fast.internals["rho_hat"][k]
         )
         np.testing.assert_allclose(fast.tau[k], out.tau, rtol=1e-9, atol=1e-9)
@@ -82,7 +83,7 @@ def _lqr_run(robot, plant, t_end, simulate=dp.simulate, mode="continuous", **opt
 @pytest.mark.parametrize("plant", ["analytic", "pinocchio"])
 def test_the_lqr_runs_compiled_within_1e6_rad_of_a_tight_reference(robot, plant):
     """The LQR baseline's continuous runs take the compiled Radau IIA too (its compiled law,
-    the core's LqrLaw). Reference: LSODA at rtol 1e-11 with the readable LQR.evaluate in the
+    the core's LqrLaw). Reference: LSODA at rtol 1e-11 with the readable LQR (tests/reference) in the
     loop. Measured over 2 s: 7e-9 rad on the analytic plant; over the study's 15 s on the Pinocchio
     plant 3.4e-8 rad against LSODA at rtol 1e-10 (LSODA at its default rtol 1e-6: 4.2e-7)."""
     fast = _lqr_run(robot, plant, 2.0)
@@ -101,7 +102,9 @@ def test_the_lqr_runs_compiled_within_1e6_rad_of_a_tight_reference(robot, plant)
     for k in (0, 7, 500, 1999):
         desired = dp.PathI().joint_reference(robot, fast.t[k])
         reference = dp.Reference(fast.alpha_d[k], fast.alpha_dot_d[k], desired.alpha_ddot[0])
-        out = controller.evaluate(fast.t[k], fast.alpha[k], fast.alpha_dot[k], reference, np.zeros(0))
+        out = readable_evaluate(controller)(
+            fast.t[k], fast.alpha[k], fast.alpha_dot[k], reference, np.zeros(0)
+        )
         np.testing.assert_allclose(fast.tau[k], out.tau, rtol=1e-9, atol=1e-9)
 
 

@@ -1,7 +1,7 @@
 // Designs I and II (eqs. 23-26, 30-33, 54-57, 67 of the paper) given a nominal model's M, C, G at
 // the state: Eigen only, no Pinocchio, no Python, and no heap allocation for a fixed number of
 // joints (N = 3 for the Delta). The same arithmetic as
-// AdaptiveRobustController.evaluate_reference (delta_pin/control/adaptive_robust.py), which the
+// readable designs I/II of tests/reference/laws.py (the module docstring of delta_pin/control/adaptive_robust.py), which the
 // tests hold it to.
 #pragma once
 

@@ -2,7 +2,7 @@
 // steps 1-5; the adaptive bound of eqs. 24-25) with its extended-state observer
 // (delta_pin/control/observer.py), given a nominal model as a function of (alpha, alpha_dot):
 // Eigen only, no Pinocchio, no Python, and no heap allocation for a fixed number of joints (N = 3
-// for the Delta). The same arithmetic as DigitalRobustController.evaluate_reference, which the
+// for the Delta). The same arithmetic as the readable digital-robust law of tests/reference/laws.py, which the
 // tests hold it to.
 #pragma once
 

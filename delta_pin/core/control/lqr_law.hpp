@@ -1,6 +1,6 @@
 // The LQR baseline (delta_pin/control/baselines.py LQR): the nominal model linearised at alpha0
 // (M̄0, Ḡ(alpha0), dḠ/dalpha there) and the gain K of the Riccati solution, computed by delta-pin's
-// Python at construction. Eigen only, no Pinocchio, no Python. The same arithmetic as LQR.evaluate,
+// Python at construction. Eigen only, no Pinocchio, no Python. The same arithmetic as the readable LQR of tests/reference/laws.py,
 // which the tests hold it to.
 #pragma once
 

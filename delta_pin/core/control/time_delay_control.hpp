@@ -1,6 +1,6 @@
 // Time-delay control (Youcef-Toumi & Ito 1990) given a nominal model's M̄ and C̄ alpha_dot + Ḡ + F̄
 // at the measured state: Eigen only, no Pinocchio, no Python. The same arithmetic as
-// TimeDelayControl.evaluate_reference (delta_pin/control/digital.py), which the tests hold it to.
+// readable time-delay control of tests/reference/laws.py, which the tests hold it to.
 #pragma once
 
 #include <Eigen/Dense>

@@ -1,4 +1,5 @@
-// PID + gravity in joint space (PIDGravity in delta_pin/control/pid_gravity.py, its readable twin):
+// PID + gravity in joint space (PIDGravity in delta_pin/control/pid_gravity.py; its readable twin in
+// tests/reference/laws.py):
 //   tau = Ḡ(alpha) + F̄ [+ M̄_f(alpha_dot)] - K_p r - K_i z - K_d r_dot,  z_dot = r = alpha - alpha^d,
 // the integral z the law's continuous-time state [rad s]. The example of a compiled law added in
 // one file (law_registry.hpp).

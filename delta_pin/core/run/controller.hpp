@@ -149,7 +149,7 @@ namespace delta_pin
   };
 
   // Designs I and II (eqs. 23-26, 30-33, 54-57, 67; adaptive_robust_law.hpp), rho_hat as the state,
-  // recording the internals of AdaptiveRobustController.evaluate_reference.
+  // recording the internals of the readable designs (tests/reference/laws.py).
   class AdaptiveRobust : public ProjectedLaw
   {
   public:
