@@ -4,9 +4,10 @@ Run: ``python benchmarks/bench_controllers.py [--repeats 5] [--calls 2000]``
 
 Each controller is evaluated at the paper's initial state on path I (alpha_0 = 0.3322 rad) with
 its Delta nominal model; the time is per call, the median over ``repeats`` batches of ``calls``.
-``evaluate`` is the readable law (Python and numpy); the compiled core's copy of the law
-(``sampled_core_law()``, what the compiled loops run), called once from Python, is measured in
-the same run for the ratio.
+Three rows per law, measured in the same run: the readable law (Python and numpy,
+``tests/reference/laws.py``: the reference of the ratios), ``Controller.evaluate`` (the compiled
+law through the controller, what ``Controller.step`` calls) and the compiled law alone
+(``sampled_core_law().evaluate``, what the compiled loops run, called once from Python).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from common import Timing, machine_info, per_call, print_table, report_target
 
 import delta_pin as dp
 from delta_pin.control import Reference
+from tests.reference.laws import readable_evaluate
 
 STEP_LIMIT = 10e-6  # [s] issue 7: a controller step of designs I and II fit for a 10 kHz drive
 
@@ -43,14 +45,20 @@ def main() -> None:
         "TDC (delay 1)": dp.tdc(nominal, 1e-3, delay=1),
     }
     timings = []
+    note = f"per call, {args.calls} calls per repeat"
     for name, controller in controllers.items():
         state = controller.initial_state()
         if controller.dt is not None:  # a discrete-time law: from a running state, not the first sample
             state = controller.evaluate(0.0, alpha, alpha_dot, ref, state).next_state
+        readable = readable_evaluate(controller)
+        times = per_call(
+            lambda f=readable, z=state: f(0.0, alpha, alpha_dot, ref, z), args.calls, args.repeats
+        )
+        timings.append(Timing(f"{name}, readable (tests/reference)", times, note=note))
         times = per_call(
             lambda c=controller, z=state: c.evaluate(0.0, alpha, alpha_dot, ref, z), args.calls, args.repeats
         )
-        timings.append(Timing(name, times, note=f"per call, {args.calls} calls per repeat"))
+        timings.append(Timing(f"{name}, Controller.evaluate", times, note=note))
         law = controller.sampled_core_law()
         if law is not None:  # the core is importable here
             times = per_call(
@@ -60,9 +68,7 @@ def main() -> None:
                 args.calls,
                 args.repeats,
             )
-            timings.append(
-                Timing(f"{name}, compiled core", times, note=f"per call, {args.calls} calls per repeat")
-            )
+            timings.append(Timing(f"{name}, compiled core", times, note=note))
     print(f"machine: {machine_info()}")
     print_table("one controller step (torque + state derivative)", timings, reference=timings[0])
     for timing in timings:
