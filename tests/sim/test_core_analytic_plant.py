@@ -8,7 +8,7 @@ Tolerances:
   does; measured ~1e-15);
 * a sampled run against the readable Python loop (``simulate_reference``,
   tests/reference/python_loop.py): the same RK4 steps, the law in C++ (the analytic nominal model
-  through ``use_delta_model``): 1e-10 relative over 0.2 s, absolute 1e-12 in SI units;
+  through ``DeltaTerms``): 1e-10 relative over 0.2 s, absolute 1e-12 in SI units;
 * a continuous run (the core's Radau at rtol 1e-6) against the Python plant under LSODA at rtol
   1e-10 (``simulate_reference``), with the paper's uncertainty: the integration error only,
   within the issue's 1e-6 rad (the truth: linear interpolation between rows dt / 4 apart in the
