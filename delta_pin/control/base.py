@@ -285,6 +285,11 @@ class CompiledController(Controller):
         law = self.__dict__.get("_compiled")
         if law is None:
             law = self._compiled = self.sampled_core_law()
+            if law is None:
+                raise InvalidParameterError(
+                    f"controller {self.name!r} has no compiled law (sampled_core_law() is None): a law of "
+                    "your own subclasses Controller and defines evaluate()"
+                )
         tau, rate = law.evaluate(
             np.asarray(alpha, dtype=float), np.asarray(alpha_dot, dtype=float),
             np.asarray(reference.alpha, dtype=float), np.asarray(reference.alpha_dot, dtype=float),

@@ -207,3 +207,12 @@ def test_step_runs_a_built_in_law_compiled_and_a_users_law_as_written(robot):
 
     _stepped_by_hand(robot, Own(), 0.005)
     assert len(echoed) == 5
+
+
+def test_a_compiled_controller_without_its_law_says_so(robot):
+    """A built-in controller whose compiled law is taken away (here by hand) cannot evaluate: one
+    line naming it and what would work, not an AttributeError on None."""
+    controller = dp.design1(dp.DeltaNominalModel(robot))
+    controller.sampled_core_law = lambda: None
+    with pytest.raises(dp.InvalidParameterError, match=r"designI.*has no compiled law.*defines evaluate"):
+        controller.step(0.0, robot.home, dp.Reference.hold(robot.home))
