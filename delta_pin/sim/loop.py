@@ -119,6 +119,12 @@ class Integration:
     def declared(self) -> IntegratorDeclaration:
         return INTEGRATIONS[self.integrator]
 
+    def metadata(self) -> dict:
+        """What a run's metadata records of the integrator: its name, and the tolerances of the
+        one with error control."""
+        tolerances = {"rtol": self.rtol, "atol": self.atol} if self.declared.tolerances else {}
+        return {"integrator": self.integrator, **tolerances}
+
 
 @dataclass(frozen=True)
 class IntegratorDeclaration:
@@ -132,11 +138,13 @@ class IntegratorDeclaration:
             Hermite table).
         counters: the run's counters the integrator reports (``RunRecords`` field, metadata
             names), or none.
+        tolerances: whether it controls its error (``rtol``, ``atol`` apply and are recorded).
     """
 
     sampled: bool
     reference_per_sample: Callable[[int], int]
     counters: tuple[str, tuple[str, ...]] | None = None
+    tolerances: bool = False
 
 
 INTEGRATIONS: dict[str, IntegratorDeclaration] = {
@@ -148,6 +156,7 @@ INTEGRATIONS: dict[str, IntegratorDeclaration] = {
             "radau_counters",
             ("radau_steps", "radau_rejected", "rhs_evaluations", "jacobians", "factorizations"),
         ),
+        tolerances=True,
     ),
     "bdf2": IntegratorDeclaration(
         sampled=False,
@@ -204,8 +213,7 @@ def run_loop(
     keep_core_projections(plant, compiled_plant)
     record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
     record.q, record.v = recorded.q, recorded.v
-    called_back = isinstance(law, CalledBack)
-    record.internals = _stacked(law.internals) if called_back else controller.core_law_internals(law)
+    record.internals = controller.core_law_internals(law)  # the law's records, compiled or called back
     if drive is not None:
         record.internals["tau_command"] = recorded.commands
         drive.hits = recorded.hits
@@ -324,6 +332,12 @@ class CalledBack:
 
     def keep(self, k, tau, z) -> None:
         self._keep_internals()
+
+    @property
+    def records(self) -> dict[str, np.ndarray]:
+        """The controller's internals at the samples by name, one array (N, ...) each (what a
+        compiled law's ``records`` holds)."""
+        return _stacked(self.internals)
 
     def _keep_internals(self) -> None:
         for name, value in self.out.internals.items():

@@ -216,7 +216,7 @@ def simulate(
 
     metadata = run_metadata(
         described, controller, trajectory, plant, mode=mode, dt=dt, t_end=steps * dt, substeps=substeps,
-        integrator=integrator, **({"rtol": rtol, "atol": atol} if integrator == "radau" else {}),
+        **integration.metadata(),
         alpha0=alpha0.tolist(), alpha_dot0=alpha_dot0.tolist(), wall_time=wall,
     )  # fmt: skip
     if getattr(plant, "projections", 0):
