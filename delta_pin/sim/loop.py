@@ -207,9 +207,12 @@ def run_loop(
     if sensor is not None or drive is not None:
         settings.drive = _core_drive(sensor, drive, steps + 1, plant.dof)
     bar = Progress(round(steps * dt, 9), progress, label="simulate", unit="s")
-    law, reference = _law(controller, plant, table, declared, t, z0, sensor, bar)
-    recorded = run_core(compiled_plant, law, settings, x0, plant, None if declared.sampled else z0, reference)
-    bar.close()
+    try:
+        law, reference = _law(controller, plant, table, declared, t, z0, sensor, bar)
+        z_start = None if declared.sampled else z0  # a sampled law holds its own state
+        recorded = run_core(compiled_plant, law, settings, x0, plant, z_start, reference)
+    finally:
+        bar.close()  # a failed run ends its progress line too
     keep_core_projections(plant, compiled_plant)
     record = LoopRecord(recorded.alpha, recorded.alpha_dot, recorded.tau, recorded.xyz, recorded.gap)
     record.q, record.v = recorded.q, recorded.v
