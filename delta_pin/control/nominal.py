@@ -56,8 +56,9 @@ def python_core_law(nominal, kind: str, name: str, gains, friction_compensation:
     compiled."""
     from delta_pin.compiled.core import core
 
+    own = getattr(nominal, "compensation", None)  # looked up once, not at every evaluation
+
     def compensation(alpha_dot):
-        own = getattr(nominal, "compensation", None)
         if own is not None:
             return np.asarray(own(alpha_dot, friction_compensation), dtype=float)
         value = np.asarray(nominal.disturbance(), dtype=float)
@@ -163,7 +164,7 @@ class DeltaNominalModel(NominalModel):
     def core_law(self, kind: str, name: str, *gains, friction_compensation: bool = True):
         """The compiled law ``kind`` on this analytic model (eqs. 7-10 in the core,
         ``core/control/delta_analytic.hpp``; F̄ and, with ``friction_compensation``, the nominal
-        friction), for the closed chain of the Delta's URDF, where the core takes it."""
+        friction): the core's ``DeltaTerms``, no closed chain assembled."""
         from delta_pin.compiled.core import core
 
         p = self.robot.params

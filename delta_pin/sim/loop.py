@@ -243,16 +243,15 @@ def _core_plant(
         plant.precompute_truth(h / 2.0, 2 * steps * integration.substeps + 1)
         compiled = plant.sampled_core(h, 2 * steps * integration.substeps + 3)
         return compiled if compiled is not None else python_core_plant(plant, states)
-    compiled = None
-    if getattr(controller, "dt", None) is None and plant.dof > 0:
+    compiled, period = None, getattr(controller, "dt", None)
+    if period is not None:
+        why = f"controller {controller.name!r} is discrete-time (dt={period})"
+    elif plant.dof == 0:
+        why = "the robot has no actuated joint (a free motion)"
+    else:
         compiled = plant.core_plant()
+        why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
     if compiled is None:
-        if getattr(controller, "dt", None) is not None:
-            why = f"controller {controller.name!r} is discrete-time (dt={controller.dt})"
-        elif plant.dof == 0:
-            why = "the robot has no actuated joint (a free motion)"
-        else:
-            why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
         raise InvalidParameterError(
             f"mode='continuous' runs in the compiled core's Radau IIA, and {why}: use mode='sampled'"
         )
