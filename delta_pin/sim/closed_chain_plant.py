@@ -85,8 +85,7 @@ class ClosedChainPlant(Plant):
         payload_frame: the frame the payload rides at and whose body's mass the uncertainty sets
             (default: the end effector).
         coordinates: ``"full"`` or ``"active"`` (default: full wherever every joint has a
-            configuration rate -- the compiled core's plant then steps the sampled loop --, else
-            active, which a plant written in Python steps through the core's loop).
+            configuration rate, else active); the compiled core's plant steps either.
         baumgarte_frequency: omega [rad/s] of the Baumgarte corrector (Kp = omega^2, Kd = 2 omega).
         projection_tolerance: closure gap [m or rad] above which a full-coordinate step is projected.
         failure_tolerance: closure gap [m or rad] that stops the run instead of a projection
@@ -433,16 +432,19 @@ class ClosedChainPlant(Plant):
         return x, self.closure_residual(x)
 
     def core_plant(self, step: float = 0.0, count: int = 0):
-        """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`), or
-        ``None`` where the core refuses the model (a joint without a configuration rate)."""
+        """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`)."""
         from delta_pin.sim.compiled_plant import build_core_plant
 
         return self._built_in_core(build_core_plant, step, count)
 
     def sampled_core(self, step: float, count: int):
-        """:meth:`core_plant` for the sampled loop, in full coordinates only (the core's sampled
-        loop integrates x = [q, v])."""
-        return super().sampled_core(step, count) if self.coordinates == "full" else None
+        """:meth:`core_plant` for the sampled loop: its RK4 steps integrate the whole x = [q, v]
+        (``coordinates="full"``) or the actuated (alpha, alpha_dot) with (q, v) completed at
+        every stage (``"active"``); the run records the completed (q, v) either way."""
+        compiled = super().sampled_core(step, count)
+        if compiled is not None and self.coordinates == "active":
+            compiled.integrates_active = True
+        return compiled
 
     def metadata(self):
         return {

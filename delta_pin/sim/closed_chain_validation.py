@@ -4,13 +4,15 @@ analytic model exists to compare with.
 Five checks, each against an independent reference (docs/architecture.md section 10):
 
 1. **closure** -- the largest closure residual of the assembled random states [m or rad];
-2. **plant** -- the projected alpha_ddot = M^-1 (tau - C alpha_dot - G) against the plant's
-   ``pin.constraintDynamics`` (a KKT solve on the whole tree) under random torques (relative);
+2. **plant** -- the projected alpha_ddot = M^-1 (tau - C alpha_dot - G) against the core plant's
+   accelerations by Pinocchio's ``constraintDynamics`` (a KKT solve on the whole tree) under
+   random torques (relative);
 3. **gravity** -- G against the derivative of the potential energy V(q(alpha)) (relative);
 4. **Coriolis** -- C + C^T against the derivative of M along alpha_dot (M_dot = C + C^T, the
    skew-symmetry the designs rely on) (relative);
 5. **energy** -- free motion (zero torque, no friction, joint dampers off, springs on) for
-   ``energy_duration`` on the plant in full coordinates (Baumgarte-stabilised; idle motions,
+   ``energy_duration`` on the compiled core's plant -- the dynamics every run steps -- in full
+   coordinates (Baumgarte-stabilised; idle motions,
    passive joints and a free base move with it): the drift of kinetic + gravity + spring energy
    relative to the largest kinetic energy, and the closure gap along it. The kinetic energy is
    0.5 v^T M v with every joint's armature (:func:`kinetic_energy`; Pinocchio 4.1's
@@ -567,7 +569,11 @@ def validate_closed_chain(
     _check_options(samples, seed, spread, energy_duration, tol, dt)
     fid = None if frame is None else _checked_frame(robot, frame)
     rng = np.random.default_rng(seed)
-    plant = ClosedChainPlant(robot, coordinates="full" if robot.has_unactuated_motion else "active")
+    # the core's plant on Pinocchio's constraintDynamics (not its own axis-tree recursion): the
+    # projection is checked against the library
+    coordinates = "full" if robot.has_unactuated_motion else "active"
+    plant = ClosedChainPlant(robot, coordinates=coordinates).core_plant()
+    plant.use_axis_tree(False)
     report = ClosedChainValidation(robot.name, 0)
     report.notes.append("robot: " + robot.summary().replace("\n", "\n  "))
     massless = massless_bodies(robot.model)
@@ -613,7 +619,7 @@ def validate_closed_chain(
                 analytic_errors[name] = max(analytic_errors.get(name, 0.0), _relative(ours, theirs))
         tau = rng.normal(0.0, 1.0, robot.dof)
         v = robot.velocity_map(q) @ alpha_dot
-        plant_alpha_ddot = plant.accelerations(0.0, q, v, tau)[robot.actuated_indices]
+        plant_alpha_ddot = plant.accelerations(q, v, tau, 0.0)[robot.actuated_indices]
         plant_errors.append(_relative(np.linalg.solve(M, tau - coriolis - G), plant_alpha_ddot))
         *discrepancy, idle = _gravity_discrepancy(evaluations, alpha, q, G, noise)
         gravity.add(*discrepancy, tol)
@@ -769,11 +775,12 @@ def _free_motion(
     cond(J_p) at about ENERGY_SAMPLES points)."""
     plant = ClosedChainPlant(robot, coordinates="full", joint_damping=False)  # conservative
     x0 = plant.initial_state(robot.home, alpha_dot)
+    compiled = plant.core_plant()  # its dynamics: the core's, as every run's
     nq, n = robot.model.nq, robot.dof
     zero = np.zeros(n)
 
     def derivative(t: float, y: np.ndarray) -> np.ndarray:
-        return plant.derivative(t, y, zero)
+        return compiled.derivative(y, zero, 0.0)  # the nominal truth: no table, any row
 
     q = robot.reference_configuration
     energy0 = None

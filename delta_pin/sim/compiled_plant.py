@@ -83,7 +83,8 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
     with the payload and the uncertainty profile's truth tabulated at t = i step, i < count [s]
     (:func:`set_core_truth`; ``count=0``: the caller sets it later).
 
-    Returns ``None`` for a model the core refuses (a joint without a configuration rate).
+    Every joint type is taken: one without a configuration rate (a universal joint, ZYX Euler
+    angles, a composite beside a ball) is stepped in active coordinates only.
 
     Raises:
         NativeUnavailableError: the core cannot be imported here.
@@ -103,13 +104,10 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
     ]
     settings = plant.settings
     chain = core_chain(robot, core_springs(robot, damping=plant.joint_damping))
-    try:
-        compiled = module.ClosedChainPlant(
-            chain, constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
-            settings.max_iter, plant.projection_tolerance,
-        )  # fmt: skip
-    except (ValueError, RuntimeError):
-        return None
+    compiled = module.ClosedChainPlant(
+        chain, constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
+        settings.max_iter, plant.projection_tolerance,
+    )  # fmt: skip
     if plant.friction is not None:
         compiled.set_friction(
             core_friction(plant.stribeck, plant.friction.sign_velocity_scale, plant._normal_force)

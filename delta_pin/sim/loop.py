@@ -12,8 +12,8 @@ callers:
   plant and the controller's state as one ODE, the law evaluated inside the integrator along the
   reference's cubic Hermite table (the paper's analysis);
 * the plant: its compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`,
-  :meth:`~delta_pin.sim.plants.Plant.sampled_core`) or, under RK4 only, a plant written in Python,
-  its ``derivative`` called back at every stage
+  :meth:`~delta_pin.sim.plants.Plant.sampled_core`; every built-in plant has one) or, under RK4
+  only, a plant a user wrote in Python, its ``derivative`` called back at every stage
   (:func:`~delta_pin.sim.compiled_plant.python_core_plant`);
 * the law: the controller's compiled law (:meth:`Controller.sampled_core_law
   <delta_pin.control.base.Controller.sampled_core_law>`), Python not called during the run, or the

@@ -9,6 +9,7 @@ and ``[serial]`` extras); the meshes are not needed.
 
 from __future__ import annotations
 
+import math
 import sysconfig
 from collections.abc import Callable
 from pathlib import Path
@@ -144,6 +145,8 @@ class SerialPlant(Plant):
         self._base_inertia = pin.Inertia(self.model.inertias[self._joint])
         self._payload_placement = frame.placement
         self.payload_mass = payload_mass
+        # where the core's plant carries the payload: a point mass at the end effector
+        self._payload_joint, self._payload_point = int(self._joint), np.array(frame.placement.translation)
 
     def _set_payload(self, t: float) -> None:
         if self.payload_mass is None:
@@ -163,8 +166,40 @@ class SerialPlant(Plant):
     def joint_state(self, x):
         return x[: self.dof], x[self.dof :]
 
+    def configuration_state(self, x):
+        return x[: self.dof].copy(), x[self.dof :].copy()
+
     def platform_position(self, x):
         return self.robot.forward_kinematics(x[: self.dof])
 
+    def core_plant(self, step: float = 0.0, count: int = 0):
+        """The compiled core's plant of this robot (a tree without closures: Pinocchio's forward
+        dynamics, every joint actuated), the payload m(t) a point mass at the end effector
+        tabulated at t = i step, i < count [s] (:func:`~delta_pin.sim.compiled_plant.set_core_truth`)."""
+        return self._built_in_core(_build_core_serial_plant, step, count)
+
     def metadata(self):
         return {"plant": self.name, "payload": getattr(self.payload_mass, "__name__", None)}
+
+
+def _build_core_serial_plant(plant: SerialPlant, step: float, count: int):
+    """The core's ``ClosedChainPlant`` of a serial robot: its model, no closure, every joint
+    actuated (nq == nv), the end effector its frame; the payload as :class:`SerialPlant` carries it.
+
+    Raises:
+        NativeUnavailableError: the core cannot be imported here.
+    """
+    from delta_pin.compiled.core import core
+    from delta_pin.model.core_model import model_spec
+    from delta_pin.sim.compiled_plant import set_core_truth
+
+    module, model = core(), plant.robot.model
+    joints = np.arange(model.nv, dtype=np.int32)
+    chain = module.ChainDescription(
+        model_spec(model), [], [], joints, joints, np.zeros(0, np.int32), 0, int(plant.robot.end_effector)
+    )
+    # no closure: the Baumgarte gains, the proximal settings and the projection act on nothing
+    compiled = module.ClosedChainPlant(chain, [], 0.0, 0.0, 1e-12, 0.0, 1, math.inf)
+    if count > 0:
+        set_core_truth(compiled, plant, step, count)
+    return compiled

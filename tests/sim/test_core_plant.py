@@ -328,6 +328,38 @@ def test_active_coordinate_completions_and_end_effector_paths_in_the_core(robot_
     np.testing.assert_allclose(robot.forward_kinematics(alphas, frame), reference, rtol=0, atol=1e-11)
 
 
+@pytest.mark.parametrize("name", ["five_bar", "stewart"])
+def test_an_active_coordinate_plant_runs_sampled_in_the_core(name):
+    """coordinates="active" in sampled mode: the core's RK4 integrates (alpha, alpha_dot), (q, v)
+    completed by its Newton at every stage, and equals the readable loop on the Python plant's
+    active derivative (tests/reference/python_loop.py) to 1e-9 rad (the module docstring's bound
+    for a closed-loop run; each completion agrees to the 1e-12 Newton tolerance); friction, a
+    time-varying payload and the drive's torque limit act in both. The run records the completed
+    (q, v), on the loops to 1e-11."""
+    robot = dp.load_robot(name)
+    nominal = dp.ClosedChainNominalModel(robot)
+    stribeck = dp.StribeckParameters(r_a=0.02, v_s=0.05, mu_s=0.3, mu_d=0.2, mu_v=0.0)
+    options = {
+        "friction": dp.Friction(stribeck=stribeck),
+        "payload_mass": lambda t: 0.05 * (1.0 + np.sin(4.0 * t)),
+        "coordinates": "active",
+    }
+    limit = np.full(robot.dof, 2.0)
+    runs = []
+    start = {"alpha0": robot.home + 0.02, "alpha_dot0": np.full(robot.dof, 3.0), "torque_limit": limit}
+    for simulate in (dp.simulate, simulate_reference):
+        plant = dp.ClosedChainPlant(robot, **options)
+        controller = dp.PDGravity(nominal, K_p=20.0, K_d=2.0)
+        runs.append(simulate(robot, controller, None, plant=plant, t_end=0.3, **start))
+    core, python = runs
+    assert core.metadata["core_plant"] and core.metadata["coordinates"] == "active"
+    for field in ("alpha", "alpha_dot", "tau", "xyz", "q", "v"):
+        got, expected = getattr(core, field), getattr(python, field)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9, err_msg=field)
+    assert core.closure_residual.max() < 1e-11
+    assert np.abs(core.alpha - core.alpha[0]).max() > 1e-2  # it moved
+
+
 def test_the_axis_tree_stage_equals_constraint_dynamics_on_the_delta():
     """The Delta's tree (RX..PZ joints, LOCAL point closures, the exact KKT solution) takes the
     core's axis-tree stage (delta_pin/core/model/axis_tree.hpp); 50 RK4 steps with friction and a

@@ -147,3 +147,42 @@ def test_the_rebuilt_model_computes_what_the_python_model_computes(rng):
                 np.testing.assert_allclose(
                     rebuilt.frame_jacobian(q, tool), J, rtol=0, atol=1e-12 * np.abs(J).max()
                 )
+
+
+def test_the_core_plant_takes_a_joint_without_a_configuration_rate(rng):
+    """A free base carrying a universal joint, ZYX Euler angles and a revolute: the universal and
+    ZYX joints have no configuration rate the core writes, and the compiled plant is built all the
+    same (it steps such a chain in active coordinates). Its accelerations on Pinocchio's
+    constraintDynamics without a closure equal pin.aba to 1e-10 relative (the same library's
+    dynamics with no constraint row; measured ~1e-15), and a derivative of the whole state, which
+    would need those rates, is refused in one line naming the joint. (The tree of every joint type
+    above is not used: on it Pinocchio 4.1's aba and crba disagree by ~10 m/s^2 themselves.)"""
+    try:
+        module = core.core()
+    except NativeUnavailableError as exc:
+        pytest.skip(str(exc))
+    model = pin.Model()
+    joints = [
+        pin.JointModelFreeFlyer(),
+        pin.JointModelUniversal(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])),
+        pin.JointModelSphericalZYX(),
+        pin.JointModelRX(),
+    ]
+    for i, joint in enumerate(joints, start=1):
+        placement = pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(scale=0.3, size=3))
+        index = model.addJoint(i - 1, joint, placement, f"joint_{i}")
+        model.appendBodyToJoint(index, pin.Inertia.Random(), pin.SE3.Identity())
+        model.addJointFrame(index)
+    everything = np.arange(model.nv, dtype=np.int32)
+    chain = module.ChainDescription(
+        model_spec(model), [], [], everything, everything, np.zeros(0, np.int32), 0, model.nframes - 1
+    )
+    plant = module.ClosedChainPlant(chain, [], 400.0, 40.0, 1e-12, 0.0, 100, 1e-10)
+    plant.use_axis_tree(False)
+    q = pin.integrate(model, pin.neutral(model), rng.normal(size=model.nv))
+    v, tau = rng.normal(size=model.nv), rng.normal(size=model.nv)
+    expected = pin.aba(model, model.createData(), q, v, tau)
+    got = plant.accelerations(q, v, tau, 0.0)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    with pytest.raises(ValueError, match=r"joint joint_2 \(JointModelUniversal\) has no configuration rate"):
+        plant.derivative(np.concatenate([q, v]), tau, 0.0)

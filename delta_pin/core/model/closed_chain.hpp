@@ -307,8 +307,17 @@ namespace delta_pin
     const Vector & accelerations(const Vector & q, const Vector & v, const Vector & tau, double u);
     // dx/dt at x
     void derivative(const Vector & x, const Vector & tau, double u, Vector & dx);
-    // one RK4 step (CorePlant::step), then settle()
+    // one RK4 step (CorePlant::step): of the whole x = [q, v], then settle(); or, integrating
+    // active coordinates, of (alpha, alpha_dot) with (q, v) completed at every stage, x the
+    // completion of the result
     double step(Vector & x, const Vector & tau, double t, double h) override;
+    // Whether step() integrates the actuated coordinates (alpha, alpha_dot) instead of x = [q, v]:
+    // every RK4 stage completes q(alpha) by Newton (warm-started from the last completion) and
+    // v = S alpha_dot, so the loops are closed by construction (ClosedChainPlant(coordinates=
+    // "active") of delta_pin.sim.closed_chain_plant). Refused for a chain with idle motions or
+    // passive joints (the actuated joints do not determine its state).
+    void integrate_active(bool active);
+    bool integrates_active() const { return active_; }
     // x's configuration coefficients renormalised and, where its closure gap exceeds the
     // projection tolerance, x projected back onto the loops (from the actuated coordinates, or
     // keeping the idle and passive state); returns the gap of the result. Throws
@@ -352,7 +361,9 @@ namespace delta_pin
     // the joint couplings' multipliers (accelerations): their rows and the responses to them
     Vector coupling_r_, coupling_drift_, free_, target_;
     Matrix coupling_J_, responses_;
+    bool active_ = false;  // step() in active coordinates (integrate_active)
+    double active_step(Vector & x, const Vector & tau, double t, double h);
     // scratch
-    Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_;
+    Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_, joints_, joint_rates_, active_v_, active_ddot_;
   };
 } // namespace delta_pin

@@ -26,7 +26,8 @@ namespace delta_pin
       BALL = 1,
       FREE = 2,
       UNIT_COMPLEX = 3,
-      PLANAR = 4
+      PLANAR = 4,
+      NONE = 5  // no rate here: the plant steps this chain in active coordinates only
     };
 
     // the kinds of ClosedChainRobot._joint_rate_kind (delta_pin/model/closed_chain.py)
@@ -47,8 +48,7 @@ namespace delta_pin
         return UNIT_COMPLEX;
       if (name == "JointModelPlanar")
         return PLANAR;
-      throw std::invalid_argument(
-        "joint " + model.names[j] + " (" + name + ") has no configuration rate in the compiled plant");
+      return NONE;
     }
 
     // a homogeneous transform as Pinocchio's placement
@@ -328,6 +328,10 @@ namespace delta_pin
       case AXIS:
         rate.segment(iq, nq) = v.segment(iv, nq);
         break;
+      case NONE:
+        throw std::invalid_argument(
+          "joint " + dyn_->model.names[j] + " (" + dyn_->model.joints[j].shortname()
+          + ") has no configuration rate in the compiled plant: step it in active coordinates");
       case BALL:
         quaternion_rate(q.segment<4>(iq), v.segment<3>(iv), rate.segment<4>(iq));
         break;
@@ -369,6 +373,8 @@ namespace delta_pin
   double ClosedChainPlant::step(Vector & x, const Vector & tau, double t, double h)
   {
     check_size(x, dyn_->model.nq + dyn_->model.nv, "x");
+    if (active_)
+      return active_step(x, tau, t, h);
     rk4_step(
       x, t, h, [&](const Vector & state, double time, Vector & dx) { derivative(state, tau, truth_.position(time), dx); },
       k1_, k2_,
@@ -425,6 +431,60 @@ namespace delta_pin
     ++projections_;
     largest_projected_gap_ = std::max(largest_projected_gap_, gap);
     return chain_.closure_gap(q);
+  }
+
+  void ClosedChainPlant::integrate_active(bool active)
+  {
+    if (active && chain_.unactuated())
+      throw std::invalid_argument(
+        "active coordinates carry only the actuated joints, and this chain also moves idle motions or passive "
+        "joints that no motor drives: integrate its whole state");
+    active_ = active;
+  }
+
+  double ClosedChainPlant::active_step(Vector & x, const Vector & tau, double t, double h)
+  {
+    const int nq = dyn_->model.nq, nv = dyn_->model.nv;
+    const Eigen::Index n = actuated_v_.size();
+    last_q_ = x.head(nq);  // the warm start of every completion below
+    Vector state(2 * n);
+    for (Eigen::Index i = 0; i < n; ++i)
+    {
+      state[i] = x[actuated_q_[i]];
+      state[n + i] = x[nq + actuated_v_[i]];
+    }
+    // (q, v) at the actuated state y into last_q_, active_v_; a failure names alpha (its time set
+    // by the loop)
+    const auto complete_at = [&](const Vector & y)
+    {
+      joints_ = y.head(n);
+      joint_rates_ = y.tail(n);
+      if (!y.allFinite())
+        throw SimulationFailure("the state became non-finite (alpha=" + joint_values(joints_) + ")");
+      if (!complete(joints_, joint_rates_, last_q_, active_v_))
+      {
+        std::ostringstream text;
+        text.precision(3);
+        text << std::scientific << "cannot close the loops at alpha=" << joint_values(joints_)
+             << ": Newton is still " << largest(chain_.residual(last_q_)) << " (m or rad) apart";
+        throw SimulationFailure(text.str());
+      }
+    };
+    rk4_step(
+      state, t, h,
+      [&](const Vector & y, double time, Vector & dy)
+      {
+        complete_at(y);
+        active_accelerations(time, last_q_, active_v_, tau, active_ddot_);
+        dy.resize(2 * n);
+        dy.head(n) = joint_rates_;
+        dy.tail(n) = active_ddot_;
+      },
+      k1_, k2_, k3_, k4_, y_);
+    complete_at(state);
+    x.head(nq) = last_q_;
+    x.tail(nv) = active_v_;
+    return chain_.closure_gap(last_q_);
   }
 
   bool ClosedChainPlant::project(Vector & x)

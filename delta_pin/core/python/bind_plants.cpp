@@ -95,6 +95,9 @@ void bind_plants(nb::module_ & m)
          nb::arg("body_masses"), nb::arg("point_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
          "The time-varying truth at t = i step [s]: the joint's body mass [kg] (COM kept, rotational inertia "
          "scaled), a point mass [kg] at `point`, the friction's normal forces [N], the disturbance [N m].")
+    .def_prop_rw("integrates_active", &ClosedChainPlant::integrates_active, &ClosedChainPlant::integrate_active,
+                 "Whether a sampled step integrates the actuated (alpha, alpha_dot), (q, v) completed at every "
+                 "stage (True), or the whole x = [q, v] (False).")
     .def_prop_ro("stage", &ClosedChainPlant::stage, "'axis_tree' or 'constraint_dynamics': what gives ddq")
     .def("use_axis_tree", &ClosedChainPlant::use_axis_tree, nb::arg("use"),
          "The axis-tree stage where it applies (True), or Pinocchio's constraintDynamics (False).")
@@ -110,7 +113,22 @@ void bind_plants(nb::module_ & m)
         return Eigen::VectorXd(self.accelerations(q, v, tau, row));
       },
       nb::arg("q"), nb::arg("v"), nb::arg("tau"), nb::arg("row"),
-      "ddq at (q, v) under the actuated torques, the truth at the table's row position `row`.");
+      "ddq at (q, v) under the actuated torques, the truth at the table's row position `row`.")
+    .def(
+      "derivative",
+      [](ClosedChainPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
+      {
+        delta_pin::check_size(x, self.nq() + self.nv(), "x");
+        check_finite(x, "x");
+        check_finite(tau, "tau");
+        check_finite(row, "row");
+        Eigen::VectorXd dx;
+        self.derivative(x, tau, row, dx);
+        return dx;
+      },
+      nb::arg("x"), nb::arg("tau"), nb::arg("row"),
+      "dx/dt of the whole state x = [q, v] (configuration rates, ddq) under the actuated torques, the truth at "
+      "the table's row position `row`.");
   nb::class_<AnalyticDeltaPlant, CorePlant>(m, "AnalyticDeltaPlant")
     .def(
       "__init__",
