@@ -53,7 +53,7 @@ def main() -> None:
             per_call(lambda: robot.pinocchio_dynamics(alpha, alpha_dot), max(n // 10, 10), r),
         ),
     ]
-    compiled = dp.AnalyticPlant(robot).core_plant()
+    compiled = dp.AnalyticPlant(robot).build()
     if compiled is not None:  # the core is importable here
         x, tau = np.concatenate([alpha, alpha_dot]), np.zeros(3)
         timings.append(

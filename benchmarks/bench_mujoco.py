@@ -18,7 +18,8 @@ fall, the loops must hold, both engines must agree).
 Both engines run the same torque law, evaluated once per 1 ms step in Python and held over the
 step: a joint PD about a slow sinusoid (precomputed table) plus the gravity torque at the start
 pose, computed once. The Pinocchio runs integrate the full 12-joint tree with RK4 by hand: on
-``PinocchioPlant.derivative`` (no friction, no uncertainty, Baumgarte 20 rad/s) and on bare
+``PinocchioPlant.derivative`` (the readable Python plant of tests/reference/plants.py; no friction,
+no uncertainty, Baumgarte 20 rad/s) and on bare
 ``pin.constraintDynamics`` (the floor for Pinocchio from Python). Closures are not projected.
 """
 
@@ -39,8 +40,8 @@ import pinocchio as pin
 
 import delta_pin as dp
 from delta_pin.model.mjcf import STIFF_CONNECT
-from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.sim.mujoco_delta import MujocoDelta
+from tests.reference.plants import ReadableClosedChainPlant as PinocchioPlant  # the Python plant
 
 DT = 1e-3  # [s]
 ALPHA0 = 0.3322  # [rad] the paper's initial angle on every joint

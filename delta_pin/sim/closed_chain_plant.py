@@ -55,7 +55,6 @@ import pinocchio as pin
 
 from delta_pin.errors import (
     AssemblyError,
-    ForwardKinematicsError,
     InvalidParameterError,
     SimulationError,
 )
@@ -139,18 +138,14 @@ class ClosedChainPlant(Plant):
         self._coefficient_rates = not full_possible
         self.coordinates = coordinates
         self._set_friction(friction)
-        self.model = pin.Model(robot.model)  # own copy: the truth changes the inertias
-        self.data = self.model.createData()
+        self.model = robot.model
         self.baumgarte_gains = (baumgarte_frequency**2, 2.0 * baumgarte_frequency)
         gains = pin.BaumgarteCorrectorParameters(*self.baumgarte_gains)
         self.constraint_models = pin.StdVec_RigidConstraintModel()
-        self.constraint_datas = pin.StdVec_RigidConstraintData()
         for cm in robot.constraint_models:
             copy = pin.RigidConstraintModel(cm)
             copy.setBaumgarteCorrectorParameters(gains)
             self.constraint_models.append(copy)
-            self.constraint_datas.append(copy.createData())
-        pin.initConstraintDynamics(self.model, self.data, self.constraint_models, self.constraint_datas)
         redundant = closure_rank(robot, robot.reference_configuration) < robot.closure_size
         # mu = 0: the exact KKT solve; redundant equations need the proximal iterations
         self.settings = (
@@ -168,7 +163,6 @@ class ClosedChainPlant(Plant):
         self.nominal_platform_mass = nominal.mass
         self.nominal_platform_rotational = nominal.inertia
         self._nominal_lever = nominal.lever.copy()
-        self._inertia = self.model.inertias[self._payload_joint]  # a reference, rewritten in place
         if payload_mass is not None and not callable(payload_mass):
             constant = float(payload_mass)
             if not (math.isfinite(constant) and constant >= 0.0):
@@ -179,37 +173,23 @@ class ClosedChainPlant(Plant):
 
         self.payload_mass = payload_mass
         self.uncertainty = uncertainty
-        self._mass = (self.nominal_platform_mass, 0.0)  # the (body mass, payload) the model holds
-        self._tau = np.zeros(self.model.nv)
         self.nq = self.model.nq
         self.active = robot.actuated_indices
         self._active_v_rows = self.nq + np.asarray(self.active)  # alpha_dot's rows in a full state
+        if not failure_tolerance > 0.0:
+            raise InvalidParameterError(
+                f"failure_tolerance={failure_tolerance!r} must be a closure gap > 0 [m or rad], or math.inf"
+            )
         self.projection_tolerance = projection_tolerance
         self.failure_tolerance = failure_tolerance
         self.projections = 0  # steps projected back onto the loops
         self.largest_projected_gap = 0.0  # the largest gap a projection removed [m or rad]
         self._last_q = robot.reference_configuration.copy()
-        # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v
+        # joint springs and dampers (robot.joint_springs), the dampers on or off
         self.joint_damping = bool(joint_damping)
-        model = robot.model
-        springs = [(model.getJointId(n), k, ref, d) for n, (k, ref, d) in robot.joint_springs.items()]
-        one = [spring for spring in springs if model.nvs[spring[0]] == 1]
-        self._spring_q = np.array([model.idx_qs[j] for j, *_ in one], dtype=int)
-        self._spring_v = np.array([model.idx_vs[j] for j, *_ in one], dtype=int)
-        self._spring_k = np.array([k for _, k, _, _ in one], dtype=float)
-        self._spring_ref = np.array([r for _, _, r, _ in one], dtype=float)
-        self._spring_d = np.array([d if joint_damping else 0.0 for *_, d in one], dtype=float)
-        # dampers on joints of several degrees of freedom (ball joints): -d omega on each
-        many = [(j, d) for j, _, _, d in springs if model.nvs[j] != 1]
-        self._damper_v = np.array(
-            [model.idx_vs[j] + k for j, _ in many for k in range(model.nvs[j])], dtype=int
-        )
-        self._damper_d = np.array(
-            [d if joint_damping else 0.0 for j, d in many for _ in range(model.nvs[j])], dtype=float
-        )
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
         self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
-        self.stepped_in_core = False  # whether core_plant handed a loop a compiled copy
+        self.stepped_in_core = False  # whether build handed a loop a compiled copy
         self.metadata_extra = {
             "coordinates": coordinates,
             "baumgarte_frequency": baumgarte_frequency,
@@ -270,64 +250,6 @@ class ClosedChainPlant(Plant):
         array of masses (R, 1, 1)): the nominal one scaled with the mass."""
         return self.nominal_platform_rotational * (mass / self.nominal_platform_mass)
 
-    def _set_mass(self, mass: float, payload: float, rotational: np.ndarray | None = None) -> None:
-        """The payload body's inertia in the model for its mass [kg] (its COM kept, the rotational
-        inertia ``rotational``, by default :meth:`rotational_inertia` of the mass) plus a point
-        payload [kg] at the payload frame; nothing where both are unchanged."""
-        if (mass, payload) == self._mass:
-            return
-        rotational = self.rotational_inertia(mass) if rotational is None else rotational
-        if payload == 0.0 and self._mass[1] == 0.0:  # the body alone: rewritten in place
-            self._inertia.mass = mass
-            self._inertia.inertia = rotational
-        else:
-            inertia = pin.Inertia(mass, self._nominal_lever, rotational)
-            if payload:
-                inertia = inertia + pin.Inertia(payload, self._payload_point, np.zeros((3, 3)))
-            self.model.inertias[self._payload_joint] = inertia
-            self._inertia = self.model.inertias[self._payload_joint]
-        self._mass = (mass, payload)
-
-    def accelerations(self, t: float, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """ddq of the constrained tree at (q, v) under actuated torques tau (dof,) at time t [s]."""
-        mass, normal, disturbance = self.truth(t)
-        payload = 0.0 if self.payload_mass is None else float(self.payload_mass(t))
-        if payload != self._mass[1] and not (math.isfinite(payload) and payload >= 0.0):
-            raise SimulationError(f"payload_mass(t) returned {payload!r} kg", t)
-        self._set_mass(mass, payload)
-        self._tau[:] = 0.0
-        self._tau[self.active] = tau - (disturbance + self._friction(v[self.active], normal))
-        if self._spring_v.size:
-            self._tau[self._spring_v] -= self._spring_k * (q[self._spring_q] - self._spring_ref) + (
-                self._spring_d * v[self._spring_v]
-            )
-        if self._damper_v.size:
-            self._tau[self._damper_v] -= self._damper_d * v[self._damper_v]
-        if not self.robot.joint_couplings:
-            return self._constrained(q, v, self._tau)
-        return self._coupled(q, v)
-
-    def _constrained(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """ddq by ``pin.constraintDynamics`` on the frame closures (a view into ``data``)."""
-        return pin.constraintDynamics(
-            self.model, self.data, q, v, tau, self.constraint_models, self.constraint_datas, self.settings
-        )
-
-    def _coupled(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """ddq with the joint couplings' multipliers added (module docstring)."""
-        r, J, drift = self.robot.coupling_terms(q, v)
-        free = self._constrained(q, v, self._tau).copy()
-        D = np.empty((self.model.nv, len(r)))
-        for k in range(len(r)):
-            D[:, k] = self._constrained(q, v, self._tau + J[k]) - free
-        kp, kd = self.baumgarte_gains
-        target = -(J @ free + drift) - kd * (J @ v) - kp * r
-        try:
-            multipliers = np.linalg.solve(J @ D, target)
-        except np.linalg.LinAlgError:  # a coupling the closures already imply: redundant rows
-            multipliers = np.linalg.lstsq(J @ D, target, rcond=None)[0]
-        return free + D @ multipliers
-
     # ------------------------------------------------------------------ state interface
     def complete(self, alpha: np.ndarray, alpha_dot: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) on the loops for actuated positions and velocities, warm-started from the last
@@ -349,14 +271,6 @@ class ClosedChainPlant(Plant):
             return np.concatenate([alpha, alpha_dot])
         q, v = self.complete(alpha, alpha_dot, 0.0)
         return np.concatenate([q, v])
-
-    def derivative(self, t, x, tau):
-        if self.coordinates == "active":
-            q, v = self.complete(x[: self.dof], x[self.dof :], t)
-            return np.concatenate([x[self.dof :], self.accelerations(t, q, v, tau)[self.active]])
-        q, v = x[: self.nq], x[self.nq :]
-        rate = self.robot.configuration_rate(q, v) if self._coefficient_rates else v
-        return np.concatenate([rate, self.accelerations(t, q, v, tau)])
 
     def joint_state(self, x):
         if self.coordinates == "active":
@@ -388,57 +302,14 @@ class ClosedChainPlant(Plant):
     def closure_residual(self, x):
         return self.robot.closure_gap(self._configuration(x))
 
-    def finish_step(self, x, t):
-        return self.finish_step_residual(x, t)[0]
-
-    def finish_step_residual(self, x, t):
-        """:meth:`finish_step` and the closure residual of the state it returns, computed once: a
-        full-coordinate state whose gap exceeds ``projection_tolerance`` is projected back onto the
-        loops (positions by Newton from the actuated joints, velocities through the null space;
-        idle and passive coordinates kept where the robot has them)."""
-        if self.coordinates == "active":
-            return x, self.closure_residual(x)
-        if self._coefficient_rates:
-            x = np.concatenate([pin.normalize(self.model, x[: self.nq]), x[self.nq :]])
-        gap = self.robot.closure_gap(x[: self.nq])
-        if gap <= self.projection_tolerance:
-            return x, gap
-        if not (math.isfinite(gap) and np.isfinite(x).all()):
-            raise SimulationError(
-                f"the loop-closure gap is {gap:.3e}{self._gap_unit}: the state is no longer finite", t
-            )
-        if gap > self.failure_tolerance:
-            raise SimulationError(
-                f"the loop-closure gap reached {gap:.3e}{self._gap_unit}, above failure_tolerance="
-                f"{self.failure_tolerance:g}{self._gap_unit} (raise it, or shorten dt)",
-                t,
-            )
-        self._last_q = x[: self.nq].copy()
-        try:
-            if self.robot.has_unactuated_motion:  # idle and passive state of its own: keep it
-                q, v = self.robot.project_state(x[: self.nq], x[self.nq :])
-            else:
-                alpha, alpha_dot = self.joint_state(x)
-                q = self.robot.configuration(alpha, initial_guess=self._last_q)
-                v = self.robot.velocity_map(q) @ alpha_dot
-        except (AssemblyError, ForwardKinematicsError) as exc:
-            raise SimulationError(
-                f"the loops cannot be re-assembled after a closure gap of {gap:.3e}{self._gap_unit}: {exc}", t
-            ) from None
-        self._last_q = q
-        x = np.concatenate([q, v])
-        self.projections += 1
-        self.largest_projected_gap = max(self.largest_projected_gap, gap)
-        return x, self.closure_residual(x)
-
-    def core_plant(self, step: float = 0.0, count: int = 0):
+    def build(self, step: float = 0.0, count: int = 0):
         """The compiled core's copy of this plant (:mod:`delta_pin.sim.compiled_plant`)."""
         from delta_pin.sim.compiled_plant import build_core_plant
 
         return self._built_in_core(build_core_plant, step, count)
 
     def sampled_core(self, step: float, count: int):
-        """:meth:`core_plant` for the sampled loop: its RK4 steps integrate the whole x = [q, v]
+        """:meth:`build` for the sampled loop: its RK4 steps integrate the whole x = [q, v]
         (``coordinates="full"``) or the actuated (alpha, alpha_dot) with (q, v) completed at
         every stage (``"active"``); the run records the completed (q, v) either way."""
         compiled = super().sampled_core(step, count)

@@ -572,7 +572,7 @@ def validate_closed_chain(
     # the core's plant on Pinocchio's constraintDynamics (not its own axis-tree recursion): the
     # projection is checked against the library
     coordinates = "full" if robot.has_unactuated_motion else "active"
-    plant = ClosedChainPlant(robot, coordinates=coordinates).core_plant()
+    plant = ClosedChainPlant(robot, coordinates=coordinates).build()
     plant.use_axis_tree(False)
     report = ClosedChainValidation(robot.name, 0)
     report.notes.append("robot: " + robot.summary().replace("\n", "\n  "))
@@ -775,7 +775,7 @@ def _free_motion(
     cond(J_p) at about ENERGY_SAMPLES points)."""
     plant = ClosedChainPlant(robot, coordinates="full", joint_damping=False)  # conservative
     x0 = plant.initial_state(robot.home, alpha_dot)
-    compiled = plant.core_plant()  # its dynamics: the core's, as every run's
+    compiled = plant.build()  # its dynamics: the core's, as every run's
     nq, n = robot.model.nq, robot.dof
     zero = np.zeros(n)
 

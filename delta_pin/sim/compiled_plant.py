@@ -108,6 +108,8 @@ def build_core_plant(plant, step: float | None = None, count: int = 0):
         chain, constraints, *plant.baumgarte_gains, settings.absolute_accuracy, settings.mu,
         settings.max_iter, plant.projection_tolerance,
     )  # fmt: skip
+    if math.isfinite(plant.failure_tolerance):
+        compiled.set_failure_tolerance(plant.failure_tolerance, plant._gap_unit)
     if plant.friction is not None:
         compiled.set_friction(
             core_friction(plant.stribeck, plant.friction.sign_velocity_scale, plant._normal_force)

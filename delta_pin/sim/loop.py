@@ -11,7 +11,7 @@ callers:
   ``delta_pin/core/integrate/radau.hpp``) and ``"bdf2"`` (fixed steps dt / substeps) integrate the
   plant and the controller's state as one ODE, the law evaluated inside the integrator along the
   reference's cubic Hermite table (the paper's analysis);
-* the plant: its compiled copy (:meth:`Plant.core_plant <delta_pin.sim.plants.Plant.core_plant>`,
+* the plant: its compiled copy (:meth:`Plant.build <delta_pin.sim.plants.Plant.build>`,
   :meth:`~delta_pin.sim.plants.Plant.sampled_core`; every built-in plant has one) or, under RK4
   only, a plant a user wrote in Python, its ``derivative`` called back at every stage
   (:func:`~delta_pin.sim.compiled_plant.python_core_plant`);
@@ -249,7 +249,7 @@ def _core_plant(
     elif plant.dof == 0:
         why = "the robot has no actuated joint (a free motion)"
     else:
-        compiled = plant.core_plant()
+        compiled = plant.build()
         why = f"plant {getattr(plant, 'name', plant)!r} has no compiled copy (a plant written in Python)"
     if compiled is None:
         raise InvalidParameterError(

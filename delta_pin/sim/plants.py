@@ -12,9 +12,13 @@ joint disturbance F(t)) kept apart from what a controller knows:
   its closures through ``pin.constraintDynamics``, Baumgarte stabilisation and a projection onto
   the loops where the gap exceeds a tolerance; the platform mass changes during the run by
   rewriting the platform body's inertia (its rotational inertia scales with the mass);
-* :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G): the readable model
-  of :mod:`delta_pin.model.dynamics` in Python, its copy in the compiled core
-  (``delta_pin/core/plant/analytic_plant.hpp``) for the compiled loops.
+* :class:`AnalyticPlant` -- the paper's reduced ODE (eqs. 7-9, corrected G), stepped by the
+  compiled core (``delta_pin/core/plant/analytic_plant.hpp``).
+
+A built-in plant is a specification -- robot, friction, truth, settings -- that builds its
+compiled copy (:meth:`Plant.build`), and every run steps that copy. Their readable Python
+dynamics are the oracles of ``tests/reference/plants.py``. A plant a user writes in Python
+defines :meth:`Plant.derivative` instead, and the core's sampled loop calls it back.
 
 A time-varying mass enters as in eq. 13: the instantaneous M(m_o(t)), no momentum flux term.
 
@@ -30,9 +34,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from delta_pin.errors import ForwardKinematicsError, SimulationError
 from delta_pin.model.delta_robot import analytic_delta
-from delta_pin.model.dynamics import analytic_dynamics
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.model.kinematics import forward_kinematics_masked
 from delta_pin.model.robot import Delta
@@ -46,12 +48,13 @@ class Plant(ABC):
     """A simulated robot with state ``x``, driven by torques on its ``dof`` actuated joints: the
     interface every plant implements (the Delta's analytic and Pinocchio plants, any closed
     chain's, a serial robot's), with what a plant without closures or a time-varying truth needs
-    by default.
+    by default. A built-in plant builds its compiled copy (:meth:`build`); a plant written in
+    Python defines :meth:`derivative` (and :meth:`finish_step` where it corrects its state).
     """
 
     name: str = "plant"
     dof: int = 3  # actuated joints: the robot's where it says
-    stepped_in_core: bool = False  # whether core_plant handed a loop a compiled copy
+    stepped_in_core: bool = False  # whether build handed a loop a compiled copy
 
     def __init__(self, robot) -> None:
         self.robot = robot
@@ -66,9 +69,15 @@ class Plant(ABC):
     def initial_state(self, alpha: np.ndarray, alpha_dot: np.ndarray) -> np.ndarray:
         """Plant state for active angles [rad] and velocities [rad/s]."""
 
-    @abstractmethod
     def derivative(self, t: float, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """dx/dt at time t [s] under active-joint torques tau [N m]."""
+        """dx/dt at time t [s] under active-joint torques tau [N m]: what a plant written in Python
+        defines (the core's sampled loop calls it back at every RK4 stage). A built-in plant has
+        none: its dynamics are its compiled copy's (:meth:`build`); their readable twins are the
+        oracles of tests/reference/plants.py."""
+        raise NotImplementedError(
+            f"plant {self.name!r} steps in the compiled core (build()); a plant written in Python "
+            "defines derivative(t, x, tau)"
+        )
 
     @abstractmethod
     def joint_state(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -105,7 +114,7 @@ class Plant(ABC):
             self.precompute_truth(step, count)
         return tuple(np.asarray(column)[:count] for column in truth.table)
 
-    def core_plant(self, step: float = 0.0, count: int = 0):
+    def build(self, step: float = 0.0, count: int = 0):
         """This plant's copy in the compiled core (:mod:`delta_pin.sim.compiled_plant`), its
         time-varying truth tabulated at t = i step, i < count [s] (``count=0``: not yet, the
         caller sets it); ``None`` (the default) where it has none."""
@@ -129,7 +138,7 @@ class Plant(ABC):
         its truth tabulated at the stage times t = i step / 2, i < count; ``None`` where it has
         none: the core's loop then calls :meth:`derivative` back
         (:func:`~delta_pin.sim.compiled_plant.python_core_plant`)."""
-        return self.core_plant(step / 2.0, count)
+        return self.build(step / 2.0, count)
 
     def metadata(self) -> dict:
         """JSON-serialisable description stored with every run (``"plant"``: its name)."""
@@ -212,22 +221,10 @@ class AnalyticPlant(DeltaPlant):
     def initial_state(self, alpha, alpha_dot):
         return np.concatenate([alpha, alpha_dot]).astype(float)
 
-    def derivative(self, t, x, tau):
-        """[alpha_dot, alpha_ddot] of eq. 13 at t [s], x = [alpha [rad], alpha_dot [rad/s]] under
-        tau [N m]: M, C, G of :func:`~delta_pin.model.dynamics.analytic_dynamics` at m_o(t)."""
-        alpha, alpha_dot = x[:3], x[3:]
-        mass, passive = self.acceleration_terms(t, alpha_dot)
-        try:
-            terms = analytic_dynamics(self.robot.params, alpha, alpha_dot, platform_mass=mass)
-        except ForwardKinematicsError:
-            raise SimulationError(f"alpha={alpha.tolist()} rad has no forward kinematics", t) from None
-        rhs = tau - terms.coriolis - terms.G - passive
-        return np.concatenate([alpha_dot, np.linalg.solve(terms.M, rhs)])
-
     def joint_state(self, x):
         return x[:3], x[3:]
 
-    def core_plant(self, step: float = 0.0, count: int = 0):
+    def build(self, step: float = 0.0, count: int = 0):
         """The compiled core's reduced Delta with this plant's friction and truth
         (:func:`~delta_pin.sim.compiled_plant.build_core_analytic_plant`)."""
         from delta_pin.sim.compiled_plant import build_core_analytic_plant

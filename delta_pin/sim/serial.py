@@ -158,11 +158,6 @@ class SerialPlant(Plant):
     def initial_state(self, alpha, alpha_dot):
         return np.concatenate([alpha, alpha_dot]).astype(float)
 
-    def derivative(self, t, x, tau):
-        self._set_payload(t)
-        q, v = x[: self.dof], x[self.dof :]
-        return np.concatenate([v, pin.aba(self.model, self.data, q, v, tau)])
-
     def joint_state(self, x):
         return x[: self.dof], x[self.dof :]
 
@@ -172,7 +167,7 @@ class SerialPlant(Plant):
     def platform_position(self, x):
         return self.robot.forward_kinematics(x[: self.dof])
 
-    def core_plant(self, step: float = 0.0, count: int = 0):
+    def build(self, step: float = 0.0, count: int = 0):
         """The compiled core's plant of this robot (a tree without closures: Pinocchio's forward
         dynamics, every joint actuated), the payload m(t) a point mass at the end effector
         tabulated at t = i step, i < count [s] (:func:`~delta_pin.sim.compiled_plant.set_core_truth`)."""

@@ -10,6 +10,7 @@ import delta_pin as dp
 from delta_pin.control import AdaptiveRobustGains, NominalModel, Reference
 from delta_pin.studies.metrics import compute_metrics
 from tests.reference.laws import readable_evaluate, robust_gain_factor
+from tests.reference.plants import ReadableAnalyticPlant
 
 
 class UnitNominal(NominalModel):
@@ -132,7 +133,7 @@ def test_non_finite_state_is_an_error_with_the_time(robot):
         """The analytic plant, whose sensor returns NaN after 10 ms."""
 
         def __init__(self):
-            self.inner = dp.AnalyticPlant(robot)
+            self.inner = ReadableAnalyticPlant(robot)
             super().__init__(robot)
 
         def initial_state(self, a, ad):

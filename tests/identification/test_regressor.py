@@ -12,7 +12,7 @@ from delta_pin.identification.base import base_parameters, generic_states
 from delta_pin.identification.regressor import ClosedChainRegressor, JointColumns
 from delta_pin.identification.workflow import delta_lumped_map, friction_truth
 from delta_pin.model.friction import stribeck_torque
-from delta_pin.sim.closed_chain_plant import ClosedChainPlant
+from tests.reference.plants import ReadableClosedChainPlant
 
 SHIPPED = ("five_bar.urdf", "stewart.urdf")
 
@@ -68,7 +68,7 @@ def test_regressor_inverts_constrained_forward_dynamics(delta, shipped):
         friction = dp.Friction() if robot is delta else None
         regressor = ClosedChainRegressor(robot)
         theta = regressor.parameters(joint_values=friction_truth(robot, friction))
-        plant = ClosedChainPlant(robot, friction=friction, coordinates="full")
+        plant = ReadableClosedChainPlant(robot, friction=friction, coordinates="full")
         for alpha, alpha_dot, alpha_ddot in _states(robot, 5, 5):
             q, v = robot.state(alpha, alpha_dot)
             tau = regressor.rows(alpha, alpha_dot, alpha_ddot) @ theta

@@ -20,6 +20,7 @@ import delta_pin as dp
 from delta_pin.errors import AssemblyError, InvalidParameterError
 from delta_pin.sim.integrators import rk4_step
 from tests.model.closed_chain_fixtures import pinocchio_accelerations
+from tests.reference.plants import ReadableClosedChainPlant
 from tests.reference.projection import idle_projection
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "gepetto"
@@ -147,7 +148,7 @@ T_FALL = 0.03  # [s]
 
 
 def plant_free_fall(robot, t_end, h):
-    plant = dp.ClosedChainPlant(robot)
+    plant = ReadableClosedChainPlant(robot)
     x = plant.initial_state(robot.home, np.zeros(robot.dof))
     tau = np.zeros(robot.dof)
     for k in range(round(t_end / h)):

@@ -37,6 +37,7 @@ from tests.model.closed_chain_fixtures import configuration_rate
 mujoco = pytest.importorskip("mujoco")
 
 from delta_pin.model.mjcf_loader import _to_pinocchio_q, mjcf_to_pinocchio  # noqa: E402
+from tests.reference.plants import ReadableClosedChainPlant  # noqa: E402
 
 MENAGERIE = Path(__file__).resolve().parents[1] / "data" / "menagerie"
 CASSIE = MENAGERIE / "agility_cassie" / "cassie.xml"
@@ -121,7 +122,7 @@ def pinocchio_reference(robot, m, x0, t_end, joint_force=None):
 
 def plant_motion(robot, x0, t_end, h, tau):
     """The plant in full coordinates from x0 = (q, v), RK4 at h with its projections."""
-    plant = dp.ClosedChainPlant(robot, coordinates="full")
+    plant = ReadableClosedChainPlant(robot, coordinates="full")
     x = np.array(x0, dtype=float)
     for k in range(round(t_end / h)):
         x = rk4_step(lambda t, y: plant.derivative(t, y, tau), k * h, x, h)

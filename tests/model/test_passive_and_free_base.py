@@ -18,6 +18,7 @@ from delta_pin.errors import InvalidParameterError, URDFConventionError
 from delta_pin.model.gepetto_loader import _universal_axes
 from delta_pin.sim.integrators import rk4_step
 from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR, pinocchio_accelerations
+from tests.reference.plants import ReadableClosedChainPlant
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -32,7 +33,7 @@ def sprung(tmp_path_factory) -> Path:
 
 
 def plant_motion(robot, t_end, h, tau=None):
-    plant = dp.ClosedChainPlant(robot)
+    plant = ReadableClosedChainPlant(robot)
     x = plant.initial_state(robot.home, np.zeros(robot.dof))
     tau = np.zeros(robot.dof) if tau is None else tau
     for k in range(round(t_end / h)):

@@ -25,6 +25,7 @@ from delta_pin.sim.reference import ReferenceTable, tabulate_reference
 from delta_pin.sim.run import Run, run_metadata
 from delta_pin.sim.runner import _check_digital, _engine_robot
 from tests.reference.laws import called_back
+from tests.reference.plants import readable
 
 __all__ = ["integrate_lsoda", "run_python_loop", "simulate_reference"]
 
@@ -238,7 +239,7 @@ def simulate_reference(
             options["coordinates"] = coordinates
         elif integrator == "lsoda" and not robot.has_unactuated_motion:
             options["coordinates"] = "active"
-    plant = make_plant(plant, robot, friction, uncertainty, **options)
+    plant = readable(make_plant(plant, robot, friction, uncertainty, **options))  # Python dynamics
     controller = called_back(as_controller(controller))  # a built-in law's readable twin (laws.py)
     dof, h = plant.dof, dt / substeps
     per_sample = 1 if mode == "sampled" else {"rk4": 2 * substeps}.get(integrator, 4)

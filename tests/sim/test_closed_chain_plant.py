@@ -13,6 +13,7 @@ from delta_pin.cli import main
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.closed_chain_validation import validate_closed_chain
 from tests.model.closed_chain_fixtures import five_bar_urdf
+from tests.reference.plants import ReadableClosedChainPlant
 
 CIRCLE = dict(center=[-0.03, 0.0, -0.4], radius=0.03, period=1.0, plane="xz")  # starts at the home tip
 
@@ -32,7 +33,7 @@ def five_bar(five_bar_path):
 def test_plant_accelerations_equal_the_projected_dynamics(five_bar):
     """constraintDynamics on the tree (a redundant planar closure: proximal iterations) and
     M^-1 (tau - C alpha_dot - G) by projection are independent routes: 1e-10 relative."""
-    plant = dp.ClosedChainPlant(five_bar)
+    plant = ReadableClosedChainPlant(five_bar)
     assert plant.redundant
     rng = np.random.default_rng(3)
     for _ in range(3):
@@ -55,7 +56,7 @@ def test_payload_and_friction_enter_the_plant_as_stated(five_bar):
     is eq. 12's Stribeck law on the actuated joints."""
     stribeck = dp.StribeckParameters(r_a=0.04, v_s=0.1, mu_s=0.2, mu_d=0.1, mu_v=2.0)
     friction = dp.Friction(stribeck=stribeck, normal_force=10.0)
-    plant = dp.ClosedChainPlant(five_bar, friction, payload_mass=lambda t: 0.2 + t, payload_frame="tip")
+    plant = ReadableClosedChainPlant(five_bar, friction, payload_mass=lambda t: 0.2 + t, payload_frame="tip")
     alpha, alpha_dot, tau = five_bar.home + 0.05, np.array([0.3, -0.6]), np.array([0.5, 0.1])
     x = plant.initial_state(alpha, alpha_dot)
     t = 0.3

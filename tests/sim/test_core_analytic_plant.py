@@ -25,6 +25,7 @@ import delta_pin as dp
 from delta_pin.compiled.core import core
 from delta_pin.sim.compiled_plant import build_core_analytic_plant
 from tests.reference.laws import called_back
+from tests.reference.plants import ReadableAnalyticPlant
 from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)  # the paper's initial deviation (0.083 rad from path I's start)
@@ -40,7 +41,7 @@ def needs_core():
 def test_the_core_derivative_is_the_python_plants(robot, needs_core, rng):
     """dx/dt at random states, torques and stage rows, with eq. 12's friction and the paper's
     m_o(t), F_n(t), F(t) tabulated at the stage times (rows 0.5 ms apart)."""
-    plant = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
+    plant = ReadableAnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
     step, count = 5e-4, 400
     plant.precompute_truth(step, count)
     compiled = build_core_analytic_plant(plant, step, count)

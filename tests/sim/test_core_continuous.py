@@ -15,6 +15,7 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, SimulationError
+from tests.reference.plants import ReadableClosedChainPlant
 from tests.reference.python_loop import simulate_reference
 
 T_END = 0.4  # [s]: the reaching phase and a stretch of tracking; the LSODA reference costs ~seconds
@@ -139,7 +140,7 @@ def test_continuous_mode_names_why_a_run_has_no_core_loop():
 
     class UsersPlant(dp.Plant):  # a plant written in Python: no compiled copy
         def __init__(self):
-            self.inner = dp.ClosedChainPlant(five_bar, coordinates="active")
+            self.inner = ReadableClosedChainPlant(five_bar, coordinates="active")
             super().__init__(five_bar)
 
         def initial_state(self, alpha, alpha_dot):

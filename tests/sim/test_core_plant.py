@@ -22,6 +22,7 @@ from delta_pin.sim.integrators import rk4_step
 from tests.reference import projection as readable
 from tests.reference.assembly import newton_configuration
 from tests.reference.laws import called_back
+from tests.reference.plants import ReadableClosedChainPlant
 from tests.reference.python_loop import simulate_reference
 
 FULLY_ACTUATED = ["five_bar", "three_rrr", "three_rrr_mjcf", "stewart"]
@@ -64,7 +65,7 @@ def test_rk4_steps_and_projections_equal_the_python_plant(robot_name):
     plus finish_step, 1e-11 relative per step; the same number of projections."""
     robot = dp.load_robot(robot_name)
     friction = dp.Friction(stribeck=dp.StribeckParameters(r_a=0.05, v_s=0.1, mu_s=0.3, mu_d=0.2, mu_v=0.05))
-    plant = dp.ClosedChainPlant(
+    plant = ReadableClosedChainPlant(
         robot, friction, payload_mass=lambda t: 0.1 * (1.0 + np.sin(5.0 * t)), projection_tolerance=1e-15
     )
     h = 1e-3
@@ -368,7 +369,7 @@ def test_the_axis_tree_stage_equals_constraint_dynamics_on_the_delta():
     differs in its order only: measured ~1e-15 per evaluation). Robots it does not hold keep
     Pinocchio's."""
     robot = dp.load_delta()
-    plant = dp.ClosedChainPlant(
+    plant = ReadableClosedChainPlant(
         robot, dp.Friction(), payload_mass=lambda t: 0.2 * (1.0 + np.sin(5.0 * t)), projection_tolerance=1e-15
     )
     h = 1e-3

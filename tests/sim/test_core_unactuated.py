@@ -39,6 +39,7 @@ from delta_pin.sim.integrators import rk4_step
 from tests.model.closed_chain_fixtures import SPRUNG_FIVE_BAR
 from tests.reference import projection as readable
 from tests.reference.assembly import newton_configuration
+from tests.reference.plants import ReadableClosedChainPlant
 from tests.reference.python_loop import simulate_reference
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -142,7 +143,7 @@ def test_rk4_steps_and_projections_equal_the_python_plant(subject, request):
     1e-10 relative per step, and the same number of projections."""
     robot = request.getfixturevalue(subject) if subject not in IDLE else load(subject)
     assert robot.has_unactuated_motion
-    plant = dp.ClosedChainPlant(robot, projection_tolerance=1e-15)
+    plant = ReadableClosedChainPlant(robot, projection_tolerance=1e-15)
     h = 1e-3
     compiled = build_core_plant(plant, h / 2, 43)
     assert compiled.integrates_full_state

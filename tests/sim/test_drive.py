@@ -17,6 +17,7 @@ import delta_pin as dp
 from delta_pin.errors import InvalidParameterError
 from delta_pin.sim.drive import Drive, Encoder
 from delta_pin.sim.integrators import rk4_step
+from tests.reference.plants import ReadableAnalyticPlant
 from tests.reference.python_loop import simulate_reference
 
 ALPHA0 = np.full(3, 0.3322)
@@ -133,7 +134,7 @@ def test_the_controller_sees_encoder_readings_and_its_torque_acts_later(robot):
 def _stepped_by_hand(robot, controller, t_end, dt=1e-3):
     """The controller stepped sample by sample (Controller.step) on an analytic plant integrated
     with RK4 under a zero-order hold: what a user's own simulator would do."""
-    plant = dp.AnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
+    plant = ReadableAnalyticPlant(robot, dp.Friction(), dp.PaperUncertainty())
     steps = round(t_end / dt)
     reference = dp.PathI().joint_reference(robot, np.arange(steps + 1) * dt)
     plant.precompute_truth(dt / 2, 2 * steps + 1)  # the truth table simulate reads

@@ -10,18 +10,18 @@ catching any wrong axis, placement or inertia (those give 1e-3 rad and more with
 import numpy as np
 import pytest
 
-import delta_pin as dp
 from delta_pin.sim.integrators import rk4_step
 
 mujoco = pytest.importorskip("mujoco")
 from delta_pin.sim.mujoco_delta import MujocoDelta  # noqa: E402
+from tests.reference.plants import ReadableClosedChainPlant  # noqa: E402
 
 ALPHA0 = np.full(3, 0.3322)
 
 
 @pytest.fixture(scope="module")
 def assembled(robot):
-    plant = dp.PinocchioPlant(robot)
+    plant = ReadableClosedChainPlant(robot)
     x0 = plant.initial_state(ALPHA0, np.zeros(3))
     sim = MujocoDelta(robot)
     sim.set_state(x0[: plant.nq], x0[plant.nq :])

@@ -11,6 +11,7 @@ from delta_pin.sim.closed_chain_plant import PinocchioPlant
 from delta_pin.sim.plants import AnalyticPlant
 from delta_pin.sim.runner import simulate
 from delta_pin.sim.uncertainty import FunctionUncertainty
+from tests.reference.plants import ReadableAnalyticPlant, ReadableClosedChainPlant
 
 START = np.array([0.02, -0.01, -0.35])  # [m]
 
@@ -44,8 +45,9 @@ def _energy(robot, plant, x, stiffness, alpha_rest):
     spring = 0.5 * stiffness * np.sum((alpha - alpha_rest) ** 2)
     if isinstance(plant, PinocchioPlant):
         q, v = x[: plant.nq], x[plant.nq :]
-        kinetic = pin.computeKineticEnergy(plant.model, plant.data, q, v)
-        potential = pin.computePotentialEnergy(plant.model, plant.data, q)
+        data = plant.model.createData()
+        kinetic = pin.computeKineticEnergy(plant.model, data, q, v)
+        potential = pin.computePotentialEnergy(plant.model, data, q)
     else:
         kinetic = 0.5 * alpha_dot @ robot.analytic_dynamics(alpha, alpha_dot).M @ alpha_dot
         p = robot.params
@@ -104,13 +106,13 @@ def test_friction_only_dissipates(robot):
 
 def test_time_varying_platform_mass_reaches_the_pinocchio_model(robot):
     heavier = FunctionUncertainty(platform_mass=lambda t: robot.params.m_o * (1.0 + t))
-    plant = PinocchioPlant(robot, uncertainty=heavier)
+    plant = ReadableClosedChainPlant(robot, uncertainty=heavier)
     alpha = robot.inverse_kinematics(START)
     x = plant.initial_state(alpha, np.zeros(3))
     plant.derivative(1.0, x, np.zeros(3))
     assert plant.model.inertias[plant._payload_joint].mass == pytest.approx(2 * robot.params.m_o)
     # the analytic plant with the same mass sees the same acceleration
-    analytic = AnalyticPlant(robot, uncertainty=heavier)
+    analytic = ReadableAnalyticPlant(robot, uncertainty=heavier)
     np.testing.assert_allclose(
         analytic.derivative(1.0, analytic.initial_state(alpha, np.zeros(3)), np.zeros(3))[3:],
         plant.derivative(1.0, x, np.zeros(3))[plant.nq + plant.active],
@@ -157,7 +159,7 @@ def test_a_rough_torque_drifts_the_loops_and_the_plant_projects_them_back(robot)
 
 
 def test_a_state_whose_loops_cannot_be_reassembled_stops_the_run_with_time_and_gap(robot):
-    plant = PinocchioPlant(robot)
+    plant = ReadableClosedChainPlant(robot)
     x = plant.initial_state(np.full(3, 0.3), np.zeros(3))
     x[plant.active] = [0.822, -1.381, -2.754]  # [rad] no platform position closes these arms
     gap = plant.closure_residual(x)
@@ -171,18 +173,42 @@ def test_a_state_whose_loops_cannot_be_reassembled_stops_the_run_with_time_and_g
 
 
 def test_a_finite_failure_tolerance_still_stops_the_run(robot):
-    plant = PinocchioPlant(robot, failure_tolerance=1e-9)
+    plant = ReadableClosedChainPlant(robot, failure_tolerance=1e-9)
     x = plant.initial_state(np.full(3, 0.3), np.zeros(3))
     x[plant.active] += 1e-4  # [rad] an arm moved without its forearm: a gap of ~1e-5 m
     gap = plant.closure_residual(x)
     assert gap > 1e-9
     with pytest.raises(SimulationError, match=rf"gap reached {gap:.3e} m, above failure_tolerance=1e-09 m"):
         plant.finish_step_residual(x, 0.1)
-    relaxed = PinocchioPlant(robot)
+    relaxed = ReadableClosedChainPlant(robot)
     projected, after = relaxed.finish_step_residual(x.copy(), 0.1)
     assert after <= 1e-10 and relaxed.projections == 1
     assert relaxed.metadata()["closure_gap_projected_max"] == pytest.approx(gap)
     np.testing.assert_array_equal(projected[relaxed.active], x[relaxed.active])  # alpha kept
+
+
+def test_failure_tolerance_stops_a_run_in_the_core(robot):
+    """failure_tolerance acts in the compiled plant that steps every run (before, only the Python
+    plant read it): a swinging Delta whose RK4 steps open the loops by ~1e-12 m (Baumgarte keeps
+    them there), projected above 1e-14 m, stops at a gap above failure_tolerance=1e-13 m with the
+    gap, the tolerance and its time; with the default (none) the same run goes on, projecting. A
+    tolerance that is not a gap > 0 is refused in one line."""
+    alpha_rest = robot.inverse_kinematics(START)
+
+    def swing(t, alpha, alpha_dot):
+        return 3.0 * (alpha_rest - alpha)
+
+    options = {"alpha0": alpha_rest + 0.2, "t_end": 0.2, "dt": 1e-3}
+    with pytest.raises(SimulationError, match=r"gap reached \S+ m, above failure_tolerance=1e-13 m") as stop:
+        plant = dp.ClosedChainPlant(robot, projection_tolerance=1e-14, failure_tolerance=1e-13)
+        simulate(robot, swing, plant=plant, **options)
+    assert 0.0 < stop.value.time <= 0.2
+    plant = dp.ClosedChainPlant(robot, projection_tolerance=1e-14)
+    run = simulate(robot, swing, plant=plant, **options)
+    assert run.metadata["core_plant"] and run.metadata["closure_projections"] > 0
+    assert run.metadata["closure_gap_projected_max"] > 1e-13
+    with pytest.raises(dp.InvalidParameterError, match=r"failure_tolerance=0.0 must be a closure gap > 0"):
+        dp.ClosedChainPlant(robot, failure_tolerance=0.0)
 
 
 def test_both_plants_read_one_truth(robot):

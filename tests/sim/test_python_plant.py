@@ -9,16 +9,16 @@ import pytest
 
 import delta_pin as dp
 from delta_pin.errors import InvalidParameterError, SimulationError
-from delta_pin.sim.plants import AnalyticPlant
+from tests.reference.plants import ReadableAnalyticPlant
 from tests.reference.python_loop import simulate_reference
 
 
-class UsersPlant(AnalyticPlant):
+class UsersPlant(ReadableAnalyticPlant):
     """The paper's reduced Delta as a user would write a plant: Python only, no compiled copy."""
 
     name = "users_plant"
 
-    def core_plant(self, step: float = 0.0, count: int = 0):
+    def build(self, step: float = 0.0, count: int = 0):
         return None
 
 

@@ -318,6 +318,10 @@ namespace delta_pin
     // passive joints (the actuated joints do not determine its state).
     void integrate_active(bool active);
     bool integrates_active() const { return active_; }
+    // The closure gap [m, rad] above which settle() stops the run instead of projecting (default:
+    // none, +inf), named in its message with `unit` (" m" where every closure is a point)
+    void set_failure_tolerance(double tolerance, const std::string & unit);
+    double failure_tolerance() const { return failure_tolerance_; }
     // x's configuration coefficients renormalised and, where its closure gap exceeds the
     // projection tolerance, x projected back onto the loops (from the actuated coordinates, or
     // keeping the idle and passive state); returns the gap of the result. Throws
@@ -362,6 +366,8 @@ namespace delta_pin
     Vector coupling_r_, coupling_drift_, free_, target_;
     Matrix coupling_J_, responses_;
     bool active_ = false;  // step() in active coordinates (integrate_active)
+    double failure_tolerance_ = std::numeric_limits<double>::infinity();
+    std::string gap_unit_;
     double active_step(Vector & x, const Vector & tau, double t, double h);
     // scratch
     Vector tau_, last_q_, k1_, k2_, k3_, k4_, y_, joints_, joint_rates_, active_v_, active_ddot_;

@@ -9,6 +9,7 @@
 #include "multibody.hpp"
 
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -396,6 +397,14 @@ namespace delta_pin
       return gap;
     if (!(std::isfinite(gap) && x.allFinite()))
       throw SimulationFailure("the loop-closure gap is nan: the state is no longer finite");
+    if (gap > failure_tolerance_)
+    {
+      std::ostringstream text;
+      text << std::scientific << std::setprecision(3) << "the loop-closure gap reached " << gap << gap_unit_
+           << ", above failure_tolerance=" << std::defaultfloat << std::setprecision(6) << failure_tolerance_
+           << gap_unit_ << " (raise it, or shorten dt)";
+      throw SimulationFailure(text.str());
+    }
     last_q_ = x.head(nq);
     Vector q = last_q_, v = x.tail(nv);
     bool closed;
@@ -431,6 +440,15 @@ namespace delta_pin
     ++projections_;
     largest_projected_gap_ = std::max(largest_projected_gap_, gap);
     return chain_.closure_gap(q);
+  }
+
+  void ClosedChainPlant::set_failure_tolerance(double tolerance, const std::string & unit)
+  {
+    if (!(tolerance > 0.0))
+      throw std::invalid_argument(
+        "failure_tolerance is " + std::to_string(tolerance) + ", expected a closure gap > 0 (m or rad), or inf");
+    failure_tolerance_ = tolerance;
+    gap_unit_ = unit;
   }
 
   void ClosedChainPlant::integrate_active(bool active)

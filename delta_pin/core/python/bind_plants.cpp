@@ -98,6 +98,10 @@ void bind_plants(nb::module_ & m)
     .def_prop_rw("integrates_active", &ClosedChainPlant::integrates_active, &ClosedChainPlant::integrate_active,
                  "Whether a sampled step integrates the actuated (alpha, alpha_dot), (q, v) completed at every "
                  "stage (True), or the whole x = [q, v] (False).")
+    .def("set_failure_tolerance", &ClosedChainPlant::set_failure_tolerance, nb::arg("tolerance"), nb::arg("unit"),
+         "The closure gap [m or rad] above which a step stops the run instead of a projection (inf: none), "
+         "`unit` its unit in the message.")
+    .def_prop_ro("failure_tolerance", &ClosedChainPlant::failure_tolerance)
     .def_prop_ro("stage", &ClosedChainPlant::stage, "'axis_tree' or 'constraint_dynamics': what gives ddq")
     .def("use_axis_tree", &ClosedChainPlant::use_axis_tree, nb::arg("use"),
          "The axis-tree stage where it applies (True), or Pinocchio's constraintDynamics (False).")
