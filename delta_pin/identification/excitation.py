@@ -87,6 +87,11 @@ class FourierExcitation:
         alpha_ddot = -(s * w**2) @ self.a.T - (c * w**2) @ self.b.T
         return alpha, alpha_dot, alpha_ddot
 
+    def joints(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` (a joint-space trajectory: simulate assembles the end effector's xyz
+        at its samples only, :func:`~delta_pin.sim.reference.tabulate_reference`)."""
+        return self.evaluate(t)
+
     def joint_reference(self, robot, t) -> JointReference:
         """The reference a controller tracks (``simulate``'s trajectory interface); xyz is the
         end effector's position."""

@@ -60,8 +60,18 @@ class ReferenceTable:
 
 def tabulate_reference(robot: Delta, trajectory, alpha0, dof: int, steps: int, dt: float, per_sample: int):
     """(reference table on the grid dt / per_sample, desired xyz at the samples, alpha0): the
-    trajectory's, or a hold of ``alpha0`` (default: the robot's ``home``) when there is none."""
+    trajectory's, or a hold of ``alpha0`` (default: the robot's ``home``) when there is none.
+
+    A trajectory in joint space says so by a method ``joints(t) -> (alpha, alpha_dot,
+    alpha_ddot)`` (N, dof) at times t (N,) [s]: its joints are then read on the whole grid and its
+    ``joint_reference`` -- the end effector's xyz, by forward kinematics -- at the samples only,
+    a quarter of the assemblies of a continuous run's grid."""
     grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
+    joints = getattr(trajectory, "joints", None)
+    if joints is not None and per_sample > 1:
+        table = ReferenceTable(dt / per_sample, *(np.asarray(a, dtype=float) for a in joints(grid)))
+        at_samples = trajectory.joint_reference(robot, grid[::per_sample])
+        return table, at_samples.xyz, table.alpha[0] if alpha0 is None else alpha0
     if trajectory is not None:
         ref = trajectory.joint_reference(robot, grid)
         table = ReferenceTable(dt / per_sample, ref.alpha, ref.alpha_dot, ref.alpha_ddot)

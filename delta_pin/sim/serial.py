@@ -97,22 +97,27 @@ class JointSinusoid:
         self.frequency = np.broadcast_to(np.asarray(frequency, dtype=float), shape).copy()
         self.phase = np.broadcast_to(np.asarray(phase, dtype=float), shape).copy()
 
-    def joint_reference(self, robot: SerialRobot, t: np.ndarray) -> JointReference:
-        """Analytic q^d, q_dot^d, q_ddot^d at times ``t`` (N,) [s]; xyz = end-effector FK."""
+    def joints(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Analytic (q^d [rad], q_dot^d [rad/s], q_ddot^d [rad/s^2]) (N, dof) at times ``t`` (N,) [s]
+        (a joint-space trajectory: :func:`~delta_pin.sim.reference.tabulate_reference`)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))[:, None]
         omega = 2.0 * np.pi * self.frequency
         angle = omega * t + self.phase
-        q = self.center + self.amplitude * np.sin(angle)
+        return (
+            self.center + self.amplitude * np.sin(angle),
+            self.amplitude * omega * np.cos(angle),
+            -self.amplitude * omega**2 * np.sin(angle),
+        )
+
+    def joint_reference(self, robot: SerialRobot, t: np.ndarray) -> JointReference:
+        """:meth:`joints` at times ``t`` (N,) [s]; xyz = end-effector FK."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        q, q_dot, q_ddot = self.joints(t)
         zeros = np.zeros((len(t), 3))
         return JointReference(
-            t=t[:, 0],
-            xyz=robot.forward_kinematics(q),
-            xyz_dot=zeros,
-            xyz_ddot=zeros,
-            alpha=q,
-            alpha_dot=self.amplitude * omega * np.cos(angle),
-            alpha_ddot=-self.amplitude * omega**2 * np.sin(angle),
-        )
+            t=t, xyz=robot.forward_kinematics(q), xyz_dot=zeros, xyz_ddot=zeros, alpha=q, alpha_dot=q_dot,
+            alpha_ddot=q_ddot,
+        )  # fmt: skip
 
     def metadata(self) -> dict:
         return {
