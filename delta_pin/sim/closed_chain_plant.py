@@ -63,6 +63,7 @@ from delta_pin.model.delta_robot import as_closed_chain
 from delta_pin.model.friction import Friction, stribeck_torque
 from delta_pin.sim.plants import AnalyticPlant, Plant
 from delta_pin.sim.truth import PlantTruth
+from delta_pin.sim.uncertainty import Uncertainty
 
 __all__ = ["PLANTS", "ClosedChainPlant", "PinocchioPlant", "closed_chain_plant", "make_plant"]
 
@@ -100,7 +101,7 @@ class ClosedChainPlant(Plant):
         self,
         robot: ClosedChainRobot,
         friction: Friction | bool | None = None,
-        uncertainty=None,
+        uncertainty: Uncertainty | None = None,
         *,
         payload_mass: Callable[[float], float] | float | None = None,
         payload_frame: str | None = None,
