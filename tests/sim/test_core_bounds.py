@@ -279,6 +279,20 @@ case("closure_gap: empty q", "q", lambda: plant.closure_gap(np.zeros(0)))
 case("run: x of nq", "x", lambda: sampled(x=q0.copy()))
 case("run: NaN x", "x", lambda: sampled(x=np.full(NQ + NV, NAN)))
 case("run: non-contiguous x", "x:ok", lambda: sampled(x=np.repeat(x, 2)[::2]))
+case("derivative: x of nq", "x", lambda: plant.derivative(q0.copy(), tau, 0.0))
+case("derivative: tau of 3", "tau", lambda: plant.derivative(x, np.zeros(3), 0.0))
+case("derivative: NaN row", "row", lambda: plant.derivative(x, tau, NAN))
+case("failure_tolerance 0", "failure_tolerance", lambda: plant.set_failure_tolerance(0.0, " m"))
+case("failure_tolerance NaN", "failure_tolerance", lambda: plant.set_failure_tolerance(NAN, " m"))
+def active_run(x=x):
+    made = build_core_plant(python_plant)
+    made.integrates_active = True
+    settings = m.RunSettings()
+    settings.samples, settings.dt = 5, 1e-3
+    return m.run(made, lambda k, state, alpha, alpha_dot: np.zeros(DOF), settings, x, m.RunRecords())
+case("active run: x of nq", "x", lambda: active_run(x=q0.copy()))
+case("active run: NaN x", "x", lambda: active_run(x=np.full(NQ + NV, NAN)))
+case("active run: non-contiguous x", "x:ok", lambda: active_run(x=np.repeat(x, 2)[::2]))
 """,
     "laws": """
 zeros, ones = np.zeros(DOF), np.ones(DOF)

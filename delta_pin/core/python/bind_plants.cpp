@@ -16,6 +16,24 @@ using namespace delta_pin::binding;
 using delta_pin::RowMatrix;
 using delta_pin::check_finite;
 
+namespace
+{
+  // dx/dt of a plant's state x [q, v] under its actuated torques, the truth at the table's row
+  // position `row`: shapes and values checked, one line each
+  template<typename Plant>
+  Eigen::VectorXd checked_derivative(Plant & plant, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
+  {
+    delta_pin::check_size(x, plant.nq() + plant.nv(), "x");
+    delta_pin::check_size(tau, plant.dof(), "tau");
+    check_finite(x, "x");
+    check_finite(tau, "tau");
+    check_finite(row, "row");
+    Eigen::VectorXd dx;
+    plant.derivative(x, tau, row, dx);
+    return dx;
+  }
+} // namespace
+
 void bind_plants(nb::module_ & m)
 {
   using delta_pin::ChainDescription;
@@ -119,18 +137,7 @@ void bind_plants(nb::module_ & m)
       nb::arg("q"), nb::arg("v"), nb::arg("tau"), nb::arg("row"),
       "ddq at (q, v) under the actuated torques, the truth at the table's row position `row`.")
     .def(
-      "derivative",
-      [](ClosedChainPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
-      {
-        delta_pin::check_size(x, self.nq() + self.nv(), "x");
-        check_finite(x, "x");
-        check_finite(tau, "tau");
-        check_finite(row, "row");
-        Eigen::VectorXd dx;
-        self.derivative(x, tau, row, dx);
-        return dx;
-      },
-      nb::arg("x"), nb::arg("tau"), nb::arg("row"),
+      "derivative", &checked_derivative<ClosedChainPlant>, nb::arg("x"), nb::arg("tau"), nb::arg("row"),
       "dx/dt of the whole state x = [q, v] (configuration rates, ddq) under the actuated torques, the truth at "
       "the table's row position `row`.");
   nb::class_<AnalyticDeltaPlant, CorePlant>(m, "AnalyticDeltaPlant")
@@ -166,17 +173,5 @@ void bind_plants(nb::module_ & m)
       nb::arg("step"), nb::arg("platform_masses"), nb::arg("normal_forces"), nb::arg("disturbances"),
       "The time-varying truth at t = i step [s]: m_o [kg], F_n [N], F [N m] (empty: nominal).")
     .def(
-      "derivative",
-      [](AnalyticDeltaPlant & self, const Eigen::VectorXd & x, const Eigen::VectorXd & tau, double row)
-      {
-        delta_pin::check_size(x, 6, "x");  // [alpha, alpha_dot]
-        delta_pin::check_size(tau, 3, "tau");
-        check_finite(x, "x");
-        check_finite(tau, "tau");
-        check_finite(row, "row");
-        Eigen::VectorXd dx;
-        self.derivative(x, tau, row, dx);
-        return dx;
-      },
-      nb::arg("x"), nb::arg("tau"), nb::arg("row"), "dx/dt at x under tau, the truth at the row position `row`.");
+      "derivative", &checked_derivative<AnalyticDeltaPlant>, nb::arg("x"), nb::arg("tau"), nb::arg("row"), "dx/dt at x under tau, the truth at the row position `row`.");
 }
