@@ -60,6 +60,7 @@ class FourierExcitation:
     period: float
     duration: float
     name: str = field(default="fourier excitation")
+    joint_space = True  # a class attribute: its joints by joint_values (sim/reference.py)
 
     def __post_init__(self) -> None:
         self.alpha0 = np.asarray(self.alpha0, dtype=float)
@@ -87,7 +88,7 @@ class FourierExcitation:
         alpha_ddot = -(s * w**2) @ self.a.T - (c * w**2) @ self.b.T
         return alpha, alpha_dot, alpha_ddot
 
-    def joints(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def joint_values(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`evaluate` (a joint-space trajectory: simulate assembles the end effector's xyz
         at its samples only, :func:`~delta_pin.sim.reference.tabulate_reference`)."""
         return self.evaluate(t)

@@ -62,14 +62,14 @@ def tabulate_reference(robot: Delta, trajectory, alpha0, dof: int, steps: int, d
     """(reference table on the grid dt / per_sample, desired xyz at the samples, alpha0): the
     trajectory's, or a hold of ``alpha0`` (default: the robot's ``home``) when there is none.
 
-    A trajectory in joint space says so by a method ``joints(t) -> (alpha, alpha_dot,
-    alpha_ddot)`` (N, dof) at times t (N,) [s]: its joints are then read on the whole grid and its
-    ``joint_reference`` -- the end effector's xyz, by forward kinematics -- at the samples only,
-    a quarter of the assemblies of a continuous run's grid."""
+    A trajectory in joint space declares it (``joint_space = True``) and gives its joints by
+    ``joint_values(t) -> (alpha, alpha_dot, alpha_ddot)`` (N, dof) at times t (N,) [s]: they are
+    then read on the whole grid and its ``joint_reference`` -- the end effector's xyz, by forward
+    kinematics -- at the samples only, a quarter of the assemblies of a continuous run's grid."""
     grid = np.arange(steps * per_sample + 1) * (dt / per_sample)
-    joints = getattr(trajectory, "joints", None)
-    if joints is not None and per_sample > 1:
-        table = ReferenceTable(dt / per_sample, *(np.asarray(a, dtype=float) for a in joints(grid)))
+    if getattr(trajectory, "joint_space", False) and per_sample > 1:
+        values = trajectory.joint_values(grid)
+        table = ReferenceTable(dt / per_sample, *(np.asarray(a, dtype=float) for a in values))
         at_samples = trajectory.joint_reference(robot, grid[::per_sample])
         return table, at_samples.xyz, table.alpha[0] if alpha0 is None else alpha0
     if trajectory is not None:

@@ -89,6 +89,7 @@ class JointSinusoid:
 
     name = "joint sinusoid"
     duration = None
+    joint_space = True  # its joints by joint_values (delta_pin.sim.reference.tabulate_reference)
 
     def __init__(self, center, amplitude, frequency, phase=0.0) -> None:
         self.center = np.asarray(center, dtype=float)
@@ -97,7 +98,7 @@ class JointSinusoid:
         self.frequency = np.broadcast_to(np.asarray(frequency, dtype=float), shape).copy()
         self.phase = np.broadcast_to(np.asarray(phase, dtype=float), shape).copy()
 
-    def joints(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def joint_values(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Analytic (q^d [rad], q_dot^d [rad/s], q_ddot^d [rad/s^2]) (N, dof) at times ``t`` (N,) [s]
         (a joint-space trajectory: :func:`~delta_pin.sim.reference.tabulate_reference`)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))[:, None]
@@ -110,9 +111,9 @@ class JointSinusoid:
         )
 
     def joint_reference(self, robot: SerialRobot, t: np.ndarray) -> JointReference:
-        """:meth:`joints` at times ``t`` (N,) [s]; xyz = end-effector FK."""
+        """:meth:`joint_values` at times ``t`` (N,) [s]; xyz = end-effector FK."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        q, q_dot, q_ddot = self.joints(t)
+        q, q_dot, q_ddot = self.joint_values(t)
         zeros = np.zeros((len(t), 3))
         return JointReference(
             t=t, xyz=robot.forward_kinematics(q), xyz_dot=zeros, xyz_ddot=zeros, alpha=q, alpha_dot=q_dot,

@@ -22,7 +22,8 @@ class _CountingRobot:
 
 
 def test_a_joint_space_trajectory_assembles_its_end_effector_at_the_samples_only():
-    """A trajectory with ``joints(t)`` (JointSinusoid, the identification's excitation) has its
+    """A trajectory that declares ``joint_space`` (JointSinusoid, the identification's excitation;
+    a planned trajectory file's ``joints`` is its joint names, not this) has its
     joints read on the whole grid (dt / 4 for a continuous run) and its end effector assembled at
     the samples only: the same table as its ``joint_reference`` on the whole grid (equal arrays:
     the same arithmetic at the same times) and the same xyz to 1e-12 m (Newton's tolerance, from
