@@ -637,17 +637,25 @@ def _terminate_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
         process.terminate()
 
 
+_WORKER_BLAS_LIMIT = []  # the worker's one-thread BLAS limit, kept for its lifetime
+
+
 def _init_worker(parent: int) -> None:
-    """Initializer of the pool's workers: Ctrl-C is for the parent process to handle, and a worker
+    """Initializer of the pool's workers: Ctrl-C is for the parent process to handle, a worker
     ends when the parent process ``parent`` dies (killed outright, its workers used to live on,
-    blocked on their pipe, ~220 MB each)."""
+    blocked on their pipe, ~220 MB each), and its BLAS runs on one thread: the pool already has a
+    process per core, and OpenBLAS's threads, which wait spinning after each call, took the other
+    workers' cores (docs/measured/bench_sweep.md)."""
     import signal
+
+    from threadpoolctl import threadpool_limits
 
     from delta_pin.utils.processes import die_with_parent
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the CLI's handler, inherited by the fork
     die_with_parent(parent)
+    _WORKER_BLAS_LIMIT.append(threadpool_limits(limits=1, user_api="blas"))
 
 
 def _resolve_executor(executor, workers, scheduler):

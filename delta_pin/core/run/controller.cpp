@@ -54,29 +54,26 @@ namespace delta_pin
         + " and " + std::to_string(n));
   }
 
-  Vector ProjectedLaw::compensation(const Vector & alpha_dot) const
+  void ProjectedLaw::compensation(const Vector & alpha_dot, Vector & out) const
   {
-    Vector compensation;
-    if (model_->compensation(alpha_dot, compensation))  // the model's own (a Python model's)
+    if (model_->compensation(alpha_dot, out))  // the model's own (a Python model's)
     {
-      check_size(compensation, model_->dof(), "the nominal model's compensation");
-      return compensation;
+      check_size(out, model_->dof(), "the nominal model's compensation");
+      return;
     }
-    compensation = disturbance_;
+    out = disturbance_;
     if (friction_.enabled)
-      for (Eigen::Index i = 0; i < compensation.size(); ++i)
-        compensation[i] += friction_.torque(alpha_dot[i], friction_.normal_force[i]);
-    return compensation;
+      for (Eigen::Index i = 0; i < out.size(); ++i)
+        out[i] += friction_.torque(alpha_dot[i], friction_.normal_force[i]);
   }
 
   void ProjectedLaw::compute(
     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
     const Vector & ref_alpha_ddot, const Vector & z, Vector & torque, Vector & z_dot)
   {
-    Matrix M, C;
-    Vector G;
-    terms(alpha, alpha_dot, M, C, G);
-    law(M, C, G, compensation(alpha_dot), alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
+    terms(alpha, alpha_dot, M_, C_, G_);
+    compensation(alpha_dot, compensation_);
+    law(M_, C_, G_, compensation_, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, z, torque, z_dot);
   }
 
   void ProjectedLaw::law(
@@ -214,6 +211,22 @@ namespace delta_pin
     check_size(gains_.T_p, dof(), "T_p");
     check_size(gains_.T_v, dof(), "T_v");
     info_.robust_torque = Vector::Zero(dof());
+    if (dof() == 3)
+    {
+      gains3_.D = gains_.D;
+      gains3_.T_p = gains_.T_p;
+      gains3_.T_v = gains_.T_v;
+      gains3_.beta = gains_.beta;
+      gains3_.xi = gains_.xi;
+      gains3_.epsilon = gains_.epsilon;
+      gains3_.b1 = gains_.b1;
+      gains3_.b2 = gains_.b2;
+      gains3_.b3 = gains_.b3;
+      gains3_.design_two = gains_.design_two;
+      gains3_.vector_rho = gains_.vector_rho;
+      gains3_.sampling_period = gains_.sampling_period;
+      gains3_.sampling_margin = gains_.sampling_margin;
+    }
   }
 
   void AdaptiveRobust::law(
@@ -224,9 +237,25 @@ namespace delta_pin
     if (z.size() != (gains_.vector_rho ? 3 : 1))
       throw std::invalid_argument("rho_hat has the wrong size");
     RhoVector rho_hat = z, rate;
-    adaptive_robust_law<Eigen::Dynamic>(
-      gains_, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho_hat, torque, rate,
-      info_);
+    if (dof() == 3)
+    {
+      typedef Eigen::Vector3d V;
+      AdaptiveRobustInternals<3> info;
+      V torque3;
+      adaptive_robust_law<3>(
+        gains3_, Eigen::Matrix3d(M), Eigen::Matrix3d(C), V(G), V(compensation), V(alpha), V(alpha_dot), V(ref_alpha),
+        V(ref_alpha_dot), V(ref_alpha_ddot), rho_hat, torque3, rate, info);
+      torque = torque3;
+      info_.robust_torque = info.robust_torque;
+      info_.Lambda = info.Lambda;
+      info_.robust_gain = info.robust_gain;
+      info_.omega_norm = info.omega_norm;
+      info_.adaptation_active = info.adaptation_active;
+    }
+    else
+      adaptive_robust_law<Eigen::Dynamic>(
+        gains_, M, C, G, compensation, alpha, alpha_dot, ref_alpha, ref_alpha_dot, ref_alpha_ddot, rho_hat, torque,
+        rate, info_);
     z_dot = rate;
   }
 
@@ -308,9 +337,10 @@ namespace delta_pin
     auto model = [this](const Vector & a, const Vector & a_dot, Matrix & M, Vector & n_bar)
     {
       Matrix C;
-      Vector G;
+      Vector G, compensation_here;
       terms(a, a_dot, M, C, G);
-      n_bar = C * a_dot + G + compensation(a_dot);
+      compensation(a_dot, compensation_here);
+      n_bar = C * a_dot + G + compensation_here;
       return true;
     };
     next.resize(z.size());
@@ -361,7 +391,9 @@ namespace delta_pin
     const Vector & alpha, const Vector & alpha_dot, const Vector & ref_alpha, const Vector & ref_alpha_dot,
     const Vector & ref_alpha_ddot, const Vector &, Vector & torque, Vector & state_dot)
   {
-    torque = lqr_law<Eigen::Dynamic>(gains_, compensation(alpha_dot), alpha, alpha_dot, ref_alpha, ref_alpha_dot,
+    Vector compensation_here;
+    compensation(alpha_dot, compensation_here);
+    torque = lqr_law<Eigen::Dynamic>(gains_, compensation_here, alpha, alpha_dot, ref_alpha, ref_alpha_dot,
                                      ref_alpha_ddot);
     state_dot.resize(0);
   }

@@ -93,8 +93,8 @@ namespace delta_pin
     // the nominal M, C, G at (alpha, alpha_dot), assembled from the previous call's configuration
     // (SimulationFailure where the loops do not close)
     void terms(const Vector & alpha, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G);
-    // F̄ [+ M̄_f(alpha_dot) where set_friction switched it on] [N m]
-    Vector compensation(const Vector & alpha_dot) const;
+    // F̄ [+ M̄_f(alpha_dot) where set_friction switched it on] [N m] into `out`
+    void compensation(const Vector & alpha_dot, Vector & out) const;
     // the state advances to compute()'s next value each sample, not by Euler (Controller.advance
     // of a law with a next_state)
     void set_discrete() { discrete_ = true; }
@@ -111,6 +111,9 @@ namespace delta_pin
     RowMatrix alpha_d_, alpha_dot_d_, alpha_ddot_d_;
     double dt_ = 0.0;
     Vector z_, z_dot_;
+    // compute()'s M, C, G and compensation, kept between evaluations (no allocation once sized)
+    Matrix M_, C_;
+    Vector G_, compensation_;
   };
 
   // C1 + C2 (eqs. 23 and 26): tau = M̄ a_ref + C̄ v_ref + Ḡ + F̄ [+ M̄_f] - T_p r - T_v r_dot
@@ -176,6 +179,9 @@ namespace delta_pin
   private:
     AdaptiveRobustGains<Eigen::Dynamic> gains_;
     AdaptiveRobustInternals<Eigen::Dynamic> info_;
+    // three actuated joints (the Delta's): the same law at a fixed size, without the heap
+    // allocations of the dynamic one's temporaries
+    AdaptiveRobustGains<3> gains3_;
   };
 
   // Time-delay control (TimeDelayControl in delta_pin/control/digital.py; time_delay_control.hpp),
