@@ -25,6 +25,27 @@ namespace delta_pin
     double sampling_period = 0.0, sampling_margin = 1.0;  // 0: the paper's law unchanged
   };
 
+  // The same gains at another size (N = 3 from the dynamic size: the Delta's fixed-size law)
+  template<int To, int From>
+  AdaptiveRobustGains<To> gains_at_size(const AdaptiveRobustGains<From> & from)
+  {
+    AdaptiveRobustGains<To> to;
+    to.D = from.D;
+    to.T_p = from.T_p;
+    to.T_v = from.T_v;
+    to.beta = from.beta;
+    to.xi = from.xi;
+    to.epsilon = from.epsilon;
+    to.b1 = from.b1;
+    to.b2 = from.b2;
+    to.b3 = from.b3;
+    to.design_two = from.design_two;
+    to.vector_rho = from.vector_rho;
+    to.sampling_period = from.sampling_period;
+    to.sampling_margin = from.sampling_margin;
+    return to;
+  }
+
   // What one evaluation gives besides the torque (the controller's internals).
   template<int N>
   struct AdaptiveRobustInternals

@@ -212,21 +212,7 @@ namespace delta_pin
     check_size(gains_.T_v, dof(), "T_v");
     info_.robust_torque = Vector::Zero(dof());
     if (dof() == 3)
-    {
-      gains3_.D = gains_.D;
-      gains3_.T_p = gains_.T_p;
-      gains3_.T_v = gains_.T_v;
-      gains3_.beta = gains_.beta;
-      gains3_.xi = gains_.xi;
-      gains3_.epsilon = gains_.epsilon;
-      gains3_.b1 = gains_.b1;
-      gains3_.b2 = gains_.b2;
-      gains3_.b3 = gains_.b3;
-      gains3_.design_two = gains_.design_two;
-      gains3_.vector_rho = gains_.vector_rho;
-      gains3_.sampling_period = gains_.sampling_period;
-      gains3_.sampling_margin = gains_.sampling_margin;
-    }
+      gains3_ = gains_at_size<3>(gains_);
   }
 
   void AdaptiveRobust::law(
