@@ -7,7 +7,7 @@ Scenario: design I on the analytic plant, path I, rho_0 = 0.02, Delta_m swept ov
 other magnitudes 0.3 (a slice of the 3 planes x 2 designs x 11 x 11 = 726-run grid of Figs. 9-11).
 Per-run times are measured on ``--runs`` runs; the 726-run figure is extrapolated over this
 machine's cores (the sweep engine runs one batch per process), unless ``--full`` runs the whole
-grid through :func:`delta_pin.studies.sweep.run_sweep` (about 45 s on 2 cores at 15 s).
+grid through :func:`delta_pin.studies.sweep.run_sweep` (docs/measured/bench_sweep.md).
 """
 
 from __future__ import annotations
