@@ -64,27 +64,28 @@ namespace delta_pin
     void step()
     {
       const double t_next = t_ + h_;
-      Vector anchor, guess;
       double c;
       if (taken_ == 0)
       {
-        anchor = y_;
+        anchor_ = y_;
         c = 1.0;
-        guess = y_;
+        guess_ = y_;
       }
       else
       {
-        anchor = (4.0 * y_ - previous_) / 3.0;
+        anchor_ = (4.0 * y_ - previous_) / 3.0;
         c = 2.0 / 3.0;
-        guess = taken_ == 1 ? Vector(2.0 * y_ - previous_) : Vector(3.0 * (y_ - previous_) + previous2_);
+        if (taken_ == 1)
+          guess_ = 2.0 * y_ - previous_;
+        else
+          guess_ = 3.0 * (y_ - previous_) + previous2_;
       }
-      Vector next;
-      bool converged = implicit_step(t_next, anchor, c, h_, guess, next);
+      bool converged = implicit_step(t_next, anchor_, c, h_, guess_, next_);
       int depth = 0;
       while (!converged && depth < MAX_SPLIT_DEPTH)
       {
         ++depth;
-        converged = split_step(depth, next);
+        converged = split_step(depth, next_);
       }
       if (depth > 0)
       {
@@ -101,7 +102,7 @@ namespace delta_pin
       ++counters.steps;
       previous2_ = previous_;
       previous_ = y_;
-      y_ = next;
+      y_ = next_;
       t_ = t_next;
     }
 
@@ -125,7 +126,10 @@ namespace delta_pin
 
     void jacobian(double t, const Vector & y, const Vector & dy)
     {
-      Vector shifted = y, shifted_dot(n_);
+      Vector & shifted = shifted_;
+      Vector & shifted_dot = shifted_dot_;
+      shifted = y;
+      shifted_dot.resize(n_);
       for (int i = 0; i < n_; ++i)
       {
         const double step = 1e-8 * std::max(1.0, std::abs(y[i]));
@@ -144,16 +148,23 @@ namespace delta_pin
     {
       const double ch = c * h;
       y = guess;
-      Vector y_dot(n_);
+      // the scratch of the iteration, the integrator's own (no allocation once sized)
+      Vector & y_dot = y_dot_;
+      Vector & residual = residual_;
+      Vector & delta = delta_;
+      Vector & trial = trial_;
+      Vector & trial_dot = trial_dot_;
+      Vector & trial_residual = trial_residual_;
+      Eigen::PartialPivLU<Matrix> & lu = lu_;
+      y_dot.resize(n_);
+      trial_dot.resize(n_);
       if (!evaluate(t, y, y_dot))
         f_(t, y, y_dot);  // the failure, with its message
-      Vector residual = y - anchor - ch * y_dot;
+      residual = y - anchor - ch * y_dot;
       double norm = residual.norm();
       int since_refresh = 0;
       double previous = std::numeric_limits<double>::infinity();
       bool factored = false;
-      Eigen::PartialPivLU<Matrix> lu;
-      Vector trial, trial_dot(n_), trial_residual;
       for (int iteration = 0; iteration < MAX_NEWTON_ITERATIONS; ++iteration)
       {
         if (!valid_ || since_refresh >= STALE_ITERATIONS)
@@ -170,7 +181,7 @@ namespace delta_pin
           factored = true;
         }
         ++since_refresh;
-        const Vector delta = lu.solve(-residual);
+        delta = lu.solve(-residual);
         const double largest = delta.cwiseAbs().maxCoeff();
         if (!std::isfinite(largest))
         {
@@ -242,6 +253,10 @@ namespace delta_pin
     double h_, t_;
     Vector y_, previous_, previous2_;
     Matrix J_;
+    // step()'s and implicit_step()'s vectors and factors, kept between steps
+    Vector anchor_, guess_, next_, y_dot_, residual_, delta_, trial_, trial_dot_, trial_residual_, shifted_,
+      shifted_dot_;
+    Eigen::PartialPivLU<Matrix> lu_;
     bool valid_ = false;
     long taken_ = 0;  // steps taken: the first is implicit Euler, the predictor's order grows to 2
   };
