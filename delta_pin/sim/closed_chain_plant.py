@@ -134,9 +134,6 @@ class ClosedChainPlant(Plant):
             )
         if coordinates == "full" and not full_possible:
             robot.configuration_rate(robot.reference_configuration, np.zeros(robot.model.nv))  # a named error
-        # ball, free or continuous joints: their coefficients move at dq/dt = rate(q, v) and are
-        # renormalised after every step (pin.normalize)
-        self._coefficient_rates = not full_possible
         self.coordinates = coordinates
         self._set_friction(friction)
         self.model = robot.model
@@ -163,7 +160,6 @@ class ClosedChainPlant(Plant):
         nominal = pin.Inertia(self.model.inertias[self._payload_joint])
         self.nominal_platform_mass = nominal.mass
         self.nominal_platform_rotational = nominal.inertia
-        self._nominal_lever = nominal.lever.copy()
         if payload_mass is not None and not callable(payload_mass):
             constant = float(payload_mass)
             if not (math.isfinite(constant) and constant >= 0.0):
@@ -190,7 +186,6 @@ class ClosedChainPlant(Plant):
         self.joint_damping = bool(joint_damping)
         self._completed = None  # (active state, its (q, v)): what a sample's readings share
         self._truth = PlantTruth(uncertainty, self.nominal_platform_mass, self._normal_force)
-        self.stepped_in_core = False  # whether build handed a loop a compiled copy
         self.metadata_extra = {
             "coordinates": coordinates,
             "baumgarte_frequency": baumgarte_frequency,
@@ -314,8 +309,7 @@ class ClosedChainPlant(Plant):
         (``coordinates="full"``) or the actuated (alpha, alpha_dot) with (q, v) completed at
         every stage (``"active"``); the run records the completed (q, v) either way."""
         compiled = super().sampled_core(step, count)
-        if compiled is not None and self.coordinates == "active":
-            compiled.integrates_active = True
+        compiled.integrates_active = self.coordinates == "active"
         return compiled
 
     def metadata(self):

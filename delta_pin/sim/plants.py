@@ -121,16 +121,14 @@ class Plant(ABC):
         return None
 
     def _built_in_core(self, build, step: float, count: int):
-        """``build(self, step, count)`` (a builder of :mod:`delta_pin.sim.compiled_plant`; ``None``
-        for a model the core refuses); a plant handed out marks the run's metadata
-        (``"core_plant"``).
+        """``build(self, step, count)`` (a builder of :mod:`delta_pin.sim.compiled_plant`); the
+        plant handed out marks the run's metadata (``"core_plant"``).
 
         Raises:
             NativeUnavailableError: the core cannot be imported here.
         """
         compiled = build(self, step, count)
-        if compiled is not None:
-            self.stepped_in_core = True
+        self.stepped_in_core = True
         return compiled
 
     def sampled_core(self, step: float, count: int):

@@ -61,7 +61,11 @@ class ReadableClosedChainPlant(_Readable, ClosedChainPlant):
         for cm in self.constraint_models:
             self.constraint_datas.append(cm.createData())
         pin.initConstraintDynamics(self.model, self.data, self.constraint_models, self.constraint_datas)
+        # ball, free or continuous joints: their coefficients move at dq/dt = rate(q, v) and are
+        # renormalised after every step (pin.normalize)
+        self._coefficient_rates = self.model.nq != self.model.nv
         self._inertia = self.model.inertias[self._payload_joint]  # a reference, rewritten in place
+        self._nominal_lever = self._inertia.lever.copy()
         self._mass = (self.nominal_platform_mass, 0.0)  # the (body mass, payload) the model holds
         self._tau = np.zeros(self.model.nv)
         # joint springs and dampers (robot.joint_springs): tau = -k (q - q_ref) - d v

@@ -465,12 +465,11 @@ namespace delta_pin
     const int nq = dyn_->model.nq, nv = dyn_->model.nv;
     const Eigen::Index n = actuated_v_.size();
     last_q_ = x.head(nq);  // the warm start of every completion below
+    joints_.resize(n);
+    joint_rates_.resize(n);
+    joint_state(x, joints_, joint_rates_);
     Vector state(2 * n);
-    for (Eigen::Index i = 0; i < n; ++i)
-    {
-      state[i] = x[actuated_q_[i]];
-      state[n + i] = x[nq + actuated_v_[i]];
-    }
+    state << joints_, joint_rates_;
     // (q, v) at the actuated state y into last_q_, active_v_; a failure names alpha (its time set
     // by the loop)
     const auto complete_at = [&](const Vector & y)
