@@ -120,6 +120,16 @@ def main() -> None:
             ),
             args.repeats,
         )
+        uniform_plan = plan_time_optimal(robot, path, limit, points=args.points, switch_refinements=0, **options)
+        uniform = measure(
+            f"{name}: the same on the uniform grid (switch_refinements=0), verified and repaired",
+            lambda robot=robot, path=path, limit=limit, options=options: plan_time_optimal(
+                robot, path, limit, points=args.points, switch_refinements=0, **options
+            ),
+            args.repeats,
+        )
+        # the feasible optimum's estimate: a verified plan on 16 times the points
+        dense = plan_time_optimal(robot, path, limit, points=16 * args.points, **options)
         reference = measure(
             f"{name}: TOPP-RA by hand (spline, collocation)",
             lambda robot=robot, path=path, limit=limit, options=options: _toppra_by_hand(
@@ -129,19 +139,29 @@ def main() -> None:
         )
         theirs, check = _checked(robot, path, limit, args.points, options)
         fine, fine_check = _checked(robot, path, limit, 10 * args.points, options)
-        print_table(name, [ours, verified, reference], reference)
+        print_table(name, [ours, verified, uniform, reference], reference)
         print(
-            f"\n{name}: time {plan.duration * 1e3:.2f} ms (delta-pin, {plan.repairs} repairs, {len(plan.s)} "
-            f"points at the end) against {theirs.duration * 1e3:.2f} ms (TOPP-RA by hand), "
+            f"\n{name}: time {plan.duration * 1e3:.2f} ms (delta-pin, {plan.switch_points} points added "
+            f"around the switches, {plan.repairs} repairs, {len(plan.s)} points at the end; on the uniform "
+            f"grid {uniform_plan.duration * 1e3:.2f} ms, {len(uniform_plan.s)} points; on "
+            f"{16 * args.points} points {dense.duration * 1e3:.2f} ms, verified) against "
+            f"{theirs.duration * 1e3:.2f} ms (TOPP-RA by hand), "
             f"{100 * (plan.duration / theirs.duration - 1):+.2f} %; largest |tau| / limit at 10 kHz: "
             f"{plan.verification.torque_ratio:.4f} against {check.torque_ratio:.4f}; TOPP-RA by hand on "
             f"{10 * args.points} points: {fine.duration * 1e3:.2f} ms "
             f"({fine_check.torque_ratio:.4f} of the limit)"
         )
-        rows.append((name, plan, theirs, check, ours, verified, fine))
-    print("\n## Targets\n")
-    for name, plan, theirs, check, ours, verified, fine in rows:
+        rows.append((name, plan, theirs, check, ours, verified, fine, uniform_plan, dense))
+    for name, plan, theirs, check, ours, verified, fine, uniform_plan, dense in rows:
         report_target(f"{name}: time / TOPP-RA's - 1", plan.duration / theirs.duration - 1.0, 0.01, "x")
+        report_target(
+            f"{name}: the uniform grid's time / TOPP-RA's - 1", uniform_plan.duration / theirs.duration - 1.0,
+            None, "x",
+        )  # fmt: skip
+        report_target(
+            f"{name}: time / delta-pin's verified plan on {16 * args.points} points - 1",
+            plan.duration / dense.duration - 1.0, None, "x",
+        )  # fmt: skip
         report_target(
             f"{name}: time / TOPP-RA's on {10 * args.points} points - 1",
             plan.duration / fine.duration - 1.0,
@@ -150,7 +170,7 @@ def main() -> None:
         )
         report_target(f"{name}: largest |tau| / limit at 10 kHz", plan.verification.torque_ratio, 1.0, "x")
         report_target(f"{name}: TOPP-RA by hand's |tau| / limit at 10 kHz", check.torque_ratio, None, "x")
-        report_target(f"{name}: planning, {args.points} points", ours.median, 5e-3)
+        report_target(f"{name}: planning, {args.points} points (and those added around the switches)", ours.median, 5e-3)
         report_target(f"{name}: planning with the verification", verified.median, 50e-3)
 
 

@@ -1336,6 +1336,11 @@ def _add_plan_command(add) -> None:
     )  # fmt: skip
     plan.add_argument("--velocity-limit", default=None, metavar="V[,V...]", help="|alpha_dot| [rad/s or m/s]")
     plan.add_argument("--points", type=_integer(3, 100_000), default=100, help="grid points per path")
+    plan.add_argument(
+        "--switch-refinements", type=_integer(0, 10), default=2,
+        help="rounds that halve the grid's intervals around the law's switches of s_ddot before the check "
+        "(0: the grid of --points as it is; each round costs a solve and the new points' kinematics)",
+    )  # fmt: skip
     plan.add_argument("--friction", action="store_true", help="the nominal friction (a recognised Delta's)")
     plan.add_argument("--payload", type=float, default=0.0, help="a payload at the end effector [kg]")
     plan.add_argument(
@@ -1401,6 +1406,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     options = {
         "torque_limit": torque, "velocity_limit": velocity, "points": args.points, "frame": args.frame,
         "axes": args.axes, "friction": True if args.friction else None, "payload_mass": args.payload,
+        "switch_refinements": args.switch_refinements,
     }  # fmt: skip
     plans = [
         plan_time_optimal(
@@ -1408,6 +1414,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             velocity_limit=None if velocity is None else (velocity if len(velocity) > 1 else velocity[0]),
             points=args.points, frame=args.frame, axes=args.axes, friction=options["friction"],
             payload_mass=args.payload, singularity_margin=args.singularity_margin,
+            switch_refinements=args.switch_refinements,
         )
         for path in paths
     ]  # fmt: skip

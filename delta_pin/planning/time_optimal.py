@@ -20,6 +20,14 @@ limit_j and |alpha_dot_j| <= v_j is TOPP-RA's reachability analysis (Pham & Pham
 directly), with the *interpolation* discretisation: each interval's constant s_ddot is bounded at
 both of its ends, not only at the first.
 
+The law is bang-bang: s_ddot switches between its largest and smallest feasible values, and a
+grid's constant s_ddot per interval loses most of its time in the intervals around a switch. So,
+before the check, the intervals on both sides of each switch (s_ddot jumping by more than
+``SWITCH_JUMP`` = 5 % of its range from one interval to the next) are halved and the law solved
+again, ``switch_refinements`` (2) times: the grid grows where the law needs it (100 points become
+about 150-200 on the benchmark's paths; docs/measured/bench_planning.md gives the times with and
+without).
+
 A grid bounds the torque at its points only. So every plan is **verified afterwards on the exact
 model**: the law s(t) (constant s_ddot on each interval, s_dot^2 linear in s) is sampled at
 ``check_rate`` (10 kHz), alpha, alpha', alpha'' recomputed by inverse kinematics at each sample's
@@ -61,6 +69,8 @@ CHECK_RATE = 1e4  # [Hz] of the verification on the exact model
 MAX_REPAIRS = 30
 REPAIR_MARGIN = 1e-4  # a tightened limit lands this far inside the overshoot's ratio
 REFINEMENTS = 3  # repairs that insert grid points where the torque overshoots, before tightening
+SWITCH_REFINEMENTS = 2  # rounds that add grid points around the law's switches, before the check
+SWITCH_JUMP = 0.05  # a switch: s_ddot jumps by more than this fraction of its range between intervals
 # sigma_min / sigma_max below which a path is refused: ~1 mm from the Delta's stretched-leg locus
 # (the measure falls as the square root of the distance to it)
 SINGULARITY_MARGIN = 5e-3
@@ -107,6 +117,7 @@ class TimeOptimalPlan:
     checked: tuple[np.ndarray, np.ndarray] | None = None  # (times [s], tau (N, dof) [N m]) of the last check
     singularity: np.ndarray | None = None  # the smallest (Type I, Type II) measures at the grid points
     repairs: int = 0
+    switch_points: int = 0  # grid points added around the law's switches (plan_time_optimal's switch_refinements)
     planning_time: float = 0.0  # [s] of wall time: inverse kinematics, coefficients, TOPP-RA
     verification_time: float = 0.0  # [s] of wall time, repairs included
     name: str = field(default="time-optimal plan")
@@ -156,6 +167,7 @@ class TimeOptimalPlan:
             "torque_limit": self.torque_limit.tolist(),
             "velocity_limit": None if self.velocity_limit is None else self.velocity_limit.tolist(),
             "repairs": self.repairs,
+            "switch_points": self.switch_points,
             "torque_ratio": None if check is None else check.torque_ratio,
             "check_rate_hz": None if check is None else check.rate,
         }
@@ -397,6 +409,7 @@ def plan_time_optimal(
     max_repairs: int = MAX_REPAIRS,
     verify: bool = True,
     singularity_margin: float = SINGULARITY_MARGIN,
+    switch_refinements: int = SWITCH_REFINEMENTS,
 ) -> TimeOptimalPlan:
     """The time-optimal law along ``path`` (a geometric path of ``frame``, default the end
     effector; :mod:`delta_pin.planning.paths`) from rest to rest, under |tau_j| <= ``torque_limit``
@@ -408,7 +421,8 @@ def plan_time_optimal(
     and repaired where it exceeds (module docstring). With ``verify``, the distance to a
     singularity is measured at the grid points too (:mod:`delta_pin.planning.singularity`,
     ``plan.singularity``: the smallest Type I and Type II measures) and a path that comes within
-    ``singularity_margin`` of one is refused (0: never).
+    ``singularity_margin`` of one is refused (0: never). ``switch_refinements`` rounds halve the
+    intervals around the law's switches first (module docstring; 0: the grid of ``points`` as it is).
 
     Raises:
         InvalidParameterError: a bad limit, grid, rate or margin; a robot that is not fully actuated.
@@ -425,6 +439,8 @@ def plan_time_optimal(
         raise InvalidParameterError(f"check_rate={check_rate!r} must be a positive rate [Hz]")
     if not (math.isfinite(singularity_margin) and 0.0 <= singularity_margin < 1.0):
         raise InvalidParameterError(f"singularity_margin={singularity_margin!r} must be in [0, 1)")
+    if not (isinstance(switch_refinements, int | np.integer) and 0 <= switch_refinements <= 10):
+        raise InvalidParameterError(f"switch_refinements={switch_refinements!r} must be an integer from 0 to 10")
     length = float(getattr(path, "length", getattr(path, "duration", 0.0)) or 0.0)
     if not length > 0.0:
         raise InvalidParameterError(f"path {getattr(path, 'name', path)!r} has no length to plan along")
@@ -446,10 +462,19 @@ def plan_time_optimal(
         return law
 
     s_dot, s_ddot = solve()
+    uniform = len(grid.s)
+    for _ in range(switch_refinements):
+        switches = np.flatnonzero(np.abs(np.diff(s_ddot)) > SWITCH_JUMP * np.ptp(s_ddot))
+        if not len(switches):
+            break
+        grid.s_dot = s_dot
+        grid.refine(np.union1d(switches, switches + 1))  # the intervals on both sides of each
+        s_dot, s_ddot = solve()
     plan = TimeOptimalPlan(
         path, frame, axes, grid.s, s_dot, s_ddot, _times(grid.s, s_dot), torque, velocity,
         name=f"time-optimal {getattr(path, 'name', 'path')}",
     )  # fmt: skip
+    plan.switch_points = len(grid.s) - uniform
     plan.planning_time = time.perf_counter() - wall
     if not verify:
         return plan

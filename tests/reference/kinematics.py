@@ -19,17 +19,22 @@ __all__ = ["inverse_kinematics"]
 def inverse_kinematics(
     robot, target, frame: int, rows, alpha, q, tol: float = 1e-12, max_iterations: int = 60
 ) -> np.ndarray | None:
-    """alpha putting the frame's origin at ``target`` [m] along ``rows`` (0..2), or ``None``."""
+    """alpha putting the frame's origin at ``target`` [m] along ``rows`` (0..2), or ``None``: within
+    ``tol``, or within 1000 ``tol`` where Newton stops gaining (the error not halved by a step: the
+    floating-point floor of the loops' closure, itself solved to ``tol``)."""
     alpha = np.array(alpha, dtype=float)
     target = np.asarray(target, dtype=float)
+    previous = np.inf
     for _ in range(max_iterations):
         q, _, _ = newton_configuration(robot, alpha, q)
         if q is None:
             return None
         pin.framesForwardKinematics(robot.model, robot.data, q)
         error = (robot.data.oMf[frame].translation - target)[rows]
-        if np.abs(error).max() <= tol:
+        gap = np.abs(error).max()
+        if gap <= tol or (gap > 0.5 * previous and gap <= 1e3 * tol):
             return alpha
+        previous = gap
         J = frame_jacobian(robot, q, frame)[:3][rows]
         step = least_squares(J, error)
         largest = np.abs(step).max(initial=0.0)

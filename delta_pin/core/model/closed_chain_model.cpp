@@ -23,6 +23,10 @@ namespace delta_pin
 
   namespace
   {
+    // inverse_kinematics: where Newton stops gaining (the frame's position at the floating-point
+    // floor of the loops' closure), a point within this many times the tolerance counts as reached
+    constexpr double IK_FLOOR_FACTOR = 1e3;
+
     // a * b. Each distinct Eigen product expression (a transpose, a product of products, ...)
     // instantiates Eigen's matrix-product kernels anew, and the idle projection's dozens of them
     // took ~80 s of this unit's compilation; through this function they share one.
@@ -618,6 +622,7 @@ namespace delta_pin
     Vector assembled;
     Vector error(rows.size());
     Matrix J(rows.size(), actuated_v_.size());
+    double previous = std::numeric_limits<double>::infinity();
     for (int iteration = 0; iteration < iterations; ++iteration)
     {
       if (!configuration(alpha, q, assembled))
@@ -627,8 +632,15 @@ namespace delta_pin
       const Eigen::Vector3d position = update_frame_placement(pin_->model, pin_->data, frame).translation();
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         error[r] = position[rows[r]] - target[rows[r]];
-      if (largest(error) <= tolerance)
+      const double gap = largest(error);
+      if (gap <= tolerance)
         return true;
+      // Newton has stopped gaining at the floating-point floor of the loops' closure (itself solved
+      // to `tolerance`, so the frame's position can sit just above it): reached, within
+      // IK_FLOOR_FACTOR x tolerance
+      if (gap > 0.5 * previous && gap <= IK_FLOOR_FACTOR * tolerance)
+        return true;
+      previous = gap;
       const Matrix J_frame = frame_jacobian(q, frame);
       for (Eigen::Index r = 0; r < rows.size(); ++r)
         J.row(r) = J_frame.row(rows[r]);
