@@ -120,7 +120,9 @@ def main() -> None:
             ),
             args.repeats,
         )
-        uniform_plan = plan_time_optimal(robot, path, limit, points=args.points, switch_refinements=0, **options)
+        uniform_plan = plan_time_optimal(
+            robot, path, limit, points=args.points, switch_refinements=0, **options
+        )
         uniform = measure(
             f"{name}: the same on the uniform grid (switch_refinements=0), verified and repaired",
             lambda robot=robot, path=path, limit=limit, options=options: plan_time_optimal(
@@ -170,7 +172,9 @@ def main() -> None:
         )
         report_target(f"{name}: largest |tau| / limit at 10 kHz", plan.verification.torque_ratio, 1.0, "x")
         report_target(f"{name}: TOPP-RA by hand's |tau| / limit at 10 kHz", check.torque_ratio, None, "x")
-        report_target(f"{name}: planning, {args.points} points (and those added around the switches)", ours.median, 5e-3)
+        report_target(
+            f"{name}: planning, {args.points} points (and those added around the switches)", ours.median, 5e-3
+        )
         report_target(f"{name}: planning with the verification", verified.median, 50e-3)
 
 

@@ -117,7 +117,9 @@ class TimeOptimalPlan:
     checked: tuple[np.ndarray, np.ndarray] | None = None  # (times [s], tau (N, dof) [N m]) of the last check
     singularity: np.ndarray | None = None  # the smallest (Type I, Type II) measures at the grid points
     repairs: int = 0
-    switch_points: int = 0  # grid points added around the law's switches (plan_time_optimal's switch_refinements)
+    switch_points: int = (
+        0  # grid points added around the law's switches (plan_time_optimal's switch_refinements)
+    )
     planning_time: float = 0.0  # [s] of wall time: inverse kinematics, coefficients, TOPP-RA
     verification_time: float = 0.0  # [s] of wall time, repairs included
     name: str = field(default="time-optimal plan")
@@ -316,9 +318,20 @@ class _Dynamics:
         return torque
 
     def torque(self, alpha, alpha_dot, alpha_ddot) -> np.ndarray:
-        """tau = M alpha_ddot + C alpha_dot + G + F̄ [+ M̄_f(alpha_dot)] at each state (N, dof) [N m]."""
-        inertial, c_dot, _, gravity = self._terms(alpha, alpha_dot, alpha_ddot, split=False)
-        tau = inertial + c_dot + gravity + self.nominal.disturbance()
+        """tau = M alpha_ddot + C alpha_dot + G + F̄ [+ M̄_f(alpha_dot)] at each state (N, dof) [N m]
+        (the core's ``actuated_torques``: one RNEA pass per state, no matrices)."""
+        failed, _, tau = self.robot.compiled_model.actuated_torques(
+            np.ascontiguousarray(alpha),
+            np.ascontiguousarray(alpha_dot),
+            np.ascontiguousarray(alpha_ddot),
+            self.start,
+        )
+        if failed >= 0:
+            raise AssemblyError(
+                f"{self.robot.name}: the loops do not close at alpha={np.asarray(alpha)[failed].tolist()} "
+                "on the path"
+            )
+        tau = tau + self.nominal.disturbance()
         return tau + self.nominal.friction(alpha_dot) if self.friction else tau
 
 
@@ -440,7 +453,9 @@ def plan_time_optimal(
     if not (math.isfinite(singularity_margin) and 0.0 <= singularity_margin < 1.0):
         raise InvalidParameterError(f"singularity_margin={singularity_margin!r} must be in [0, 1)")
     if not (isinstance(switch_refinements, int | np.integer) and 0 <= switch_refinements <= 10):
-        raise InvalidParameterError(f"switch_refinements={switch_refinements!r} must be an integer from 0 to 10")
+        raise InvalidParameterError(
+            f"switch_refinements={switch_refinements!r} must be an integer from 0 to 10"
+        )
     length = float(getattr(path, "length", getattr(path, "duration", 0.0)) or 0.0)
     if not length > 0.0:
         raise InvalidParameterError(f"path {getattr(path, 'name', path)!r} has no length to plan along")

@@ -148,8 +148,11 @@ def test_inverse_kinematics_stops_at_the_closure_floor():
     alpha = robot.inverse_kinematics(target, fid, axes="xyz", initial_guess=robot.home, tol=1e-13)
     reached = robot.frame_placement(robot.configuration(alpha), fid).translation
     assert np.abs(reached - target).max() <= 1e-10
-    twin = inverse_kinematics(robot, target, fid, [0, 1, 2], robot.home, robot.reference_configuration, tol=1e-13)
+    twin = inverse_kinematics(
+        robot, target, fid, [0, 1, 2], robot.home, robot.reference_configuration, tol=1e-13
+    )
     assert twin is not None and np.abs(twin - alpha).max() <= AGREE
     with pytest.raises(dp.errors.UnreachablePoseError):
-        robot.inverse_kinematics(np.array([0.0, 0.0, -0.7]), fid, axes="xyz", initial_guess=robot.home, tol=1e-13)
-
+        robot.inverse_kinematics(
+            np.array([0.0, 0.0, -0.7]), fid, axes="xyz", initial_guess=robot.home, tol=1e-13
+        )

@@ -188,6 +188,14 @@ case("joint_reference: empty q_start", "q_start", lambda: path(q=np.zeros(0)))
 case("joint_reference: NaN xyz_dot", "xyz_dot", lambda: path(xyz_dot=np.full((3, 3), NAN)))
 case("joint_reference: NaN time", "times", lambda: path(times=np.array([0.0, NAN, 0.02])))
 case("joint_reference: non-contiguous xyz", "xyz:ok", lambda: path(xyz=np.repeat(xyz, 2, axis=0)[::2]))
+states = np.tile(alpha0, (3, 1))
+def torques(alpha=states, alpha_dot=np.zeros((3, DOF)), alpha_ddot=np.zeros((3, DOF)), guess=q0):
+    return model.actuated_torques(alpha, alpha_dot, alpha_ddot, guess)
+case("actuated_torques: valid", "alpha:ok", lambda: torques())
+case("actuated_torques: alpha_dot of 1 column", "alpha_dot", lambda: torques(alpha_dot=np.zeros((3, 1))))
+case("actuated_torques: alpha_ddot of 2 rows", "alpha_ddot", lambda: torques(alpha_ddot=np.zeros((2, DOF))))
+case("actuated_torques: NaN alpha_ddot", "alpha_ddot", lambda: torques(alpha_ddot=np.full((3, DOF), NAN)))
+case("actuated_torques: empty guess", "guess", lambda: torques(guess=np.zeros(0)))
 """,
     "analytic_plant": """
 plant = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))

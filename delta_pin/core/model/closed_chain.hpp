@@ -185,6 +185,9 @@ namespace delta_pin
     // M (dof, dof), C (dof, dof), G (dof), C alpha_dot (dof) on the actuated joints by projection
     // (ClosedChainRobot.reduced_terms) at a closed q
     void reduced_terms(const Vector & q, const Vector & alpha_dot, Matrix & M, Matrix & C, Vector & G, Vector & C_alpha_dot);
+    // tau = M alpha_ddot + C alpha_dot + G (dof) at a closed q, the same projection in one pass:
+    // S^T (RNEA(q, S alpha_dot, S alpha_ddot + S_dot alpha_dot) + the springs' and dampers' forces)
+    Vector actuated_torque(const Vector & q, const Vector & alpha_dot, const Vector & alpha_ddot);
     Eigen::Vector3d end_effector_position(const Vector & q);
     // the closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED)
     Matrix frame_jacobian(const Vector & q, FrameIndex frame);

@@ -536,6 +536,34 @@ namespace delta_pin
     G_red = St * gravity;
   }
 
+  Vector ClosedChainModel::actuated_torque(const Vector & q, const Vector & alpha_dot, const Vector & alpha_ddot)
+  {
+    check_size(q, pin_->model.nq, "q");
+    check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
+    check_size(alpha_ddot, actuated_v_.size(), "alpha_ddot");
+    if (idle_dof_ > 0)  // S of least kinetic energy and its rate: the projection's matrices
+    {
+      Matrix M, C;
+      Vector G, C_alpha_dot;
+      reduced_terms(q, alpha_dot, M, C, G, C_alpha_dot);
+      return M * alpha_ddot + C_alpha_dot + G;
+    }
+    // S^T (M (S alpha_ddot + S_dot alpha_dot) + C_tree v + g) = M_red alpha_ddot + C_red alpha_dot + G_red;
+    // S_dot alpha_dot from the closure's drift (exact for moving motion subspaces too), the joints'
+    // bias by the RNEA itself
+    const Matrix S = velocity_map(q);  // J_c at q stays in jacobian_ for dependent_rate
+    const Vector v = S * alpha_dot;
+    const Vector a = S * alpha_ddot + dependent_rate(q, v);
+    Vector tau = rnea(pin_->model, pin_->data, q, v, a);
+    if (springs_.v_index.size() + springs_.damper_v.size() > 0)
+    {
+      Vector forces = Vector::Zero(pin_->model.nv);  // minus what the springs and dampers exert
+      subtract_springs(q, v, forces);
+      tau -= forces;
+    }
+    return S.transpose() * tau;
+  }
+
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
   {
     forward_kinematics(pin_->model, pin_->data, q, v, Vector::Zero(pin_->model.nv));

@@ -69,6 +69,20 @@ namespace pinocchio
       int Options,
       template<typename, int> class JointCollectionTpl,
       typename ConfigVectorType,
+      typename TangentVectorType1,
+      typename TangentVectorType2>
+    const typename DataTpl<Scalar, Options, JointCollectionTpl>::TangentVectorType & rnea(
+      const ModelTpl<Scalar, Options, JointCollectionTpl> & model,
+      DataTpl<Scalar, Options, JointCollectionTpl> & data,
+      const Eigen::MatrixBase<ConfigVectorType> & q,
+      const Eigen::MatrixBase<TangentVectorType1> & v,
+      const Eigen::MatrixBase<TangentVectorType2> & a);
+
+    template<
+      typename Scalar,
+      int Options,
+      template<typename, int> class JointCollectionTpl,
+      typename ConfigVectorType,
       typename TangentVectorType>
     const typename DataTpl<Scalar, Options, JointCollectionTpl>::MatrixXs & computeCoriolisMatrix(
       const ModelTpl<Scalar, Options, JointCollectionTpl> & model,
@@ -277,6 +291,13 @@ namespace delta_pin::library
   coriolis_matrix(const pinocchio::Model & model, pinocchio::Data & data, const Vector & q, const Vector & v)
   {
     return pinocchio::impl::computeCoriolisMatrix(model, data, ConstRef(q), ConstRef(v));
+  }
+
+  // the inverse dynamics M(q) a + C(q, v) v + g(q) (RNEA)
+  inline const Vector &
+  rnea(const pinocchio::Model & model, pinocchio::Data & data, const Vector & q, const Vector & v, const Vector & a)
+  {
+    return pinocchio::impl::rnea(model, data, ConstRef(q), ConstRef(v), ConstRef(a));
   }
 
   // the bias forces b(q, v) = C(q, v) v + g(q) (RNEA at zero acceleration)

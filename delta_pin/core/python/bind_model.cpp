@@ -210,6 +210,44 @@ void bind_model(nb::module_ & m)
       nb::arg("q"), nb::arg("alpha_dot"), nb::arg("frame"),
       "The frame's classical linear acceleration at zero actuated acceleration [m/s^2].")
     .def(
+      "actuated_torques",
+      [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
+         const Eigen::VectorXd & guess)
+      {
+        const Eigen::Index n = alpha.rows(), dof = self.dof();
+        for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
+          if (table->rows() != n || table->cols() != dof)
+            throw std::invalid_argument(
+              std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
+              + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
+        check_finite(alpha_dot, "alpha_dot");
+        check_finite(alpha_ddot, "alpha_ddot");
+        if (guess.size() != self.nq())
+          throw std::invalid_argument(
+            "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(self.nq()));
+        RowMatrix tau(n, dof);
+        Eigen::VectorXd q = guess, closed;
+        long failed = -1;
+        {
+          nb::gil_scoped_release release;
+          for (Eigen::Index i = 0; i < n; ++i)
+          {
+            if (!self.configuration(alpha.row(i).transpose(), q, closed))
+            {
+              failed = (long)i;
+              break;
+            }
+            q = closed;
+            tau.row(i) = self.actuated_torque(q, alpha_dot.row(i).transpose(), alpha_ddot.row(i).transpose()).transpose();
+          }
+        }
+        return std::make_tuple(failed, q, tau);
+      },
+      nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"), nb::arg("guess"),
+      "(failed, q, tau): tau = M alpha_ddot + C alpha_dot + G (N, dof) [N m] along rows of states, each "
+      "assembled from the one before (from guess), by one RNEA pass each; failed the first row whose loops "
+      "do not close (-1: none), q the last configuration.")
+    .def(
       "inverse_dynamics",
       [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
          const Eigen::VectorXd & guess, bool split)
