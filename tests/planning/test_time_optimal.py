@@ -234,9 +234,10 @@ def test_a_velocity_limit_slows_the_plan(delta):
 
 def test_design_one_tracks_the_planned_cycle(delta):
     """The whole cycle (there and back) planned with the nominal friction, run on the constrained
-    Pinocchio plant with friction: design I in continuous time within 5e-4 rad (measured 1.1e-4),
-    and sampled at 1 kHz with the sampling-aware gain cap within 1.5e-3 rad (measured 1.29e-3: the
-    issue's 1e-3 is not met -- the plan leaves the loop no torque headroom at the limit)."""
+    Pinocchio plant with friction: design I in continuous time within 1e-4 rad (measured 3.3e-5),
+    and sampled at 1 kHz with the sampling-aware gain cap within the issue's 1e-3 rad (measured
+    6.6e-4; 1.29e-3 on the uniform grid, switch_refinements=0, whose s_ddot jumps more at the
+    switches)."""
     plans = [plan_time_optimal(delta, p, LIMIT, friction=True) for p in adept_paths(blend=0.01)]
     cycle = PlannedSequence(plans, "Adept cycle")
     nominal = dp.ClosedChainNominalModel(delta, friction=True)
@@ -244,11 +245,11 @@ def test_design_one_tracks_the_planned_cycle(delta):
     continuous = dp.simulate(
         delta, dp.design1(nominal), cycle, t_end=t_end, dt=1e-3, friction=True, mode="continuous"
     )
-    assert np.abs(continuous.alpha - continuous.alpha_d).max() <= 5e-4
+    assert np.abs(continuous.alpha - continuous.alpha_d).max() <= 1e-4
     sampled = dp.simulate(
         delta, dp.design1(nominal, sampling_period=1e-3), cycle, t_end=t_end, dt=1e-3, friction=True
     )
-    assert np.abs(sampled.alpha - sampled.alpha_d).max() <= 1.5e-3
+    assert np.abs(sampled.alpha - sampled.alpha_d).max() <= 1e-3
 
 
 def test_a_planar_robot_plans_in_the_plane_it_moves_in():
