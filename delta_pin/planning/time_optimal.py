@@ -24,9 +24,8 @@ The law is bang-bang: s_ddot switches between its largest and smallest feasible 
 grid's constant s_ddot per interval loses most of its time in the intervals around a switch. So,
 before the check, the intervals on both sides of each switch (s_ddot jumping by more than
 ``SWITCH_JUMP`` = 5 % of its range from one interval to the next) are halved and the law solved
-again, ``switch_refinements`` (2) times: the grid grows where the law needs it (100 points become
-about 150-200 on the benchmark's paths; docs/measured/bench_planning.md gives the times with and
-without).
+again, ``switch_refinements`` (2) times: the grid grows where the law needs it
+(docs/measured/bench_planning.md gives the grids and times with and without).
 
 A grid bounds the torque at its points only. So every plan is **verified afterwards on the exact
 model**: the law s(t) (constant s_ddot on each interval, s_dot^2 linear in s) is sampled at
@@ -117,9 +116,8 @@ class TimeOptimalPlan:
     checked: tuple[np.ndarray, np.ndarray] | None = None  # (times [s], tau (N, dof) [N m]) of the last check
     singularity: np.ndarray | None = None  # the smallest (Type I, Type II) measures at the grid points
     repairs: int = 0
-    switch_points: int = (
-        0  # grid points added around the law's switches (plan_time_optimal's switch_refinements)
-    )
+    # the grid points added around the law's switches (plan_time_optimal's switch_refinements)
+    switch_points: int = 0
     planning_time: float = 0.0  # [s] of wall time: inverse kinematics, coefficients, TOPP-RA
     verification_time: float = 0.0  # [s] of wall time, repairs included
     name: str = field(default="time-optimal plan")

@@ -549,8 +549,8 @@ namespace delta_pin
       return M * alpha_ddot + C_alpha_dot + G;
     }
     // S^T (M (S alpha_ddot + S_dot alpha_dot) + C_tree v + g) = M_red alpha_ddot + C_red alpha_dot + G_red;
-    // S_dot alpha_dot from the closure's drift (exact for moving motion subspaces too), the joints'
-    // bias by the RNEA itself
+    // S_dot alpha_dot from the closure's drift and the joints' bias c_J by the RNEA itself (what
+    // reduced_terms does for joints whose motion subspace moves with q)
     const Matrix S = velocity_map(q);  // J_c at q stays in jacobian_ for dependent_rate
     const Vector v = S * alpha_dot;
     const Vector a = S * alpha_ddot + dependent_rate(q, v);

@@ -17,6 +17,28 @@ using namespace delta_pin::binding;
 using delta_pin::RowMatrix;
 using delta_pin::check_finite;
 
+namespace
+{
+  // rows of states (alpha, alpha_dot, alpha_ddot: one row per state, one column per actuated joint,
+  // the three alike; the rates finite) and a configuration to assemble the first from
+  void check_states(
+    const delta_pin::ClosedChainModel & model, const RowMatrix & alpha, const RowMatrix & alpha_dot,
+    const RowMatrix & alpha_ddot, const Eigen::VectorXd & guess)
+  {
+    const Eigen::Index n = alpha.rows(), dof = model.dof();
+    for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
+      if (table->rows() != n || table->cols() != dof)
+        throw std::invalid_argument(
+          std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
+          + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
+    check_finite(alpha_dot, "alpha_dot");
+    check_finite(alpha_ddot, "alpha_ddot");
+    if (guess.size() != model.nq())
+      throw std::invalid_argument(
+        "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(model.nq()));
+  }
+} // namespace
+
 void bind_model(nb::module_ & m)
 {
   using delta_pin::ClosedChainModel;
@@ -214,17 +236,8 @@ void bind_model(nb::module_ & m)
       [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
          const Eigen::VectorXd & guess)
       {
+        check_states(self, alpha, alpha_dot, alpha_ddot, guess);
         const Eigen::Index n = alpha.rows(), dof = self.dof();
-        for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
-          if (table->rows() != n || table->cols() != dof)
-            throw std::invalid_argument(
-              std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
-              + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
-        check_finite(alpha_dot, "alpha_dot");
-        check_finite(alpha_ddot, "alpha_ddot");
-        if (guess.size() != self.nq())
-          throw std::invalid_argument(
-            "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(self.nq()));
         RowMatrix tau(n, dof);
         Eigen::VectorXd q = guess, closed;
         long failed = -1;
@@ -252,18 +265,8 @@ void bind_model(nb::module_ & m)
       [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
          const Eigen::VectorXd & guess, bool split)
       {
+        check_states(self, alpha, alpha_dot, alpha_ddot, guess);
         const Eigen::Index n = alpha.rows(), dof = self.dof();
-        // one row per state, one column per actuated joint, the three alike
-        for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
-          if (table->rows() != n || table->cols() != dof)
-            throw std::invalid_argument(
-              std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
-              + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
-        check_finite(alpha_dot, "alpha_dot");
-        check_finite(alpha_ddot, "alpha_ddot");
-        if (guess.size() != self.nq())
-          throw std::invalid_argument(
-            "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(self.nq()));
         RowMatrix inertial(n, dof), coriolis(n, dof), damping(n, dof), gravity(n, dof);
         Eigen::VectorXd q = guess, closed, G, c_once, c_twice;
         Eigen::MatrixXd M, C;
