@@ -245,6 +245,11 @@ namespace delta_pin
     Vector closure_drift(const Vector & q, const Vector & v);
     // S_dot alpha_dot (nv): -J_dep^+ J_c_dot v on the dependent coordinates, zero elsewhere
     Vector dependent_rate(const Vector & q, const Vector & v);
+    // without idle motions, right after velocity_map(q) gave S (the joint Jacobians at q in the
+    // data, J_c in jacobian_): the frame's closed-loop Jacobian J_frame S, and its classical linear
+    // acceleration at zero actuated acceleration for v = S alpha_dot
+    Matrix frame_jacobian_of(const Matrix & S, FrameIndex frame);
+    Eigen::Vector3d frame_drift_of(const Vector & q, const Vector & v, FrameIndex frame);
 
     Hidden<Multibody> pin_;
     std::vector<ClosureFrames> closures_;

@@ -612,10 +612,21 @@ namespace delta_pin
   Matrix ClosedChainModel::frame_jacobian(const Vector & q, FrameIndex frame)
   {
     check_frame(frame);
-    const Matrix S = velocity_map(q);  // the joint Jacobians at q stay in pin_->data
+    return frame_jacobian_of(velocity_map(q), frame);  // the joint Jacobians at q stay in pin_->data
+  }
+
+  Matrix ClosedChainModel::frame_jacobian_of(const Matrix & S, FrameIndex frame)
+  {
     frame_jacobian1_.setZero();
     library::frame_jacobian(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED, frame_jacobian1_);
     return frame_jacobian1_ * S;
+  }
+
+  Eigen::Vector3d ClosedChainModel::frame_drift_of(const Vector & q, const Vector & v, FrameIndex frame)
+  {
+    const Vector rate = dependent_rate(q, v);
+    forward_kinematics(pin_->model, pin_->data, q, v, rate);
+    return frame_classical_acceleration(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED).linear();
   }
 
   Eigen::Vector3d ClosedChainModel::frame_acceleration_drift(const Vector & q, const Vector & alpha_dot, FrameIndex frame)
@@ -623,19 +634,12 @@ namespace delta_pin
     check_frame(frame);
     check_size(q, pin_->model.nq, "q");
     check_size(alpha_dot, actuated_v_.size(), "alpha_dot");
-    Vector v, rate;
-    if (idle_dof_ > 0)
-    {
-      Matrix S, S_dot, M, C_tree;
-      idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
-      rate = S_dot * alpha_dot;
-    }
-    else
-    {
-      v = velocity_map(q) * alpha_dot;
-      rate = dependent_rate(q, v);
-    }
-    forward_kinematics(pin_->model, pin_->data, q, v, rate);
+    if (idle_dof_ == 0)
+      return frame_drift_of(q, velocity_map(q) * alpha_dot, frame);
+    Vector v;
+    Matrix S, S_dot, M, C_tree;
+    idle_projection(q, alpha_dot, S, S_dot, M, C_tree, v);
+    forward_kinematics(pin_->model, pin_->data, q, v, Vector(S_dot * alpha_dot));
     return frame_classical_acceleration(pin_->model, pin_->data, frame, LOCAL_WORLD_ALIGNED).linear();
   }
 
@@ -726,7 +730,10 @@ namespace delta_pin
       }
       if (!inverse_kinematics(xyz.row(k).transpose(), frame, rows, guess, q))
         return (long)k;
-      const Matrix J_frame = frame_jacobian(q, frame);
+      // one S for the frame's Jacobian and its drift where there are no idle motions
+      const bool idle = idle_dof_ > 0;
+      const Matrix S = idle ? Matrix() : velocity_map(q);
+      const Matrix J_frame = idle ? frame_jacobian(q, frame) : frame_jacobian_of(S, frame);
       for (Eigen::Index r = 0; r < dof; ++r)
         J.row(r) = J_frame.row(rows[r]);
       Eigen::PartialPivLU<Matrix> lu(J);
@@ -735,11 +742,11 @@ namespace delta_pin
         task[r] = xyz_dot(k, rows[r]);
       const Vector rates = lu.solve(task);
       alpha_dot.row(k) = rates.transpose();
-      const Eigen::Vector3d drift = frame_acceleration_drift(q, rates, frame);
+      const Eigen::Vector3d drift = idle ? frame_acceleration_drift(q, rates, frame) : frame_drift_of(q, S * rates, frame);
       for (Eigen::Index r = 0; r < dof; ++r)
         task[r] = xyz_ddot(k, rows[r]) - drift[rows[r]];
       alpha_ddot.row(k) = lu.solve(task).transpose();
-      forward_kinematics(pin_->model, pin_->data, q);
+      // the drift's forward pass left q's placements in the data
       actual.row(k) = update_frame_placement(pin_->model, pin_->data, frame).translation().transpose();
     }
     return -1;
