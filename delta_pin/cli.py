@@ -1425,7 +1425,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         "duration_s": sequence.duration,
         "plans": [
             {
-                "path": p.path.name, "duration_s": p.duration, "grid_points": len(p.s), "repairs": p.repairs,
+                "path": p.path.name, "duration_s": p.duration, "grid_points": len(p.s),
+                "switch_points": p.switch_points, "repairs": p.repairs,
                 "torque_ratio_10kHz": p.verification.torque_ratio,
                 "peak_torque": p.verification.peak_torque.tolist(),
                 "torque_margin": p.verification.margin.tolist(),

@@ -42,6 +42,11 @@ def test_plan_writes_the_trajectory_its_summary_and_figures(planned, capsys):
     tau = table[:, 10:13]
     assert np.abs(tau).max() <= 20.0 * (1 + 1e-6)
     assert all(p["torque_ratio_10kHz"] <= 1.0 for p in summary["plans"])
+    # the default grid: 100 points and those added around the law's switches, recorded
+    assert summary["options"]["switch_refinements"] == 2
+    assert all(
+        p["grid_points"] >= 100 + p["switch_points"] and p["switch_points"] > 0 for p in summary["plans"]
+    )
     for name in ("plan.png", "singularity_map.png"):
         assert (planned / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     listed = json.loads((planned / "manifest.json").read_text())
@@ -112,6 +117,7 @@ def test_bad_plan_options_exit_2_with_one_line(tmp_path, capsys):
         (["--torque-limit", "20", "--rate", "0"], "--rate"),
         (["--torque-limit", "20", "--z", "-0.7"], "cannot reach"),
         (["--torque-limit", "20", "--singularity-margin", "1.5"], "--singularity-margin"),
+        (["--torque-limit", "20", "--switch-refinements", "11"], "--switch-refinements"),
     ]
     for extra, named in cases:
         assert main(["plan", *extra, "--out", str(tmp_path / "out")]) == 2
