@@ -284,29 +284,23 @@ class _Dynamics:
         # every batch of states is assembled from here, the next state from the one before
         self.start = robot.reference_configuration.copy() if start is None else start
 
-    def _terms(self, alpha, alpha_dot, alpha_ddot, split: bool = True) -> tuple[np.ndarray, ...]:
-        """(M alpha_ddot, Coriolis torque, dampers' torque, G) (N, dof) each [N m] (without
-        ``split``: C alpha_dot whole in the second, zeros in the third)."""
-        failed, _, *terms = self.robot.compiled_model.inverse_dynamics(
-            np.ascontiguousarray(alpha),
-            np.ascontiguousarray(alpha_dot),
-            np.ascontiguousarray(alpha_ddot),
-            self.start,
-            split,
-        )
+    def _assembled(self, failed: int, alpha) -> None:
+        """AssemblyError naming the first state whose loops the core could not close (failed >= 0)."""
         if failed >= 0:
             raise AssemblyError(
                 f"{self.robot.name}: the loops do not close at alpha={np.asarray(alpha)[failed].tolist()} "
                 "on the path"
             )
-        return tuple(terms)
 
     def coefficients(self, alpha, d1, d2) -> tuple[np.ndarray, ...]:
         """(a, b, c0, damping) (N, dof) each at the points: c0 the gravity, springs and F̄, and
-        ``damping`` the dampers' torque per unit s_dot (D alpha')."""
-        a = self._terms(alpha, np.zeros_like(d1), d1, split=False)[0]  # M alpha'
-        inertial, coriolis, damping, gravity = self._terms(alpha, d1, d2)
-        return a, inertial + coriolis, gravity + self.nominal.disturbance(), damping
+        ``damping`` the dampers' torque per unit s_dot (D alpha') (the core's ``path_coefficients``:
+        RNEA passes per point, no matrices, where the robot has no idle motions)."""
+        failed, _, a, b, c0, damping = self.robot.compiled_model.path_coefficients(
+            *(np.ascontiguousarray(values) for values in (alpha, d1, d2)), self.start
+        )
+        self._assembled(failed, alpha)
+        return a, b, c0 + self.nominal.disturbance(), damping
 
     def velocity_terms(self, d1, damping, s_dot) -> np.ndarray:
         """The friction and dampers' torque at alpha_dot = alpha' s_dot (N, dof) [N m]."""
@@ -324,11 +318,7 @@ class _Dynamics:
             np.ascontiguousarray(alpha_ddot),
             self.start,
         )
-        if failed >= 0:
-            raise AssemblyError(
-                f"{self.robot.name}: the loops do not close at alpha={np.asarray(alpha)[failed].tolist()} "
-                "on the path"
-            )
+        self._assembled(failed, alpha)
         tau = tau + self.nominal.disturbance()
         return tau + self.nominal.friction(alpha_dot) if self.friction else tau
 

@@ -116,7 +116,8 @@ def _sprung_copy(robot) -> dp.ClosedChainRobot:
 )
 def test_the_one_pass_torque_is_the_projected_dynamics(name, sprung):
     """``ClosedChainModel.actuated_torques`` (S^T RNEA(q, S alpha_dot, S alpha_ddot + S_dot alpha_dot)
-    with the springs' forces: the planner's torque) against M alpha_ddot + C alpha_dot + G of the
+    with the springs' forces: the planner's torque) and ``path_coefficients`` (the planner's a, b,
+    c0 and dampers' term, by RNEA passes) against M alpha_ddot + C alpha_dot + G of the
     readable projection (tests/reference/projection.py), on robots without idle motions (the
     RNEA pass) and Gepetto's five-bar with its springs (an idle motion: the matrices' path), each
     state assembled from the one before; RELATIVE of the largest torque (measured <= 1.5e-15)."""
@@ -134,9 +135,20 @@ def test_the_one_pass_torque_is_the_projected_dynamics(name, sprung):
         alpha, alpha_dot, alpha_ddot, robot.reference_configuration.copy()
     )
     assert failed == -1
+    # the planner's path coefficients at alpha' = alpha_dot, alpha'' = alpha_ddot: a = M alpha',
+    # b = M alpha'' + Q(alpha') (the quadratic Coriolis part), c0 = G, damping = D alpha'
+    failed, _, *coefficients = robot.compiled_model.path_coefficients(
+        alpha, alpha_dot, alpha_ddot, robot.reference_configuration.copy()
+    )
+    assert failed == -1
     q = None
     for i in range(len(alpha)):
         q = robot.configuration(alpha[i], initial_guess=q)
         M, _, G, c_dot = readable.reduced_terms(robot, q, alpha_dot[i])
         expected = M @ alpha_ddot[i] + c_dot + G
         assert _relative(tau[i], expected) < RELATIVE, (name, i)
+        quadratic = 0.5 * (readable.reduced_terms(robot, q, 2.0 * alpha_dot[i])[3] - 2.0 * c_dot)
+        wanted = (M @ alpha_dot[i], M @ alpha_ddot[i] + quadratic, G, c_dot - quadratic)
+        scale = max(np.abs(w).max() for w in wanted)  # the dampers' term is 0 on robots without
+        for got, want in zip(coefficients, wanted, strict=True):
+            assert np.abs(got[i] - want).max() < RELATIVE * scale, (name, i)

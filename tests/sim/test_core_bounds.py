@@ -196,6 +196,9 @@ case("actuated_torques: alpha_dot of 1 column", "alpha_dot", lambda: torques(alp
 case("actuated_torques: alpha_ddot of 2 rows", "alpha_ddot", lambda: torques(alpha_ddot=np.zeros((2, DOF))))
 case("actuated_torques: NaN alpha_ddot", "alpha_ddot", lambda: torques(alpha_ddot=np.full((3, DOF), NAN)))
 case("actuated_torques: empty guess", "guess", lambda: torques(guess=np.zeros(0)))
+case("path_coefficients: valid", "alpha:ok", lambda: model.path_coefficients(states, states * 0, states * 0, q0))
+case("path_coefficients: d1 of 1 column", "d1", lambda: model.path_coefficients(states, np.zeros((3, 1)), states, q0))
+case("path_coefficients: NaN d2", "d2", lambda: model.path_coefficients(states, states, np.full((3, DOF), NAN), q0))
 """,
     "analytic_plant": """
 plant = build_core_analytic_plant(dp.AnalyticPlant(dp.load_delta()))

@@ -188,6 +188,12 @@ namespace delta_pin
     // tau = M alpha_ddot + C alpha_dot + G (dof) at a closed q, the same projection in one pass:
     // S^T (RNEA(q, S alpha_dot, S alpha_ddot + S_dot alpha_dot) + the springs' and dampers' forces)
     Vector actuated_torque(const Vector & q, const Vector & alpha_dot, const Vector & alpha_ddot);
+    // A path's torque coefficients at a closed q (the time-optimal planner's, time_optimal.py):
+    // with alpha' = d1 and alpha'' = d2, a = M d1, b = M d2 + Q(d1) (the Coriolis torque at
+    // alpha_dot = d1, quadratic in it), c0 = G (the springs' stiffness in) and damping = D d1 (the
+    // joint dampers, linear): by RNEA passes where there are no idle motions, else the matrices
+    void path_coefficients(
+      const Vector & q, const Vector & d1, const Vector & d2, Vector & a, Vector & b, Vector & c0, Vector & damping);
     Eigen::Vector3d end_effector_position(const Vector & q);
     // the closed-loop Jacobian (6, dof) of a frame, J_frame S (LOCAL_WORLD_ALIGNED)
     Matrix frame_jacobian(const Vector & q, FrameIndex frame);

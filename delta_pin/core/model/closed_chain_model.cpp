@@ -564,6 +564,42 @@ namespace delta_pin
     return S.transpose() * tau;
   }
 
+  void ClosedChainModel::path_coefficients(
+    const Vector & q, const Vector & d1, const Vector & d2, Vector & a, Vector & b, Vector & c0, Vector & damping)
+  {
+    check_size(q, pin_->model.nq, "q");
+    check_size(d1, actuated_v_.size(), "d1");
+    check_size(d2, actuated_v_.size(), "d2");
+    if (idle_dof_ > 0)
+    {
+      // C(d1) d1 = Q(d1) + D d1 with Q quadratic: Q = (C(2 d1) 2 d1 - 2 C(d1) d1) / 2
+      Matrix M, C;
+      Vector c_once, c_twice;
+      reduced_terms(q, 2.0 * d1, M, C, c0, c_twice);
+      reduced_terms(q, d1, M, C, c0, c_once);
+      const Vector quadratic = 0.5 * (c_twice - 2.0 * c_once);
+      a = M * d1;
+      b = M * d2 + quadratic;
+      damping = c_once - quadratic;
+      return;
+    }
+    const Matrix S = velocity_map(q);  // J_c at q stays in jacobian_ for dependent_rate
+    const Vector v = S * d1;
+    const Vector zero = Vector::Zero(pin_->model.nv);
+    const Vector gravity = generalized_gravity(pin_->model, pin_->data, q);  // a copy: the RNEA reuses the data
+    const Vector inertial = rnea(pin_->model, pin_->data, q, zero, Vector(S * d1)) - gravity;  // M S d1
+    // M (S d2 + S_dot d1) + C_tree v: the Coriolis torque of the projection at alpha_dot = d1
+    const Vector moving = rnea(pin_->model, pin_->data, q, v, Vector(S * d2 + dependent_rate(q, v))) - gravity;
+    Vector at_rest = zero, moving_springs = zero;  // minus the springs' (and dampers') forces
+    subtract_springs(q, zero, at_rest);
+    subtract_springs(q, v, moving_springs);
+    const Matrix St = S.transpose();
+    a = St * inertial;
+    b = St * moving;
+    c0 = St * (gravity - at_rest);
+    damping = St * (at_rest - moving_springs);
+  }
+
   Vector ClosedChainModel::closure_drift(const Vector & q, const Vector & v)
   {
     forward_kinematics(pin_->model, pin_->data, q, v, Vector::Zero(pin_->model.nv));

@@ -23,16 +23,17 @@ namespace
   // the three alike; the rates finite) and a configuration to assemble the first from
   void check_states(
     const delta_pin::ClosedChainModel & model, const RowMatrix & alpha, const RowMatrix & alpha_dot,
-    const RowMatrix & alpha_ddot, const Eigen::VectorXd & guess)
+    const RowMatrix & alpha_ddot, const Eigen::VectorXd & guess, const char * rate = "alpha_dot",
+    const char * acceleration = "alpha_ddot")
   {
     const Eigen::Index n = alpha.rows(), dof = model.dof();
-    for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, "alpha_dot"}, {&alpha_ddot, "alpha_ddot"}})
+    for (const auto & [table, name] : {std::pair{&alpha, "alpha"}, {&alpha_dot, rate}, {&alpha_ddot, acceleration}})
       if (table->rows() != n || table->cols() != dof)
         throw std::invalid_argument(
           std::string(name) + " has shape (" + std::to_string(table->rows()) + ", " + std::to_string(table->cols())
           + "), expected (" + std::to_string(n) + ", " + std::to_string(dof) + ")");
-    check_finite(alpha_dot, "alpha_dot");
-    check_finite(alpha_ddot, "alpha_ddot");
+    check_finite(alpha_dot, rate);
+    check_finite(alpha_ddot, acceleration);
     if (guess.size() != model.nq())
       throw std::invalid_argument(
         "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(model.nq()));
@@ -261,15 +262,14 @@ void bind_model(nb::module_ & m)
       "assembled from the one before (from guess), by one RNEA pass each; failed the first row whose loops "
       "do not close (-1: none), q the last configuration.")
     .def(
-      "inverse_dynamics",
-      [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & alpha_dot, const RowMatrix & alpha_ddot,
-         const Eigen::VectorXd & guess, bool split)
+      "path_coefficients",
+      [](ClosedChainModel & self, const RowMatrix & alpha, const RowMatrix & d1, const RowMatrix & d2,
+         const Eigen::VectorXd & guess)
       {
-        check_states(self, alpha, alpha_dot, alpha_ddot, guess);
+        check_states(self, alpha, d1, d2, guess, "d1", "d2");
         const Eigen::Index n = alpha.rows(), dof = self.dof();
-        RowMatrix inertial(n, dof), coriolis(n, dof), damping(n, dof), gravity(n, dof);
-        Eigen::VectorXd q = guess, closed, G, c_once, c_twice;
-        Eigen::MatrixXd M, C;
+        RowMatrix a(n, dof), b(n, dof), c0(n, dof), damping(n, dof);
+        Eigen::VectorXd q = guess, closed, a_i, b_i, c0_i, damping_i;
         long failed = -1;
         {
           nb::gil_scoped_release release;
@@ -281,30 +281,19 @@ void bind_model(nb::module_ & m)
               break;
             }
             q = closed;
-            const Eigen::VectorXd rate = alpha_dot.row(i).transpose();
-            self.reduced_terms(q, rate, M, C, G, c_once);
-            inertial.row(i) = (M * alpha_ddot.row(i).transpose()).transpose();
-            gravity.row(i) = G.transpose();
-            if (!split)
-            {
-              coriolis.row(i) = c_once.transpose();
-              damping.row(i).setZero();
-              continue;
-            }
-            // C alpha_dot = Q(alpha_dot) + D alpha_dot: the Coriolis part quadratic, the dampers linear
-            self.reduced_terms(q, 2.0 * rate, M, C, G, c_twice);
-            const Eigen::VectorXd quadratic = 0.5 * (c_twice - 2.0 * c_once);
-            coriolis.row(i) = quadratic.transpose();
-            damping.row(i) = (c_once - quadratic).transpose();
+            self.path_coefficients(q, d1.row(i).transpose(), d2.row(i).transpose(), a_i, b_i, c0_i, damping_i);
+            a.row(i) = a_i.transpose();
+            b.row(i) = b_i.transpose();
+            c0.row(i) = c0_i.transpose();
+            damping.row(i) = damping_i.transpose();
           }
         }
-        return std::make_tuple(failed, q, inertial, coriolis, damping, gravity);
+        return std::make_tuple(failed, q, a, b, c0, damping);
       },
-      nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"), nb::arg("guess"), nb::arg("split") = true,
-      "(first row whose loops do not close or -1, the last closed q, M alpha_ddot, the Coriolis torque (quadratic "
-      "in alpha_dot), the dampers' D alpha_dot, G) of the projected dynamics along rows (N, dof), each state "
-      "assembled from the one before: tau = the sum of the four. Without split, C alpha_dot whole in the "
-      "second and zeros in the third (one evaluation instead of two).")
+      nb::arg("alpha"), nb::arg("d1"), nb::arg("d2"), nb::arg("guess"),
+      "(failed, q, a, b, c0, damping): a path's torque coefficients (N, dof) each at rows of alpha with "
+      "alpha' = d1 and alpha'' = d2 (ClosedChainModel::path_coefficients), each state assembled from the one "
+      "before (from guess); failed the first row whose loops do not close (-1: none).")
     .def(
       "joint_reference",
       [](ClosedChainModel & self, size_t frame, const Eigen::VectorXi & rows, const Eigen::VectorXd & times,
