@@ -38,6 +38,23 @@ namespace
       throw std::invalid_argument(
         "guess has " + std::to_string(guess.size()) + " entries, expected " + std::to_string(model.nq()));
   }
+
+  // each row of alpha assembled from the one before (from q, which ends as the last configuration),
+  // then at_state(i, q) with the GIL released: the first row whose loops do not close, -1 for none
+  template<typename AtState>
+  long along_states(delta_pin::ClosedChainModel & model, const RowMatrix & alpha, Eigen::VectorXd & q, AtState at_state)
+  {
+    nb::gil_scoped_release release;
+    Eigen::VectorXd closed;
+    for (Eigen::Index i = 0; i < alpha.rows(); ++i)
+    {
+      if (!model.configuration(alpha.row(i).transpose(), q, closed))
+        return (long)i;
+      q = closed;
+      at_state(i, q);
+    }
+    return -1;
+  }
 } // namespace
 
 void bind_model(nb::module_ & m)
@@ -240,21 +257,14 @@ void bind_model(nb::module_ & m)
         check_states(self, alpha, alpha_dot, alpha_ddot, guess);
         const Eigen::Index n = alpha.rows(), dof = self.dof();
         RowMatrix tau(n, dof);
-        Eigen::VectorXd q = guess, closed;
-        long failed = -1;
-        {
-          nb::gil_scoped_release release;
-          for (Eigen::Index i = 0; i < n; ++i)
+        Eigen::VectorXd q = guess;
+        const long failed = along_states(
+          self, alpha, q,
+          [&](Eigen::Index i, const Eigen::VectorXd & q_i)
           {
-            if (!self.configuration(alpha.row(i).transpose(), q, closed))
-            {
-              failed = (long)i;
-              break;
-            }
-            q = closed;
-            tau.row(i) = self.actuated_torque(q, alpha_dot.row(i).transpose(), alpha_ddot.row(i).transpose()).transpose();
-          }
-        }
+            tau.row(i) =
+              self.actuated_torque(q_i, alpha_dot.row(i).transpose(), alpha_ddot.row(i).transpose()).transpose();
+          });
         return std::make_tuple(failed, q, tau);
       },
       nb::arg("alpha"), nb::arg("alpha_dot"), nb::arg("alpha_ddot"), nb::arg("guess"),
@@ -269,25 +279,17 @@ void bind_model(nb::module_ & m)
         check_states(self, alpha, d1, d2, guess, "d1", "d2");
         const Eigen::Index n = alpha.rows(), dof = self.dof();
         RowMatrix a(n, dof), b(n, dof), c0(n, dof), damping(n, dof);
-        Eigen::VectorXd q = guess, closed, a_i, b_i, c0_i, damping_i;
-        long failed = -1;
-        {
-          nb::gil_scoped_release release;
-          for (Eigen::Index i = 0; i < n; ++i)
+        Eigen::VectorXd q = guess, a_i, b_i, c0_i, damping_i;
+        const long failed = along_states(
+          self, alpha, q,
+          [&](Eigen::Index i, const Eigen::VectorXd & q_i)
           {
-            if (!self.configuration(alpha.row(i).transpose(), q, closed))
-            {
-              failed = (long)i;
-              break;
-            }
-            q = closed;
-            self.path_coefficients(q, d1.row(i).transpose(), d2.row(i).transpose(), a_i, b_i, c0_i, damping_i);
+            self.path_coefficients(q_i, d1.row(i).transpose(), d2.row(i).transpose(), a_i, b_i, c0_i, damping_i);
             a.row(i) = a_i.transpose();
             b.row(i) = b_i.transpose();
             c0.row(i) = c0_i.transpose();
             damping.row(i) = damping_i.transpose();
-          }
-        }
+          });
         return std::make_tuple(failed, q, a, b, c0, damping);
       },
       nb::arg("alpha"), nb::arg("d1"), nb::arg("d2"), nb::arg("guess"),
