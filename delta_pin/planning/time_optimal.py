@@ -274,9 +274,10 @@ def _limits(values, dof: int, name: str, unit: str) -> np.ndarray:
 
 
 class _Dynamics:
-    """The projected inverse dynamics along the path (the core's ``ClosedChainModel.inverse_dynamics``
-    over rows of states, each assembled from the one before): the coefficients a, b, c at path
-    points and the torque of states, with the nominal friction and the joint dampers."""
+    """The projected inverse dynamics along the path (the core's ``path_coefficients`` and
+    ``actuated_torques`` over rows of states, each assembled from the one before): the coefficients
+    a, b, c at path points and the torque of states, with the nominal friction and the joint
+    dampers."""
 
     def __init__(self, robot, nominal: ClosedChainNominalModel, start: np.ndarray | None = None) -> None:
         self.robot, self.nominal = robot, nominal
