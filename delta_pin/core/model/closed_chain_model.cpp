@@ -587,7 +587,7 @@ namespace delta_pin
     const Vector v = S * d1;
     const Vector zero = Vector::Zero(pin_->model.nv);
     const Vector gravity = generalized_gravity(pin_->model, pin_->data, q);  // a copy: the RNEA reuses the data
-    const Vector inertial = rnea(pin_->model, pin_->data, q, zero, Vector(S * d1)) - gravity;  // M S d1
+    const Vector inertial = rnea(pin_->model, pin_->data, q, zero, v) - gravity;  // M S d1 (v = S d1)
     // M (S d2 + S_dot d1) + C_tree v: the Coriolis torque of the projection at alpha_dot = d1
     const Vector moving = rnea(pin_->model, pin_->data, q, v, Vector(S * d2 + dependent_rate(q, v))) - gravity;
     Vector at_rest = zero, moving_springs = zero;  // minus the springs' (and dampers') forces
