@@ -428,32 +428,68 @@ namespace dpn
       }
     }
 
-    // Step 4b: the KKT system by its Schur complement (see the file's head).
+    // x <- D^-1/2 L^-T x for the three columns of one closure at once (`first` and the next two
+    // of scaled_), which share the closure's support: the ancestor walk is done once for the three.
+    void halfSolveClosure(Eigen::Index first, const std::vector<int> & support)
+    {
+      double * x0 = scaled_.col(first).data();
+      double * x1 = scaled_.col(first + 1).data();
+      double * x2 = scaled_.col(first + 2).data();
+      for (int k : support)
+      {
+        const double a0 = x0[k], a1 = x1[k], a2 = x2[k];
+        for (int i = parent_[(size_t)k]; i >= 0; i = parent_[(size_t)i])
+        {
+          const double l = mass_matrix_(k, i);
+          x0[i] -= l * a0;
+          x1[i] -= l * a1;
+          x2[i] -= l * a2;
+        }
+      }
+      for (int k : support)
+      {
+        const double d = inverse_root_d_[k];
+        x0[k] *= d;
+        x1[k] *= d;
+        x2[k] *= d;
+      }
+    }
+
+    // Step 4b: the KKT system by its Schur complement (see the file's head), closure by closure:
+    // V's three columns of a closure share its support, so V^T u, V^T V (a 3 x 3 block per pair of
+    // closures, over the joints they share) and V lambda are formed a block at a time.
     bool solve(const double * tau, double * ddq)
     {
       const Eigen::Index n = (Eigen::Index)joints_.size(), rows = rhs_.size();
+      const size_t closures = closures_.size();
       for (Eigen::Index i = 0; i < n; ++i)
         free_[i] = tau[i] - nle_[i];
       halfSolve(free_.data(), all_joints_);  // u
       scaled_ = jacobian_.transpose();
-      for (Eigen::Index r = 0; r < rows; ++r)
-        halfSolve(scaled_.col(r).data(), closures_[(size_t)(r / 3)].support);  // V
-      // V^T u and V^T V, each column of V on its closure's support
-      for (Eigen::Index i = 0; i < rows; ++i)
+      for (size_t a = 0; a < closures; ++a)
+        halfSolveClosure(3 * (Eigen::Index)a, closures_[a].support);  // V
+      for (size_t a = 0; a < closures; ++a)
       {
-        const double * vi = scaled_.col(i).data();
-        double product = 0.0;
-        for (int k : closures_[(size_t)(i / 3)].support)
-          product += vi[k] * free_[k];
-        multipliers_[i] = rhs_[i] - product;
-        for (Eigen::Index j = 0; j <= i; ++j)
+        const Eigen::Index ra = 3 * (Eigen::Index)a;
+        const double * va[3] = {scaled_.col(ra).data(), scaled_.col(ra + 1).data(), scaled_.col(ra + 2).data()};
+        double product[3] = {0.0, 0.0, 0.0};
+        for (int k : closures_[a].support)
+          for (int r = 0; r < 3; ++r)
+            product[r] += va[r][k] * free_[k];
+        for (int r = 0; r < 3; ++r)
+          multipliers_[ra + r] = rhs_[ra + r] - product[r];
+        for (size_t b = 0; b <= a; ++b)
         {
-          const double * vj = scaled_.col(j).data();
-          const size_t a = (size_t)(i / 3), b = (size_t)(j / 3);
-          double entry = 0.0;
+          const Eigen::Index rb = 3 * (Eigen::Index)b;
+          const double * vb[3] = {scaled_.col(rb).data(), scaled_.col(rb + 1).data(), scaled_.col(rb + 2).data()};
+          double block[3][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}};
           for (int k : shared_[a * (a + 1) / 2 + b])
-            entry += vi[k] * vj[k];
-          delassus_(i, j) = entry;
+            for (int r = 0; r < 3; ++r)
+              for (int c = 0; c < 3; ++c)
+                block[r][c] += va[r][k] * vb[c][k];
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3 && rb + c <= ra + r; ++c)  // the lower triangle
+              delassus_(ra + r, rb + c) = block[r][c];
         }
       }
       // Cholesky of the Delassus matrix (lower triangle; the diagonal keeps 1 / L_jj), then lambda
@@ -489,11 +525,15 @@ namespace dpn
         multipliers_[i] = value * delassus_(i, i);
       }
       // ddq = L^-1 D^-1/2 (u + V lambda)
-      for (Eigen::Index r = 0; r < rows; ++r)
+      for (size_t a = 0; a < closures; ++a)
       {
-        const double * vr = scaled_.col(r).data();
-        for (int k : closures_[(size_t)(r / 3)].support)
-          free_[k] += vr[k] * multipliers_[r];
+        const Eigen::Index ra = 3 * (Eigen::Index)a;
+        const double * v0 = scaled_.col(ra).data();
+        const double * v1 = scaled_.col(ra + 1).data();
+        const double * v2 = scaled_.col(ra + 2).data();
+        const double l0 = multipliers_[ra], l1 = multipliers_[ra + 1], l2 = multipliers_[ra + 2];
+        for (int k : closures_[a].support)
+          free_[k] += v0[k] * l0 + v1[k] * l1 + v2[k] * l2;
       }
       for (Eigen::Index k = 0; k < n; ++k)
         free_[k] *= inverse_root_d_[k];
