@@ -250,10 +250,71 @@ namespace dpn
       return solve(tau, ddq);
     }
 
+    // The closures' gap at q: the largest coordinate of p_1 - p_2 over the closures' anchor points
+    // (world coordinates) [m], NaN where one is NaN -- ClosedChainModel::closure_gap's value for a
+    // tree of point closures, from the placements alone
+    double closureGap(const double * q)
+    {
+      for (size_t i = 0; i < joints_.size(); ++i)
+        place(i, q[i]);
+      double gap = 0.0;
+      for (const PointClosure & closure : closures_)
+      {
+        Vec3 points[2];
+        for (int side = 0; side < 2; ++side)
+        {
+          const int j = closure.joints[side];
+          points[side] = j < 0 ? closure.translations[side]
+                               : Vec3(position_[(size_t)j] + rotation_[(size_t)j] * closure.translations[side]);
+        }
+        for (int k = 0; k < 3; ++k)
+        {
+          const double difference = std::abs(points[0][k] - points[1][k]);
+          if (std::isnan(difference))
+            return difference;
+          gap = std::max(gap, difference);
+        }
+      }
+      return gap;
+    }
+
   private:
     static Mat3 rowMajor(const double * numbers)
     {
       return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(numbers);
+    }
+
+    // Joint i's frame at q_i (its parent's placed first): rotation_, position_ and the axis as a
+    // motion axis_ (world coordinates at the origin).
+    __attribute__((always_inline)) inline void place(size_t i, double q_i)
+    {
+      const AxisJoint & joint = joints_[i];
+      const int p = joint.parent;
+      const Mat3 parent_rotation = p < 0 ? Mat3::Identity() : rotation_[(size_t)p];
+      const Vec3 parent_position = p < 0 ? Vec3::Zero() : position_[(size_t)p];
+      // the joint frame at q = 0
+      const Mat3 frame = joint.placement_turns ? Mat3(parent_rotation * joint.placement_rotation) : parent_rotation;
+      Vec3 position = parent_position + parent_rotation * joint.placement_translation;
+      const Vec3 axis = frame.col(joint.axis);
+      Spatial & s = axis_[i];
+      if (joint.revolute)
+      {
+        rotation_[i] = frame;  // times the rotation about `axis`: it turns the other two columns
+        const double c = std::cos(q_i), sn = std::sin(q_i);
+        const int a = (joint.axis + 1) % 3, b = (joint.axis + 2) % 3;
+        rotation_[i].col(a) = c * frame.col(a) + sn * frame.col(b);
+        rotation_[i].col(b) = c * frame.col(b) - sn * frame.col(a);
+        s.linear = position.cross(axis);  // the velocity at the origin of a turn about the axis
+        s.angular = axis;
+      }
+      else
+      {
+        rotation_[i] = frame;
+        position += q_i * axis;
+        s.linear = axis;
+        s.angular.setZero();
+      }
+      position_[i] = position;
     }
 
     // Step 1: placements, axes, velocities, bias accelerations, RNEA body forces, body inertias.
@@ -262,33 +323,11 @@ namespace dpn
       const Spatial at_rest;
       for (size_t i = 0; i < joints_.size(); ++i)
       {
+        place(i, q[i]);
         const AxisJoint & joint = joints_[i];
         const int p = joint.parent;
-        const Mat3 parent_rotation = p < 0 ? Mat3::Identity() : rotation_[(size_t)p];
-        const Vec3 parent_position = p < 0 ? Vec3::Zero() : position_[(size_t)p];
-        // the joint frame at q = 0
-        const Mat3 frame = joint.placement_turns ? Mat3(parent_rotation * joint.placement_rotation) : parent_rotation;
-        Vec3 position = parent_position + parent_rotation * joint.placement_translation;
-        const Vec3 axis = frame.col(joint.axis);
-        Spatial & s = axis_[i];
-        if (joint.revolute)
-        {
-          rotation_[i] = frame;  // times the rotation about `axis`: it turns the other two columns
-          const double c = std::cos(q[i]), sn = std::sin(q[i]);
-          const int a = (joint.axis + 1) % 3, b = (joint.axis + 2) % 3;
-          rotation_[i].col(a) = c * frame.col(a) + sn * frame.col(b);
-          rotation_[i].col(b) = c * frame.col(b) - sn * frame.col(a);
-          s.linear = position.cross(axis);  // the velocity at the origin of a turn about the axis
-          s.angular = axis;
-        }
-        else
-        {
-          rotation_[i] = frame;
-          position += q[i] * axis;
-          s.linear = axis;
-          s.angular.setZero();
-        }
-        position_[i] = position;
+        const Spatial & s = axis_[i];
+        const Vec3 & position = position_[i];
         const Spatial & parent_velocity = p < 0 ? at_rest : velocity_[(size_t)p];
         Spatial joint_velocity;
         joint_velocity.linear = v[i] * s.linear;

@@ -392,7 +392,10 @@ namespace delta_pin
       library::normalize(dyn_->model, q);
       x.head(nq) = q;
     }
-    const double gap = chain_.closure_gap(x.head(nq));
+    // the axis tree's placements give the same gap as the chain's Pinocchio pass where the
+    // closures are all it holds (no joint couplings)
+    const double gap = dyn_->axis && chain_.couplings().empty() ? dyn_->axis->closureGap(x.data())
+                                                                 : chain_.closure_gap(x.head(nq));
     if (gap <= projection_tolerance_)
       return gap;
     if (!(std::isfinite(gap) && x.allFinite()))
