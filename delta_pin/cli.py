@@ -1341,6 +1341,11 @@ def _add_plan_command(add) -> None:
         help="rounds that halve the grid's intervals around the law's switches of s_ddot before the check "
         "(0: the grid of --points as it is; each round costs a solve and the new points' kinematics)",
     )  # fmt: skip
+    plan.add_argument(
+        "--jerk-limit", default=None, metavar="J[,J...]",
+        help="|alpha_dddot| per actuated joint [rad/s^3 or m/s^3]: the time-optimal law averaged over a "
+        "moving window (or run slower) until the exact model's check holds (docs/planning.md)",
+    )  # fmt: skip
     plan.add_argument("--friction", action="store_true", help="the nominal friction (a recognised Delta's)")
     plan.add_argument("--payload", type=float, default=0.0, help="a payload at the end effector [kg]")
     plan.add_argument(
@@ -1389,6 +1394,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     robot = _closed_chain_robot(args) if args.robot is not None else _load_robot(args)
     torque = _numbers("--torque-limit", args.torque_limit)
     velocity = None if args.velocity_limit is None else _numbers("--velocity-limit", args.velocity_limit)
+    jerk = None if args.jerk_limit is None else _numbers("--jerk-limit", args.jerk_limit)
     if args.map and robot.dof > 3:
         raise InvalidParameterError(f"--map places a frame's position: {robot.name!r} has {robot.dof} motors")
     if args.corners is not None:
@@ -1406,7 +1412,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     options = {
         "torque_limit": torque, "velocity_limit": velocity, "points": args.points, "frame": args.frame,
         "axes": args.axes, "friction": True if args.friction else None, "payload_mass": args.payload,
-        "switch_refinements": args.switch_refinements,
+        "switch_refinements": args.switch_refinements, "jerk_limit": jerk,
     }  # fmt: skip
     plans = [
         plan_time_optimal(
@@ -1415,6 +1421,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             points=args.points, frame=args.frame, axes=args.axes, friction=options["friction"],
             payload_mass=args.payload, singularity_margin=args.singularity_margin,
             switch_refinements=args.switch_refinements,
+            jerk_limit=None if jerk is None else (jerk if len(jerk) > 1 else jerk[0]),
         )
         for path in paths
     ]  # fmt: skip
@@ -1428,6 +1435,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
                 "path": p.path.name, "duration_s": p.duration, "grid_points": len(p.s),
                 "switch_points": p.switch_points, "repairs": p.repairs,
                 "torque_ratio_10kHz": p.verification.torque_ratio,
+                "jerk_ratio_10kHz": p.verification.jerk_ratio, "smoothing_s": p.smoothing,
+                "time_scale": p.time_scale,
                 "peak_torque": p.verification.peak_torque.tolist(),
                 "torque_margin": p.verification.margin.tolist(),
                 "singularity_type_I_min": float(p.singularity[0]),

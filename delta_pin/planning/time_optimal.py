@@ -70,6 +70,8 @@ REPAIR_MARGIN = 1e-4  # a tightened limit lands this far inside the overshoot's 
 REFINEMENTS = 3  # repairs that insert grid points where the torque overshoots, before tightening
 SWITCH_REFINEMENTS = 2  # rounds that add grid points around the law's switches, before the check
 SWITCH_JUMP = 0.05  # a switch: s_ddot jumps by more than this fraction of its range between intervals
+JERK_PASSES = 20  # rounds of widening the moving average (or slowing the law) for jerk limits
+JERK_MARGIN = 1e-3  # each widening or slowing lands this far beyond the overshoot's ratio
 # sigma_min / sigma_max below which a path is refused: ~1 mm from the Delta's stretched-leg locus
 # (the measure falls as the square root of the distance to it)
 SINGULARITY_MARGIN = 5e-3
@@ -79,8 +81,10 @@ SINGULARITY_MARGIN = 5e-3
 class Verification:
     """The plan's torque on the exact model at ``rate`` [Hz] over ``samples`` samples: the largest
     |tau_j| / limit_j (``torque_ratio``, <= 1 when the plan holds), each joint's peak |tau_j| [N m]
-    and margin 1 - peak / limit, the time [s] of the largest ratio, and the largest |alpha_dot_j| /
-    v_j (``velocity_ratio``, None without velocity limits)."""
+    and margin 1 - peak / limit, the time [s] of the largest ratio, the largest |alpha_dot_j| /
+    v_j (``velocity_ratio``, None without velocity limits) and the largest |alpha_dddot_j| / j_j
+    (``jerk_ratio``, None without jerk limits; the jerk is the difference quotient of the exact
+    alpha_ddot between samples: its mean over each 1 / rate)."""
 
     rate: float
     samples: int
@@ -89,10 +93,15 @@ class Verification:
     margin: np.ndarray
     time_of_peak: float
     velocity_ratio: float | None = None
+    jerk_ratio: float | None = None  # the largest |alpha_dddot_j| / jerk limit_j (None without them)
 
     @property
     def feasible(self) -> bool:
-        return self.torque_ratio <= 1.0 and (self.velocity_ratio is None or self.velocity_ratio <= 1.0)
+        return (
+            self.torque_ratio <= 1.0
+            and (self.velocity_ratio is None or self.velocity_ratio <= 1.0)
+            and (self.jerk_ratio is None or self.jerk_ratio <= 1.0)
+        )
 
 
 @dataclass
@@ -121,21 +130,50 @@ class TimeOptimalPlan:
     planning_time: float = 0.0  # [s] of wall time: inverse kinematics, coefficients, TOPP-RA
     verification_time: float = 0.0  # [s] of wall time, repairs included
     name: str = field(default="time-optimal plan")
+    # jerk limits [rad/s^3 or m/s^3] and the moving average that meets them (module docstring)
+    jerk_limit: np.ndarray | None = None
+    smoothing: float = 0.0  # [s]: s(t) is the mean of the grid's law over the last `smoothing` s
+    time_scale: float = 1.0  # the grid's law run this many times slower for the jerk limits
 
     @property
     def duration(self) -> float:
-        return float(self.times[-1])
+        return float(self.times[-1]) + self.smoothing
 
     def path_state(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(s [m], s_dot [m/s], s_ddot [m/s^2]) at times t (N,) [s]: constant s_ddot on each
-        interval; the start before 0, the end (at rest) after the duration."""
-        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        """(s [m], s_dot [m/s], s_ddot [m/s^2]) at times t (N,) [s]: the grid's law (constant
+        s_ddot on each interval), or with ``smoothing`` w its moving average over [t - w, t]
+        (s_ddot then continuous, s_dddot bounded); the start before 0, the end (at rest) after
+        the duration."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        w = self.smoothing
+        if w <= 0.0:
+            return self._grid_state(t)
+        now, before = self._grid_state(t), self._grid_state(t - w)
+        s = (self._grid_integral(t) - self._grid_integral(t - w)) / w
+        s_dot, s_ddot = ((a - b) / w for a, b in zip(now[:2], before[:2]))  # of s, of s_dot
+        return np.minimum(s, self.s[-1]), np.maximum(s_dot, 0.0), s_ddot
+
+    def _grid_integral(self, t: np.ndarray) -> np.ndarray:
+        """The integral of the grid's law s from 0 to t [m s], s held at its ends outside [0, T]."""
+        end = float(self.times[-1])
+        h = np.diff(self.times)
+        pieces = self.s[:-1] * h + 0.5 * self.s_dot[:-1] * h * h + self.s_ddot * h**3 / 6.0
+        cumulative = np.concatenate([[0.0], np.cumsum(pieces)])
+        inside = np.clip(t, 0.0, end)
+        k = np.clip(np.searchsorted(self.times, inside, side="right") - 1, 0, len(self.s_ddot) - 1)
+        tau = inside - self.times[k]
+        value = cumulative[k] + self.s[k] * tau + 0.5 * self.s_dot[k] * tau**2 + self.s_ddot[k] * tau**3 / 6.0
+        return value + np.where(t < 0.0, self.s[0] * t, 0.0) + np.where(t > end, self.s[-1] * (t - end), 0.0)
+
+    def _grid_state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s, s_dot, s_ddot) of the grid's law at t: constant s_ddot per interval, at rest outside."""
+        t = np.clip(t, 0.0, float(self.times[-1]))
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.s_ddot) - 1)
         tau = t - self.times[k]
         u = self.s_ddot[k]
         s = np.minimum(self.s[k] + self.s_dot[k] * tau + 0.5 * u * tau * tau, self.s[-1])
         s_dot = np.maximum(self.s_dot[k] + u * tau, 0.0)
-        end = t >= self.duration
+        end = t >= float(self.times[-1])
         s_dot[end], u = 0.0, np.where(end, 0.0, u)
         s[end] = self.s[-1]
         return s, s_dot, u
@@ -168,7 +206,11 @@ class TimeOptimalPlan:
             "velocity_limit": None if self.velocity_limit is None else self.velocity_limit.tolist(),
             "repairs": self.repairs,
             "switch_points": self.switch_points,
+            "jerk_limit": None if self.jerk_limit is None else self.jerk_limit.tolist(),
+            "smoothing": self.smoothing,
+            "time_scale": self.time_scale,
             "torque_ratio": None if check is None else check.torque_ratio,
+            "jerk_ratio": None if check is None else check.jerk_ratio,
             "check_rate_hz": None if check is None else check.rate,
         }
 
@@ -412,6 +454,7 @@ def plan_time_optimal(
     verify: bool = True,
     singularity_margin: float = SINGULARITY_MARGIN,
     switch_refinements: int = SWITCH_REFINEMENTS,
+    jerk_limit=None,
 ) -> TimeOptimalPlan:
     """The time-optimal law along ``path`` (a geometric path of ``frame``, default the end
     effector; :mod:`delta_pin.planning.paths`) from rest to rest, under |tau_j| <= ``torque_limit``
@@ -425,6 +468,9 @@ def plan_time_optimal(
     ``plan.singularity``: the smallest Type I and Type II measures) and a path that comes within
     ``singularity_margin`` of one is refused (0: never). ``switch_refinements`` rounds halve the
     intervals around the law's switches first (module docstring; 0: the grid of ``points`` as it is).
+    ``jerk_limit`` [rad/s^3 or m/s^3] (one value or one per actuated joint) bounds |alpha_dddot_j|
+    too: the verified law is then averaged over a moving window, widened (or the law slowed) until
+    the check holds (module docstring, "Jerk limits"); it needs ``verify``.
 
     Raises:
         InvalidParameterError: a bad limit, grid, rate or margin; a robot that is not fully actuated.
@@ -435,6 +481,11 @@ def plan_time_optimal(
     dof = robot.dof
     torque = _limits(torque_limit, dof, "torque_limit", "N m")
     velocity = None if velocity_limit is None else _limits(velocity_limit, dof, "velocity_limit", "rad/s")
+    jerk = None if jerk_limit is None else _limits(jerk_limit, dof, "jerk_limit", "rad/s^3")
+    if jerk is not None and not verify:
+        raise InvalidParameterError(
+            "jerk_limit is met by checking the law on the exact model: keep verify=True"
+        )
     if not (isinstance(points, int | np.integer) and 3 <= points <= 100_000):
         raise InvalidParameterError(f"points={points!r} must be an integer from 3 to 100000")
     if not (math.isfinite(check_rate) and check_rate > 0.0):
@@ -499,8 +550,62 @@ def plan_time_optimal(
                 grid.speed_limits *= _tightening(speed_over, len(grid.s))[:, None]
         plan.s_dot, plan.s_ddot = solve()
         plan.s, plan.times = grid.s, _times(grid.s, plan.s_dot)
+    if jerk is not None and plan.verification.feasible:
+        _meet_jerk_limits(plan, jerk, robot, dynamics, check_rate)
     plan.verification_time = time.perf_counter() - wall
     return plan
+
+
+def _meet_jerk_limits(
+    plan: TimeOptimalPlan, jerk: np.ndarray, robot, dynamics: _Dynamics, rate: float
+) -> None:
+    """Smooth the verified law until its joint jerk is within ``jerk`` (module docstring, "Jerk
+    limits"). The check's jerk splits into the share of s_dddot (alpha' s_dddot, which a wider
+    window lowers) and the path's own (the rest: alpha_sss s_dot^3 + 3 alpha'' s_dot s_ddot). The
+    window starts where the law's largest joint-acceleration jump takes it at the jerk limit; each
+    round, where the path's share or the torque or speed exceeds, the law is run k times slower
+    (k the cube root of the path share's overshoot, the square root of the torque's, the speed's
+    own), else the window widens by the jerk's overshoot."""
+    plan.jerk_limit = jerk
+    times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
+    reference = plan.joint_reference(robot, times)
+    jumps = np.abs(np.diff(np.array(reference.alpha_ddot), axis=0)).max(axis=0)
+    width = max(float((jumps / jerk).max()), 2.0 / rate)
+    for _ in range(JERK_PASSES):
+        plan.smoothing = width
+        check, _, plan.checked = _verify(plan, robot, dynamics, rate)
+        plan.verification = check
+        if check.feasible:
+            return
+        slower = max(
+            math.sqrt(max(check.torque_ratio, 1.0)),
+            check.velocity_ratio or 1.0,
+            max(_path_jerk_ratio(plan, robot, rate, jerk), 1.0) ** (1.0 / 3.0),
+        )
+        if slower > 1.0:  # the same law, k times slower: s_dot / k, s_ddot / k^2, its window k w
+            slower *= 1.0 + JERK_MARGIN
+            plan.s_dot, plan.s_ddot = plan.s_dot / slower, plan.s_ddot / slower**2
+            plan.times = plan.times * slower
+            plan.time_scale *= slower
+            width *= slower
+        else:
+            width *= check.jerk_ratio * (1.0 + JERK_MARGIN)
+
+
+def _path_jerk_ratio(plan: TimeOptimalPlan, robot, rate: float, jerk: np.ndarray) -> float:
+    """The largest |alpha_dddot_j - alpha'_j s_dddot| / jerk_j over the check's samples: the jerk's
+    share that a wider window does not lower (difference quotients between samples, alpha' =
+    alpha_dot / s_dot where the path moves)."""
+    times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
+    reference = plan.joint_reference(robot, times)
+    _, s_dot, s_ddot = plan.path_state(times)
+    dt = np.diff(times)[:, None]
+    alpha_dot = np.array(reference.alpha_dot)
+    moving = s_dot > 1e-9 * max(float(s_dot.max()), 1e-300)
+    d1 = np.where(moving[:, None], alpha_dot / np.where(moving, s_dot, 1.0)[:, None], 0.0)
+    share = np.diff(np.array(reference.alpha_ddot), axis=0) / dt
+    share -= 0.5 * (d1[1:] + d1[:-1]) * (np.diff(s_ddot)[:, None] / dt)
+    return float((np.abs(share) / jerk).max())
 
 
 def _tightening(ratios: np.ndarray, points: int) -> np.ndarray:
@@ -613,9 +718,13 @@ def _verify(
         speed = (np.abs(reference.alpha_dot) / plan.velocity_limit).max(axis=1)
         np.maximum.at(speed_per_interval, k, speed)
         velocity_ratio = float(speed.max())
+    jerk_ratio = None
+    if plan.jerk_limit is not None:  # the difference quotient of the exact alpha_ddot
+        jerk = np.diff(np.array(reference.alpha_ddot), axis=0) / np.diff(times)[:, None]
+        jerk_ratio = float((np.abs(jerk) / plan.jerk_limit).max())
     check = Verification(
         rate=rate, samples=len(times), torque_ratio=float(worst.max()), peak_torque=peak,
         margin=1.0 - peak / plan.torque_limit, time_of_peak=float(times[int(np.argmax(worst))]),
-        velocity_ratio=velocity_ratio,
+        velocity_ratio=velocity_ratio, jerk_ratio=jerk_ratio,
     )  # fmt: skip
     return check, (per_interval, speed_per_interval), (times, tau)

@@ -273,3 +273,71 @@ def test_an_axis_the_frame_does_not_move_along_is_one_line():
     with pytest.raises(UnreachablePoseError) as error:
         robot.inverse_kinematics([0.01, 0.0, -0.53], axes="xy")
     assert "does not move along all of 'xy'" in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.fixture(scope="module")
+def jerk_plan(delta):
+    """Half the Adept cycle under 20 N m and |alpha_dddot| <= 1e5 rad/s^3 (with friction): a limit
+    that the path's blends (their curvature at speed), not only the law's switches, make bind."""
+    return plan_time_optimal(delta, adept_paths(blend=0.01)[0], LIMIT, friction=True, jerk_limit=1e5)
+
+
+def test_the_moving_average_is_the_grid_laws_mean_over_its_window(jerk_plan):
+    """s(t) of a smoothed plan against the trapezoidal mean of the grid's own law over [t - w, t]
+    (4001 points: error ~ w^2 max|s_ddot| / 4001^2, < 1e-9 m here), its s_dot and s_ddot against
+    central differences of s and s_dot (h = 1e-6 s: O(h^2) s_dddot', < 1e-6 of their scale); rest to
+    rest, and the duration is the grid law's plus the window."""
+    w = jerk_plan.smoothing
+    assert w > 0.0 and jerk_plan.duration == pytest.approx(jerk_plan.times[-1] + w, abs=1e-15)
+    t = np.linspace(0.0, jerk_plan.duration, 23)[1:-1]
+    s, s_dot, s_ddot = jerk_plan.path_state(t)
+    for ti, si in zip(t, s):
+        window = np.linspace(ti - w, ti, 4001)
+        mean = np.trapezoid(jerk_plan._grid_state(window)[0], window) / w
+        assert abs(si - mean) <= 1e-9
+    h = 1e-6
+    (before, before_dot, _), (after, after_dot, _) = (jerk_plan.path_state(t + d) for d in (-h, h))
+    assert np.abs((after - before) / (2 * h) - s_dot).max() <= 1e-6 * np.abs(s_dot).max()
+    assert np.abs((after_dot - before_dot) / (2 * h) - s_ddot).max() <= 1e-6 * np.abs(s_ddot).max()
+    ends = jerk_plan.path_state([0.0, jerk_plan.duration])
+    assert ends[0][0] == 0.0 and ends[0][1] == jerk_plan.s[-1] and ends[1][0] == 0.0 and ends[1][1] == 0.0
+
+
+def test_a_jerk_limit_holds_on_an_independent_check(delta, jerk_plan):
+    """The planner's check holds (torque <= 1 and jerk <= 1 at 10 kHz: the jerk there is the mean
+    over each 0.1 ms between samples). Independently at 20 kHz, the jerk by central differences of
+    the exact alpha_ddot (also a 0.1 ms mean, centred between the planner's samples) stays within
+    2 % of the limit (measured 1.011: s_dddot is piecewise constant and a short piece between two
+    checked samples is averaged there), and the torque of the readable projection within 1e-3 of
+    its limit. Without the jerk limit the same path's law has a jerk hundreds of times over (its
+    switches), and runs faster."""
+    check = jerk_plan.verification
+    assert check.feasible and check.torque_ratio <= 1.0 and check.jerk_ratio <= 1.0
+    t = np.append(np.arange(0.0, jerk_plan.duration, 5e-5), jerk_plan.duration)
+    ref = jerk_plan.joint_reference(delta, t)
+    alpha_ddot = np.array(ref.alpha_ddot)
+    jerk = (alpha_ddot[2:] - alpha_ddot[:-2]) / (t[2:] - t[:-2])[:, None]
+    assert np.abs(jerk).max() / 1e5 <= 1.02
+    nominal = dp.ClosedChainNominalModel(delta, friction=True)
+    tau = _readable_torque(delta, nominal, np.array(ref.alpha), np.array(ref.alpha_dot), alpha_ddot)
+    assert np.abs(tau).max() / LIMIT <= 1.0 + 1e-3
+    free = plan_time_optimal(delta, adept_paths(blend=0.01)[0], LIMIT, friction=True)
+    t = np.append(np.arange(0.0, free.duration, 1e-4), free.duration)
+    free_ddot = np.array(free.joint_reference(delta, t).alpha_ddot)
+    assert np.abs(np.diff(free_ddot, axis=0) / 1e-4).max() > 100 * 1e5
+    assert free.duration < jerk_plan.duration
+    meta = jerk_plan.metadata()
+    assert meta["jerk_limit"] == [1e5] * 3 and meta["smoothing"] == jerk_plan.smoothing
+    assert meta["jerk_ratio"] == check.jerk_ratio
+
+
+def test_a_bad_jerk_limit_is_one_line(delta):
+    path = adept_paths(blend=0.01)[0]
+    for call, named in (
+        (lambda: plan_time_optimal(delta, path, LIMIT, jerk_limit=0.0), "jerk_limit=0.0"),
+        (lambda: plan_time_optimal(delta, path, LIMIT, jerk_limit=[1e5, 1e5]), "jerk_limit"),
+        (lambda: plan_time_optimal(delta, path, LIMIT, jerk_limit=1e5, verify=False), "verify=True"),
+    ):
+        with pytest.raises(InvalidParameterError) as error:
+            call()
+        assert named in str(error.value) and "\n" not in str(error.value), str(error.value)
