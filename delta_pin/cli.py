@@ -1436,7 +1436,6 @@ def _cmd_plan(args: argparse.Namespace) -> int:
                 "switch_points": p.switch_points, "repairs": p.repairs,
                 "torque_ratio_10kHz": p.verification.torque_ratio,
                 "jerk_ratio_10kHz": p.verification.jerk_ratio, "smoothing_s": p.smoothing,
-                "time_scale": p.time_scale,
                 "peak_torque": p.verification.peak_torque.tolist(),
                 "torque_margin": p.verification.margin.tolist(),
                 "singularity_type_I_min": float(p.singularity[0]),

@@ -35,6 +35,26 @@ Where it exceeds a limit between grid points, the limit of that interval's two g
 tightened by the overshoot and the law solved again (``repairs``), until the check holds:
 max_t |tau_j(t)| / limit_j <= 1 (:class:`Verification`). A plan that still exceeds after
 ``max_repairs`` is returned with its verification saying so (``feasible`` False).
+
+**Jerk limits.** The time-optimal law is bang-bang: s_ddot jumps at every switch, so its joint
+jerk alpha_dddot = alpha_sss s_dot^3 + 3 alpha'' s_dot s_ddot + alpha' s_dddot has no bound
+(alpha_sss the path's third derivative). Given |alpha_dddot_j| <= j_j, the verified law s_g(t) is
+replaced by its moving average over a window w, s(t) = (1/w) int_{t-w}^t s_g (the
+finite-impulse-response smoothing of Biagiotti & Melchiorri, "Trajectory Planning for Automatic
+Machines and Robots", 2008): s_dot and s_ddot are the window's differences of s_g and s_dot_g, so
+s_ddot is continuous and s_dddot = (s_ddot_g(t) - s_ddot_g(t - w)) / w is bounded; the path is
+unchanged and the time grows by w. The window starts at the law's largest joint-acceleration jump
+over the jerk limit. Then, round by round, each check at ``check_rate`` on the exact model (the
+jerk as the difference quotient of the exact alpha_ddot between samples) splits the jerk into
+the s_dddot share, which a wider window lowers (the window widens by its overshoot), and the
+path's own share (the blends' curvature at speed), which only a slower passage lowers: the grid
+points that the window averages at such a sample get a path-speed cap, s_dot <= their law's
+s_dot over the cube root of the overshoot, and TOPP-RA solves the law again with it. Averaging is
+not feasibility-preserving either (near a switch the averaged s_ddot meets another point's bound):
+where the torque exceeds, those points' torque limits are tightened by the overshoot, as the
+repairs do. The plan is returned when the check holds, or after ``JERK_PASSES`` rounds
+(``feasible`` False). The law is then not time-optimal under the jerk limits (its time is an
+upper bound): docs/planning.md measures what the limits cost.
 """
 
 from __future__ import annotations
@@ -133,7 +153,6 @@ class TimeOptimalPlan:
     # jerk limits [rad/s^3 or m/s^3] and the moving average that meets them (module docstring)
     jerk_limit: np.ndarray | None = None
     smoothing: float = 0.0  # [s]: s(t) is the mean of the grid's law over the last `smoothing` s
-    time_scale: float = 1.0  # the grid's law run this many times slower for the jerk limits
 
     @property
     def duration(self) -> float:
@@ -208,7 +227,6 @@ class TimeOptimalPlan:
             "switch_points": self.switch_points,
             "jerk_limit": None if self.jerk_limit is None else self.jerk_limit.tolist(),
             "smoothing": self.smoothing,
-            "time_scale": self.time_scale,
             "torque_ratio": None if check is None else check.torque_ratio,
             "jerk_ratio": None if check is None else check.jerk_ratio,
             "check_rate_hz": None if check is None else check.rate,
@@ -366,9 +384,10 @@ class _Dynamics:
         return tau + self.nominal.friction(alpha_dot) if self.friction else tau
 
 
-def _solve(s, a, b, c, torque_limits, d1, velocity_limit) -> tuple[np.ndarray, np.ndarray]:
-    """TOPP-RA on the grid s with tau = a u + b x + c, |tau| <= torque_limits (N + 1, dof) and
-    |alpha' s_dot| <= velocity_limit (N + 1, dof) or None: (s_dot (N + 1,), s_ddot (N,));
+def _solve(s, a, b, c, torque_limits, d1, velocity_limit, speed_cap=None) -> tuple[np.ndarray, np.ndarray]:
+    """TOPP-RA on the grid s with tau = a u + b x + c, |tau| <= torque_limits (N + 1, dof),
+    |alpha' s_dot| <= velocity_limit (N + 1, dof) or None and s_dot <= speed_cap (N + 1,) or None:
+    (s_dot (N + 1,), s_ddot (N,));
     PlanningError where no law exists (a point where the torque at rest already exceeds, or a path
     TOPP-RA cannot control)."""
     try:
@@ -409,8 +428,12 @@ def _solve(s, a, b, c, torque_limits, d1, velocity_limit) -> tuple[np.ndarray, n
             self.dof = dof
 
         def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
-            with np.errstate(divide="ignore"):
-                bound = np.min((velocity_limit / np.maximum(np.abs(d1), 1e-300)) ** 2, axis=1)  # per point
+            bound = np.full(len(gridpoints), np.inf)
+            if velocity_limit is not None:
+                with np.errstate(divide="ignore"):  # per point
+                    bound = np.min((velocity_limit / np.maximum(np.abs(d1), 1e-300)) ** 2, axis=1)
+            if speed_cap is not None:
+                bound = np.minimum(bound, speed_cap**2)
             xbound = np.column_stack([np.zeros(len(gridpoints)), bound])
             return None, None, None, None, None, None, xbound
 
@@ -426,7 +449,7 @@ def _solve(s, a, b, c, torque_limits, d1, velocity_limit) -> tuple[np.ndarray, n
         def __call__(self, path_positions, order=0):
             raise NotImplementedError("the planner gives toppra its coefficients on the grid")
 
-    constraints = [Torque()] + ([Speed()] if velocity_limit is not None else [])
+    constraints = [Torque()] + ([Speed()] if velocity_limit is not None or speed_cap is not None else [])
     solver = toppra.algorithm.TOPPRA(constraints, GridPath(), gridpoints=s, solver_wrapper="seidel")
     _, s_dot, _ = solver.compute_parameterization(0.0, 0.0)
     if s_dot is None or not np.all(np.isfinite(s_dot)):
@@ -512,7 +535,7 @@ def plan_time_optimal(
         law = None
         for _ in range(FRICTION_PASSES if (dynamics.friction or np.any(grid.damping)) else 1):
             c = grid.c0 + dynamics.velocity_terms(grid.d1, grid.damping, grid.s_dot)
-            law = _solve(grid.s, grid.a, grid.b, c, grid.limits, grid.d1, grid.speed_limits)
+            law = _solve(grid.s, grid.a, grid.b, c, grid.limits, grid.d1, grid.speed_limits, grid.speed_cap)
             grid.s_dot = law[0]
         return law
 
@@ -551,21 +574,27 @@ def plan_time_optimal(
         plan.s_dot, plan.s_ddot = solve()
         plan.s, plan.times = grid.s, _times(grid.s, plan.s_dot)
     if jerk is not None and plan.verification.feasible:
-        _meet_jerk_limits(plan, jerk, robot, dynamics, check_rate)
+
+        def resolve() -> None:  # the law again under the grid's tightened limits and speed caps
+            plan.s_dot, plan.s_ddot = solve()
+            plan.times = _times(grid.s, plan.s_dot)
+
+        _meet_jerk_limits(plan, jerk, robot, dynamics, check_rate, grid, resolve)
     plan.verification_time = time.perf_counter() - wall
     return plan
 
 
 def _meet_jerk_limits(
-    plan: TimeOptimalPlan, jerk: np.ndarray, robot, dynamics: _Dynamics, rate: float
+    plan: TimeOptimalPlan, jerk: np.ndarray, robot, dynamics: _Dynamics, rate: float, grid: _Grid, resolve
 ) -> None:
     """Smooth the verified law until its joint jerk is within ``jerk`` (module docstring, "Jerk
     limits"). The check's jerk splits into the share of s_dddot (alpha' s_dddot, which a wider
     window lowers) and the path's own (the rest: alpha_sss s_dot^3 + 3 alpha'' s_dot s_ddot). The
-    window starts where the law's largest joint-acceleration jump takes it at the jerk limit; each
-    round, where the path's share or the torque or speed exceeds, the law is run k times slower
-    (k the cube root of the path share's overshoot, the square root of the torque's, the speed's
-    own), else the window widens by the jerk's overshoot."""
+    window starts where the law's largest joint-acceleration jump takes it at the jerk limit. Each
+    round, at the samples where a limit is exceeded, the grid points whose law the window averages
+    there are changed: the torque limits tightened by the torque's overshoot, a path-speed cap (the
+    law's s_dot there over the cube root of the path share's overshoot, or over the speed's), and
+    the law solved again (``resolve``); where the s_dddot share exceeds, the window widens by it."""
     plan.jerk_limit = jerk
     times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
     reference = plan.joint_reference(robot, times)
@@ -577,35 +606,54 @@ def _meet_jerk_limits(
         plan.verification = check
         if check.feasible:
             return
-        slower = max(
-            math.sqrt(max(check.torque_ratio, 1.0)),
-            check.velocity_ratio or 1.0,
-            max(_path_jerk_ratio(plan, robot, rate, jerk), 1.0) ** (1.0 / 3.0),
-        )
-        if slower > 1.0:  # the same law, k times slower: s_dot / k, s_ddot / k^2, its window k w
-            slower *= 1.0 + JERK_MARGIN
-            plan.s_dot, plan.s_ddot = plan.s_dot / slower, plan.s_ddot / slower**2
-            plan.times = plan.times * slower
-            plan.time_scale *= slower
-            width *= slower
-        else:
-            width *= check.jerk_ratio * (1.0 + JERK_MARGIN)
+        samples, tau = plan.checked
+        total, path_share = _jerk_ratios(plan, robot, samples, jerk)
+        torque_over = np.max(np.abs(tau) / plan.torque_limit, axis=1)
+        slower = np.ones(len(samples))
+        slower[1:] = np.cbrt(np.maximum(path_share, 1.0))
+        if plan.velocity_limit is not None:
+            speed = np.array(plan.joint_reference(robot, samples).alpha_dot)
+            slower = np.maximum(slower, (np.abs(speed) / plan.velocity_limit).max(axis=1))
+        tighten = np.ones(len(grid.s))  # per grid point: the largest torque overshoot it averages into
+        slow = np.ones(len(grid.s))  # and the largest slowing asked of it
+        for t, torque_ratio, factor in zip(samples, torque_over, slower):
+            if torque_ratio > 1.0 or factor > 1.0:
+                k = np.flatnonzero((plan.times[1:] > t - width) & (plan.times[:-1] <= t))
+                points = np.union1d(k, k + 1)
+                tighten[points] = np.maximum(tighten[points], torque_ratio)
+                slow[points] = np.maximum(slow[points], factor)
+        changed = bool(np.any(tighten > 1.0) or np.any(slow > 1.0))
+        if np.any(tighten > 1.0):  # compounded round by round, as the repairs' tightening
+            grid.limits[tighten > 1.0] /= (tighten[tighten > 1.0] * (1.0 + JERK_MARGIN))[:, None]
+        if np.any(slow > 1.0):
+            cap = np.full(len(grid.s), np.inf) if grid.speed_cap is None else grid.speed_cap
+            over = slow > 1.0
+            cap[over] = np.minimum(
+                cap[over], np.maximum(plan.s_dot[over], 0.0) / (slow[over] * (1.0 + JERK_MARGIN))
+            )
+            grid.speed_cap = cap
+        window = total[path_share <= 1.0]  # where the s_dddot share is what exceeds
+        if len(window) and window.max() > 1.0:
+            width *= window.max() * (1.0 + JERK_MARGIN)
+        if changed:
+            resolve()
 
 
-def _path_jerk_ratio(plan: TimeOptimalPlan, robot, rate: float, jerk: np.ndarray) -> float:
-    """The largest |alpha_dddot_j - alpha'_j s_dddot| / jerk_j over the check's samples: the jerk's
-    share that a wider window does not lower (difference quotients between samples, alpha' =
-    alpha_dot / s_dot where the path moves)."""
-    times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
+def _jerk_ratios(
+    plan: TimeOptimalPlan, robot, times: np.ndarray, jerk: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Between consecutive samples ``times`` (N - 1,): the largest |alpha_dddot_j| / jerk_j, and the
+    largest |alpha_dddot_j - alpha'_j s_dddot| / jerk_j, the jerk's share that a wider window does
+    not lower (difference quotients, alpha' = alpha_dot / s_dot where the path moves)."""
     reference = plan.joint_reference(robot, times)
     _, s_dot, s_ddot = plan.path_state(times)
     dt = np.diff(times)[:, None]
     alpha_dot = np.array(reference.alpha_dot)
     moving = s_dot > 1e-9 * max(float(s_dot.max()), 1e-300)
     d1 = np.where(moving[:, None], alpha_dot / np.where(moving, s_dot, 1.0)[:, None], 0.0)
-    share = np.diff(np.array(reference.alpha_ddot), axis=0) / dt
-    share -= 0.5 * (d1[1:] + d1[:-1]) * (np.diff(s_ddot)[:, None] / dt)
-    return float((np.abs(share) / jerk).max())
+    total = np.diff(np.array(reference.alpha_ddot), axis=0) / dt
+    share = total - 0.5 * (d1[1:] + d1[:-1]) * (np.diff(s_ddot)[:, None] / dt)
+    return (np.abs(total) / jerk).max(axis=1), (np.abs(share) / jerk).max(axis=1)
 
 
 def _tightening(ratios: np.ndarray, points: int) -> np.ndarray:
@@ -632,6 +680,7 @@ class _Grid:
         self.speed_limits = (
             None if velocity is None else np.broadcast_to(velocity, (len(s), len(velocity))).copy()
         )
+        self.speed_cap = None  # s_dot's own bound at each point [m/s] (the jerk limits'), or None
         self._evaluate(s, np.full(len(s), 1e-3))  # the first pass: friction's sign along the path, near rest
 
     def _evaluate(self, s: np.ndarray, s_dot: np.ndarray) -> None:
@@ -654,6 +703,8 @@ class _Grid:
         self.limits = merged(self.limits)
         if self.speed_limits is not None:
             self.speed_limits = merged(self.speed_limits)
+        if self.speed_cap is not None:
+            self.speed_cap = merged(self.speed_cap)
         s_dot = np.concatenate([self.s_dot, 0.5 * (self.s_dot[intervals] + self.s_dot[intervals + 1])])[order]
         self._evaluate(np.concatenate([self.s, middle])[order], s_dot)
 

@@ -13,7 +13,7 @@ __all__ = ["plot_plan", "plot_singularity_map"]
 
 def plot_plan(plans: Sequence, title: str = "time-optimal plan") -> Figure:
     """Two panels over the plans run one after the other: |tau_j| / limit_j of each plan's last
-    check on the exact model (the limit at 1), and the path speed s_dot [m/s] on the grid."""
+    check on the exact model (the limit at 1), and the path speed s_dot [m/s] at its samples."""
     fig = Figure(figsize=(8.0, 5.5), layout="constrained")
     torque, speed = fig.subplots(2, 1, sharex=True)
     start = 0.0
@@ -23,7 +23,9 @@ def plot_plan(plans: Sequence, title: str = "time-optimal plan") -> Figure:
         for j in range(ratio.shape[1]):
             torque.plot(start + times, ratio[:, j], color=f"C{j}", linewidth=1.0, gid=f"tau_ratio_{j + 1}",
                         label=f"joint {j + 1}" if number == 0 else None)  # fmt: skip
-        speed.plot(start + plan.times, plan.s_dot, color="C0", linewidth=1.2, gid=f"s_dot_{number + 1}")
+        speed.plot(
+            start + times, plan.path_state(times)[1], color="C0", linewidth=1.2, gid=f"s_dot_{number + 1}"
+        )
         if number:
             for ax in (torque, speed):
                 ax.axvline(start, color="0.6", linewidth=0.8, linestyle=":")

@@ -139,7 +139,7 @@ def test_a_jerk_limited_plan_keeps_its_limits_in_the_files(tmp_path):
     (jerk and torque ratios <= 1 at 10 kHz); the CSV's 1 kHz rows keep the torque limit and their
     acceleration differences stay under the limit (a 1 ms mean of the jerk: <= the 0.1 ms means the
     check bounds), and the cycle is slower than the unsmoothed one's by less than 10 % (measured
-    +2 %: at 1e6 rad/s^3 the window is ~1.7 ms)."""
+    +1.5 %: at 1e6 rad/s^3 the window is 1.8 ms)."""
     out = tmp_path / "jerk"
     assert main(["plan", "--torque-limit", "20", "--jerk-limit", "1e6", "--out", str(out)]) == 0
     summary = json.loads((out / "plan.json").read_text())

@@ -307,9 +307,9 @@ def test_a_jerk_limit_holds_on_an_independent_check(delta, jerk_plan):
     """The planner's check holds (torque <= 1 and jerk <= 1 at 10 kHz: the jerk there is the mean
     over each 0.1 ms between samples). Independently at 20 kHz, the jerk by central differences of
     the exact alpha_ddot (also a 0.1 ms mean, centred between the planner's samples) stays within
-    2 % of the limit (measured 1.011: s_dddot is piecewise constant and a short piece between two
-    checked samples is averaged there), and the torque of the readable projection within 1e-3 of
-    its limit. Without the jerk limit the same path's law has a jerk hundreds of times over (its
+    1 % of the limit (measured 0.968: s_dddot is piecewise constant, and a piece shorter than a
+    sample's 0.1 ms is averaged by both checks), and the torque of the readable projection within
+    1e-3 of its limit. Without the jerk limit the same path's law has a jerk hundreds of times over (its
     switches), and runs faster."""
     check = jerk_plan.verification
     assert check.feasible and check.torque_ratio <= 1.0 and check.jerk_ratio <= 1.0
@@ -317,7 +317,7 @@ def test_a_jerk_limit_holds_on_an_independent_check(delta, jerk_plan):
     ref = jerk_plan.joint_reference(delta, t)
     alpha_ddot = np.array(ref.alpha_ddot)
     jerk = (alpha_ddot[2:] - alpha_ddot[:-2]) / (t[2:] - t[:-2])[:, None]
-    assert np.abs(jerk).max() / 1e5 <= 1.02
+    assert np.abs(jerk).max() / 1e5 <= 1.01
     nominal = dp.ClosedChainNominalModel(delta, friction=True)
     tau = _readable_torque(delta, nominal, np.array(ref.alpha), np.array(ref.alpha_dot), alpha_ddot)
     assert np.abs(tau).max() / LIMIT <= 1.0 + 1e-3
