@@ -52,9 +52,11 @@ points that the window averages at such a sample get a path-speed cap, s_dot <= 
 s_dot over the cube root of the overshoot, and TOPP-RA solves the law again with it. Averaging is
 not feasibility-preserving either (near a switch the averaged s_ddot meets another point's bound):
 where the torque exceeds, those points' torque limits are tightened by the overshoot, as the
-repairs do. The plan is returned when the check holds, or after ``JERK_PASSES`` rounds
-(``feasible`` False). The law is then not time-optimal under the jerk limits (its time is an
-upper bound): docs/planning.md measures what the limits cost.
+repairs do. Where ``JERK_PASSES`` such rounds keep trading one overshoot for another (each solve
+moves the law's switches), the whole law is run slower (s_dot / k, s_ddot / k^2, the window k w:
+every jerk term falls as 1 / k^3, the dynamic torque as 1 / k^2) until the check holds, or
+``JERK_PASSES`` rounds more (``feasible`` False). The law is then not time-optimal under the
+jerk limits (its time is an upper bound): docs/planning.md measures what the limits cost.
 """
 
 from __future__ import annotations
@@ -90,7 +92,7 @@ REPAIR_MARGIN = 1e-4  # a tightened limit lands this far inside the overshoot's 
 REFINEMENTS = 3  # repairs that insert grid points where the torque overshoots, before tightening
 SWITCH_REFINEMENTS = 2  # rounds that add grid points around the law's switches, before the check
 SWITCH_JUMP = 0.05  # a switch: s_ddot jumps by more than this fraction of its range between intervals
-JERK_PASSES = 20  # rounds of widening the moving average (or slowing the law) for jerk limits
+JERK_PASSES = 12  # rounds of local changes for jerk limits, then as many of slowing the whole law
 JERK_MARGIN = 1e-3  # each widening or slowing lands this far beyond the overshoot's ratio
 # sigma_min / sigma_max below which a path is refused: ~1 mm from the Delta's stretched-leg locus
 # (the measure falls as the square root of the distance to it)
@@ -594,7 +596,8 @@ def _meet_jerk_limits(
     round, at the samples where a limit is exceeded, the grid points whose law the window averages
     there are changed: the torque limits tightened by the torque's overshoot, a path-speed cap (the
     law's s_dot there over the cube root of the path share's overshoot, or over the speed's), and
-    the law solved again (``resolve``); where the s_dddot share exceeds, the window widens by it."""
+    the law solved again (``resolve``); where the s_dddot share exceeds, the window widens by it.
+    After ``JERK_PASSES`` such rounds the whole law is run slower instead, until the check holds."""
     plan.jerk_limit = jerk
     times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
     reference = plan.joint_reference(robot, times)
@@ -623,8 +626,13 @@ def _meet_jerk_limits(
                 tighten[points] = np.maximum(tighten[points], torque_ratio)
                 slow[points] = np.maximum(slow[points], factor)
         changed = bool(np.any(tighten > 1.0) or np.any(slow > 1.0))
-        if np.any(tighten > 1.0):  # compounded round by round, as the repairs' tightening
-            grid.limits[tighten > 1.0] /= (tighten[tighten > 1.0] * (1.0 + JERK_MARGIN))[:, None]
+        if np.any(tighten > 1.0):  # compounded round by round, as the repairs' tightening, but
+            # never below the torque the point needs at rest (gravity, springs, friction at the law's
+            # speed): at most half the headroom above it goes per round
+            hold = np.abs(grid.c0 + dynamics.velocity_terms(grid.d1, grid.damping, grid.s_dot))
+            over = tighten > 1.0
+            tightened = grid.limits[over] / (tighten[over] * (1.0 + JERK_MARGIN))[:, None]
+            grid.limits[over] = np.maximum(tightened, 0.5 * (grid.limits[over] + hold[over]))
         if np.any(slow > 1.0):
             cap = np.full(len(grid.s), np.inf) if grid.speed_cap is None else grid.speed_cap
             over = slow > 1.0
@@ -637,6 +645,22 @@ def _meet_jerk_limits(
             width *= window.max() * (1.0 + JERK_MARGIN)
         if changed:
             resolve()
+    # where the local rounds keep trading one overshoot for another (each solve moves the law's
+    # switches), the whole law runs slower until the check holds: s_dot / k, s_ddot / k^2 and the
+    # window k w lower every jerk term as 1 / k^3 and the dynamic torque as 1 / k^2
+    for _ in range(JERK_PASSES):
+        plan.smoothing = width
+        check, _, plan.checked = _verify(plan, robot, dynamics, rate)
+        plan.verification = check
+        if check.feasible:
+            return
+        k = (1.0 + JERK_MARGIN) * max(
+            math.sqrt(max(check.torque_ratio, 1.0)),
+            check.velocity_ratio or 1.0,
+            max(check.jerk_ratio, 1.0) ** (1 / 3),
+        )
+        plan.s_dot, plan.s_ddot, plan.times = plan.s_dot / k, plan.s_ddot / k**2, plan.times * k
+        width *= k
 
 
 def _jerk_ratios(
