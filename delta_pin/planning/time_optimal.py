@@ -603,57 +603,18 @@ def _meet_jerk_limits(
     reference = plan.joint_reference(robot, times)
     jumps = np.abs(np.diff(np.array(reference.alpha_ddot), axis=0)).max(axis=0)
     width = max(float((jumps / jerk).max()), 2.0 / rate)
-    for _ in range(JERK_PASSES):
+    for round_ in range(2 * JERK_PASSES):
         plan.smoothing = width
         check, _, plan.checked = _verify(plan, robot, dynamics, rate)
         plan.verification = check
         if check.feasible:
             return
-        samples, tau = plan.checked
-        total, path_share = _jerk_ratios(plan, robot, samples, jerk)
-        torque_over = np.max(np.abs(tau) / plan.torque_limit, axis=1)
-        slower = np.ones(len(samples))
-        slower[1:] = np.cbrt(np.maximum(path_share, 1.0))
-        if plan.velocity_limit is not None:
-            speed = np.array(plan.joint_reference(robot, samples).alpha_dot)
-            slower = np.maximum(slower, (np.abs(speed) / plan.velocity_limit).max(axis=1))
-        tighten = np.ones(len(grid.s))  # per grid point: the largest torque overshoot it averages into
-        slow = np.ones(len(grid.s))  # and the largest slowing asked of it
-        for t, torque_ratio, factor in zip(samples, torque_over, slower):
-            if torque_ratio > 1.0 or factor > 1.0:
-                k = np.flatnonzero((plan.times[1:] > t - width) & (plan.times[:-1] <= t))
-                points = np.union1d(k, k + 1)
-                tighten[points] = np.maximum(tighten[points], torque_ratio)
-                slow[points] = np.maximum(slow[points], factor)
-        changed = bool(np.any(tighten > 1.0) or np.any(slow > 1.0))
-        if np.any(tighten > 1.0):  # compounded round by round, as the repairs' tightening, but
-            # never below the torque the point needs at rest (gravity, springs, friction at the law's
-            # speed): at most half the headroom above it goes per round
-            hold = np.abs(grid.c0 + dynamics.velocity_terms(grid.d1, grid.damping, grid.s_dot))
-            over = tighten > 1.0
-            tightened = grid.limits[over] / (tighten[over] * (1.0 + JERK_MARGIN))[:, None]
-            grid.limits[over] = np.maximum(tightened, 0.5 * (grid.limits[over] + hold[over]))
-        if np.any(slow > 1.0):
-            cap = np.full(len(grid.s), np.inf) if grid.speed_cap is None else grid.speed_cap
-            over = slow > 1.0
-            cap[over] = np.minimum(
-                cap[over], np.maximum(plan.s_dot[over], 0.0) / (slow[over] * (1.0 + JERK_MARGIN))
-            )
-            grid.speed_cap = cap
-        window = total[path_share <= 1.0]  # where the s_dddot share is what exceeds
-        if len(window) and window.max() > 1.0:
-            width *= window.max() * (1.0 + JERK_MARGIN)
-        if changed:
-            resolve()
-    # where the local rounds keep trading one overshoot for another (each solve moves the law's
-    # switches), the whole law runs slower until the check holds: s_dot / k, s_ddot / k^2 and the
-    # window k w lower every jerk term as 1 / k^3 and the dynamic torque as 1 / k^2
-    for _ in range(JERK_PASSES):
-        plan.smoothing = width
-        check, _, plan.checked = _verify(plan, robot, dynamics, rate)
-        plan.verification = check
-        if check.feasible:
-            return
+        if round_ < JERK_PASSES:
+            width = _local_jerk_round(plan, robot, dynamics, grid, resolve, jerk, width)
+            continue
+        # the local rounds keep trading one overshoot for another (each solve moves the law's
+        # switches): the whole law runs slower, s_dot / k, s_ddot / k^2 and the window k w
+        # lowering every jerk term as 1 / k^3 and the dynamic torque as 1 / k^2
         k = (1.0 + JERK_MARGIN) * max(
             math.sqrt(max(check.torque_ratio, 1.0)),
             check.velocity_ratio or 1.0,
@@ -661,6 +622,50 @@ def _meet_jerk_limits(
         )
         plan.s_dot, plan.s_ddot, plan.times = plan.s_dot / k, plan.s_ddot / k**2, plan.times * k
         width *= k
+
+
+def _local_jerk_round(
+    plan: TimeOptimalPlan, robot, dynamics: _Dynamics, grid: _Grid, resolve, jerk: np.ndarray, width: float
+) -> float:
+    """One local round of :func:`_meet_jerk_limits` after a failed check (``plan.checked``): the
+    grid's torque limits and speed caps changed where the samples exceed, the law solved again;
+    returns the window, widened where the s_dddot share exceeds."""
+    samples, tau = plan.checked
+    total, path_share = _jerk_ratios(plan, robot, samples, jerk)
+    torque_over = np.max(np.abs(tau) / plan.torque_limit, axis=1)
+    slower = np.ones(len(samples))
+    slower[1:] = np.cbrt(np.maximum(path_share, 1.0))
+    if plan.velocity_limit is not None:
+        speed = np.array(plan.joint_reference(robot, samples).alpha_dot)
+        slower = np.maximum(slower, (np.abs(speed) / plan.velocity_limit).max(axis=1))
+    tighten = np.ones(len(grid.s))  # per grid point: the largest torque overshoot it averages into
+    slow = np.ones(len(grid.s))  # and the largest slowing asked of it
+    for t, torque_ratio, factor in zip(samples, torque_over, slower):
+        if torque_ratio > 1.0 or factor > 1.0:
+            k = np.flatnonzero((plan.times[1:] > t - width) & (plan.times[:-1] <= t))
+            points = np.union1d(k, k + 1)
+            tighten[points] = np.maximum(tighten[points], torque_ratio)
+            slow[points] = np.maximum(slow[points], factor)
+    if np.any(tighten > 1.0):  # compounded round by round, as the repairs' tightening, but never
+        # below the torque the point needs at rest (gravity, springs, friction at the law's speed):
+        # at most half the headroom above it goes per round
+        hold = np.abs(grid.c0 + dynamics.velocity_terms(grid.d1, grid.damping, grid.s_dot))
+        over = tighten > 1.0
+        tightened = grid.limits[over] / (tighten[over] * (1.0 + JERK_MARGIN))[:, None]
+        grid.limits[over] = np.maximum(tightened, 0.5 * (grid.limits[over] + hold[over]))
+    if np.any(slow > 1.0):
+        cap = np.full(len(grid.s), np.inf) if grid.speed_cap is None else grid.speed_cap
+        over = slow > 1.0
+        cap[over] = np.minimum(
+            cap[over], np.maximum(plan.s_dot[over], 0.0) / (slow[over] * (1.0 + JERK_MARGIN))
+        )
+        grid.speed_cap = cap
+    window = total[path_share <= 1.0]  # where the s_dddot share is what exceeds
+    if len(window) and window.max() > 1.0:
+        width *= window.max() * (1.0 + JERK_MARGIN)
+    if np.any(tighten > 1.0) or np.any(slow > 1.0):
+        resolve()
+    return width
 
 
 def _jerk_ratios(
