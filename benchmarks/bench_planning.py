@@ -94,7 +94,7 @@ def _checked(robot, path, limit: float, points: int, options: dict):
     start = branch_configuration(
         robot, np.array(path_joints(robot, path, [0.0], axes=options.get("axes")).alpha[0])
     )
-    check, _, _ = _verify(law, robot, _Dynamics(robot, dp.ClosedChainNominalModel(robot), start), 1e4)
+    check, _, _, _ = _verify(law, robot, _Dynamics(robot, dp.ClosedChainNominalModel(robot), start), 1e4)
     return law, check
 
 

@@ -170,7 +170,8 @@ class TimeOptimalPlan:
         if w <= 0.0:
             return self._grid_state(t)
         now, before = self._grid_state(t), self._grid_state(t - w)
-        s = (self._grid_integral(t) - self._grid_integral(t - w)) / w
+        integral = self._grid_integral(np.concatenate([t, t - w]))  # one pass over the grid for both
+        s = (integral[: len(t)] - integral[len(t) :]) / w
         s_dot, s_ddot = ((a - b) / w for a, b in zip(now[:2], before[:2]))  # of s, of s_dot
         return np.minimum(s, self.s[-1]), np.maximum(s_dot, 0.0), s_ddot
 
@@ -561,7 +562,7 @@ def plan_time_optimal(
     wall = time.perf_counter()
     plan.singularity = _singularity(robot, path, grid, frame, axes, singularity_margin, start)
     for repair in range(max_repairs + 1):
-        check, ratios, plan.checked = _verify(plan, robot, dynamics, check_rate)
+        check, ratios, plan.checked, reference = _verify(plan, robot, dynamics, check_rate)
         plan.verification, plan.repairs = check, repair
         if check.feasible or repair == max_repairs:
             break
@@ -581,13 +582,20 @@ def plan_time_optimal(
             plan.s_dot, plan.s_ddot = solve()
             plan.times = _times(grid.s, plan.s_dot)
 
-        _meet_jerk_limits(plan, jerk, robot, dynamics, check_rate, grid, resolve)
+        _meet_jerk_limits(plan, jerk, robot, dynamics, check_rate, grid, resolve, reference)
     plan.verification_time = time.perf_counter() - wall
     return plan
 
 
 def _meet_jerk_limits(
-    plan: TimeOptimalPlan, jerk: np.ndarray, robot, dynamics: _Dynamics, rate: float, grid: _Grid, resolve
+    plan: TimeOptimalPlan,
+    jerk: np.ndarray,
+    robot,
+    dynamics: _Dynamics,
+    rate: float,
+    grid: _Grid,
+    resolve,
+    reference: JointReference,
 ) -> None:
     """Smooth the verified law until its joint jerk is within ``jerk`` (module docstring, "Jerk
     limits"). The check's jerk splits into the share of s_dddot (alpha' s_dddot, which a wider
@@ -597,20 +605,19 @@ def _meet_jerk_limits(
     there are changed: the torque limits tightened by the torque's overshoot, a path-speed cap (the
     law's s_dot there over the cube root of the path share's overshoot, or over the speed's), and
     the law solved again (``resolve``); where the s_dddot share exceeds, the window widens by it.
-    After ``JERK_PASSES`` such rounds the whole law is run slower instead, until the check holds."""
+    After ``JERK_PASSES`` such rounds the whole law is run slower instead, until the check holds.
+    ``reference``: the joints at the samples of the plan's last check (``_verify``'s)."""
     plan.jerk_limit = jerk
-    times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
-    reference = plan.joint_reference(robot, times)
     jumps = np.abs(np.diff(np.array(reference.alpha_ddot), axis=0)).max(axis=0)
     width = max(float((jumps / jerk).max()), 2.0 / rate)
     for round_ in range(2 * JERK_PASSES):
         plan.smoothing = width
-        check, _, plan.checked = _verify(plan, robot, dynamics, rate)
+        check, _, plan.checked, reference = _verify(plan, robot, dynamics, rate)
         plan.verification = check
         if check.feasible:
             return
         if round_ < JERK_PASSES:
-            width = _local_jerk_round(plan, robot, dynamics, grid, resolve, jerk, width)
+            width = _local_jerk_round(plan, reference, dynamics, grid, resolve, jerk, width)
             continue
         # the local rounds keep trading one overshoot for another (each solve moves the law's
         # switches): the whole law runs slower, s_dot / k, s_ddot / k^2 and the window k w
@@ -625,18 +632,24 @@ def _meet_jerk_limits(
 
 
 def _local_jerk_round(
-    plan: TimeOptimalPlan, robot, dynamics: _Dynamics, grid: _Grid, resolve, jerk: np.ndarray, width: float
+    plan: TimeOptimalPlan,
+    reference: JointReference,
+    dynamics: _Dynamics,
+    grid: _Grid,
+    resolve,
+    jerk: np.ndarray,
+    width: float,
 ) -> float:
-    """One local round of :func:`_meet_jerk_limits` after a failed check (``plan.checked``): the
-    grid's torque limits and speed caps changed where the samples exceed, the law solved again;
-    returns the window, widened where the s_dddot share exceeds."""
+    """One local round of :func:`_meet_jerk_limits` after a failed check (``plan.checked``, its
+    joints ``reference``): the grid's torque limits and speed caps changed where the samples
+    exceed, the law solved again; returns the window, widened where the s_dddot share exceeds."""
     samples, tau = plan.checked
-    total, path_share = _jerk_ratios(plan, robot, samples, jerk)
+    total, path_share = _jerk_ratios(plan, reference, jerk)
     torque_over = np.max(np.abs(tau) / plan.torque_limit, axis=1)
     slower = np.ones(len(samples))
     slower[1:] = np.cbrt(np.maximum(path_share, 1.0))
     if plan.velocity_limit is not None:
-        speed = np.array(plan.joint_reference(robot, samples).alpha_dot)
+        speed = np.array(reference.alpha_dot)
         slower = np.maximum(slower, (np.abs(speed) / plan.velocity_limit).max(axis=1))
     tighten = np.ones(len(grid.s))  # per grid point: the largest torque overshoot it averages into
     slow = np.ones(len(grid.s))  # and the largest slowing asked of it
@@ -669,12 +682,13 @@ def _local_jerk_round(
 
 
 def _jerk_ratios(
-    plan: TimeOptimalPlan, robot, times: np.ndarray, jerk: np.ndarray
+    plan: TimeOptimalPlan, reference: JointReference, jerk: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Between consecutive samples ``times`` (N - 1,): the largest |alpha_dddot_j| / jerk_j, and the
-    largest |alpha_dddot_j - alpha'_j s_dddot| / jerk_j, the jerk's share that a wider window does
-    not lower (difference quotients, alpha' = alpha_dot / s_dot where the path moves)."""
-    reference = plan.joint_reference(robot, times)
+    """Between consecutive samples of ``reference`` (the plan's joints at its times) (N - 1,): the
+    largest |alpha_dddot_j| / jerk_j, and the largest |alpha_dddot_j - alpha'_j s_dddot| / jerk_j,
+    the jerk's share that a wider window does not lower (difference quotients, alpha' = alpha_dot /
+    s_dot where the path moves)."""
+    times = np.array(reference.t)
     _, s_dot, s_ddot = plan.path_state(times)
     dt = np.diff(times)[:, None]
     alpha_dot = np.array(reference.alpha_dot)
@@ -778,10 +792,10 @@ def _times(s: np.ndarray, s_dot: np.ndarray) -> np.ndarray:
 
 def _verify(
     plan: TimeOptimalPlan, robot, dynamics: _Dynamics, rate: float
-) -> tuple[Verification, np.ndarray, tuple]:
+) -> tuple[Verification, np.ndarray, tuple, JointReference]:
     """The plan's torque on the exact model at ``rate`` [Hz] (module docstring), the largest ratios
     |tau| / limit and |alpha_dot| / limit inside each grid interval ((N,), (N,): zeros without a
-    velocity limit) and the samples (times [s], tau [N m])."""
+    velocity limit), the samples (times [s], tau [N m]) and the joints there."""
     times = np.append(np.arange(0.0, plan.duration, 1.0 / rate), plan.duration)
     reference = plan.joint_reference(robot, times)
     tau = dynamics.torque(
@@ -807,4 +821,4 @@ def _verify(
         margin=1.0 - peak / plan.torque_limit, time_of_peak=float(times[int(np.argmax(worst))]),
         velocity_ratio=velocity_ratio, jerk_ratio=jerk_ratio,
     )  # fmt: skip
-    return check, (per_interval, speed_per_interval), (times, tau)
+    return check, (per_interval, speed_per_interval), (times, tau), reference
